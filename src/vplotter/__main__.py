@@ -1,0 +1,3 @@
+from vplotter.cli import run
+
+run()

@@ -1,0 +1,64 @@
+"""Backends play a step schedule (Rows) on the machine's outputs; they compute no geometry.
+
+One small interface (`Backend`); each driver lives in its own module and is the only importer
+of its library, so `import vplotter.backends` never touches GPIO:
+
+- fake: records rows on a simulated clock and never sleeps (tests, --dry-run);
+- gpiozero: any gpiozero pin factory, software-timed;
+- lgpio: the Raspberry Pi's gpiochip through lgpio.
+"""
+
+from __future__ import annotations
+
+from vplotter.config import Config
+from vplotter.errors import BackendError
+from vplotter.schedule import Rows
+
+NAMES = ("fake", "gpiozero", "lgpio")
+
+
+class Backend:
+    """Base class. `open` claims the pins (coils low, pen pulses off), `play` outputs rows at
+    their times, `close` releases everything and must never raise."""
+
+    name = "base"
+
+    def __init__(self, cfg: Config):
+        self.cfg = cfg
+        self.coil_pins = [*cfg.motors.left_pins, *cfg.motors.right_pins]
+        self.pen_pin = cfg.pen.pin
+        self.stop_requested = False
+
+    def open(self) -> None:
+        raise NotImplementedError
+
+    def play(self, rows: Rows) -> int:
+        """Output the rows; return how many were played (fewer if a stop was requested)."""
+        raise NotImplementedError
+
+    def close(self) -> None:
+        raise NotImplementedError
+
+    def __enter__(self):
+        self.open()
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+        return False
+
+
+def create(name: str, cfg: Config, **options) -> Backend:
+    if name == "fake":
+        from vplotter.backends.fake import FakeBackend
+
+        return FakeBackend(cfg, **options)
+    if name == "gpiozero":
+        from vplotter.backends.gpiozero import GpiozeroBackend
+
+        return GpiozeroBackend(cfg, **options)
+    if name == "lgpio":
+        from vplotter.backends.lgpio import LgpioBackend
+
+        return LgpioBackend(cfg, **options)
+    raise BackendError(f"unknown backend {name!r} (choose {', '.join(NAMES)})")

@@ -1,0 +1,363 @@
+"""Streaming G-code parser: text lines -> Move / Pen / Dwell records in G-code millimetres.
+
+Independent of the machine: it knows nothing of cords, pages or motors. One line is held in
+memory at a time, so a file of any size can be read. Every record carries file:line:col so
+that later stages can report errors at the place in the file that caused them.
+
+Frame: G-code coordinates, +Y up, millimetres (G20 inches are converted here).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from typing import Callable, Iterable, Iterator
+
+from vplotter.errors import InputError
+
+MM_PER_INCH = 25.4
+# Codes that change nothing for a pen plotter: accepted, summarised in one warning.
+IGNORED_G = {40.0, 49.0, 54.0, 61.0, 64.0, 80.0, 94.0}
+IGNORED_M = {7.0, 8.0, 9.0}
+MOTION_G = {0.0, 1.0, 2.0, 3.0}
+ALLOWED_LETTERS = set("GMXYZIJRFPNST")
+
+
+@dataclass(frozen=True, slots=True)
+class Move:
+    """A straight line (arc == 0) or an arc (-1 clockwise G2, +1 counter-clockwise G3)."""
+
+    line: int
+    col: int
+    x0: float
+    y0: float
+    x1: float
+    y1: float
+    arc: int = 0
+    cx: float = 0.0
+    cy: float = 0.0
+    rapid: bool = False
+    feed_mm_s: float | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class Pen:
+    line: int
+    col: int
+    down: bool
+
+
+@dataclass(frozen=True, slots=True)
+class Dwell:
+    line: int
+    col: int
+    seconds: float
+
+
+Record = Move | Pen | Dwell
+Warn = Callable[[str], None]
+
+_NUMBER = re.compile(r"[ \t]*([+-]?[ \t]*(?:\d+\.?\d*|\.\d+))")
+_COMMENT = re.compile(r"\([^)]*\)|;.*")
+
+
+def detect_pen_mode(lines: Iterable[str]) -> str:
+    """'z' if any Z word moves the pen (Inkscape gcodetools, CamBam), else 'm' (M3/M5)."""
+    for raw in lines:
+        if "z" in _COMMENT.sub("", raw).lower():
+            return "z"
+    return "m"
+
+
+def _fmt_code(letter: str, value: float) -> str:
+    return f"{letter}{int(value)}" if value == int(value) else f"{letter}{value:g}"
+
+
+def tokenize(raw: str, where: str) -> list[tuple[str, float, int]]:
+    """Split one line into (letter, value, col) words; col is 1-based. Raises InputError."""
+    words: list[tuple[str, float, int]] = []
+    text = raw.rstrip("\r\n")
+    star = text.find("*")
+    if star >= 0 and "(" not in text[:star] and ";" not in text[:star]:
+        digits = text[star + 1:].strip()
+        if not digits.isdigit():
+            raise InputError(f"{where}:{star + 1}: error: checksum after '*' must be a number")
+        expected = 0
+        for ch in text[:star]:
+            expected ^= ord(ch)
+        if int(digits) != expected:
+            raise InputError(f"{where}:{star + 1}: error: checksum {digits} does not match "
+                             f"the line (expected {expected})")
+        text = text[:star]
+    i, n = 0, len(text)
+    while i < n:
+        ch = text[i]
+        if ch in " \t":
+            i += 1
+        elif ch == "(":
+            end = text.find(")", i)
+            if end < 0:
+                raise InputError(f"{where}:{i + 1}: error: comment '(' is not closed on this line")
+            i = end + 1
+        elif ch == ";":
+            break
+        elif ch == "%" and not words and text[i + 1:].strip() == "":
+            break
+        elif ch.isalpha():
+            letter = ch.upper()
+            col = i + 1
+            m = _NUMBER.match(text, i + 1)
+            if letter == "O":
+                raise InputError(f"{where}:{col}: error: O-words (subroutines) are not supported")
+            if not m:
+                got = text[i + 1:i + 8].strip() or "end of line"
+                raise InputError(f"{where}:{col}: error: {letter} must be followed by a number "
+                                 f"(got {got!r})")
+            value = float(m.group(1).replace(" ", "").replace("\t", ""))
+            if letter not in ALLOWED_LETTERS:
+                raise InputError(f"{where}:{col}: error: unsupported word "
+                                 f"{letter}{m.group(1).strip()}")
+            words.append((letter, value, col))
+            i = m.end()
+        elif ch == "#":
+            raise InputError(f"{where}:{i + 1}: error: #parameters are not supported")
+        elif ch == "[":
+            raise InputError(f"{where}:{i + 1}: error: [expressions] are not supported")
+        else:
+            raise InputError(f"{where}:{i + 1}: error: unexpected character {ch!r}")
+    return words
+
+
+class Parser:
+    """Holds the modal state between lines. Use `read()` rather than this class directly."""
+
+    def __init__(self, name: str, pen_mode: str, strict: bool, warn: Warn):
+        self.name = name
+        self.pen_mode = pen_mode
+        self.strict = strict
+        self.warn = warn
+        self.x = self.y = 0.0
+        self.z: float | None = None
+        self.pen_down = False
+        self.motion: float | None = None
+        self.scale = 1.0
+        self.relative = False
+        self.feed_mm_s: float | None = None
+        self.ended = False
+        self.after_end_line = 0
+        self.ignored: dict[str, int] = {}
+        self.spirals = 0
+
+    def _err(self, line: int, col: int, msg: str) -> InputError:
+        return InputError(f"{self.name}:{line}:{col}: error: {msg}")
+
+    def block(self, raw: str, line: int) -> Iterator[Record]:
+        where = f"{self.name}:{line}"
+        words = tokenize(raw, where)
+        if not words:
+            return
+        if self.ended:
+            if not self.after_end_line:
+                self.after_end_line = line
+            return
+        seen: dict[str, int] = {}
+        g_codes: list[tuple[float, int]] = []
+        m_codes: list[tuple[float, int]] = []
+        vals: dict[str, tuple[float, int]] = {}
+        for idx, (letter, value, col) in enumerate(words):
+            if letter == "N":
+                if idx != 0:
+                    raise self._err(line, col, "N line number must come first on the line")
+                continue
+            if letter == "G":
+                g_codes.append((value, col))
+            elif letter == "M":
+                m_codes.append((value, col))
+            else:
+                if letter in seen:
+                    raise self._err(line, col, f"{letter} appears twice on the line")
+                seen[letter] = col
+                vals[letter] = (value, col)
+        motion = None
+        motion_col = words[0][2]
+        dwell_col = 0
+        for value, col in g_codes:
+            if value in MOTION_G:
+                if motion is not None:
+                    raise self._err(line, col, "two motion codes (G0-G3) on one line")
+                motion, motion_col = value, col
+            elif value == 4.0:
+                dwell_col = col
+            elif value == 17.0:
+                pass
+            elif value in (20.0, 21.0):
+                self.scale = MM_PER_INCH if value == 20.0 else 1.0
+            elif value in (90.0, 91.0):
+                self.relative = value == 91.0
+            elif value in IGNORED_G:
+                key = _fmt_code("G", value)
+                self.ignored[key] = self.ignored.get(key, 0) + 1
+            else:
+                code = _fmt_code("G", value)
+                hint = {18.0: " (only the XY plane, G17, is drawn)", 19.0: " (only the XY plane, G17, is drawn)",
+                        41.0: " (cutter compensation)", 42.0: " (cutter compensation)",
+                        92.0: " (coordinate offsets)", 93.0: " (inverse-time feed)"}.get(value, "")
+                raise self._err(line, col, f"unsupported code {code}{hint}")
+        pen_change: bool | None = None
+        end_col = 0
+        for value, col in m_codes:
+            if value in (3.0, 5.0):
+                if self.pen_mode == "m":
+                    pen_change = value == 3.0
+            elif value in (2.0, 30.0):
+                end_col = col
+            elif value in IGNORED_M:
+                key = _fmt_code("M", value)
+                self.ignored[key] = self.ignored.get(key, 0) + 1
+            else:
+                raise self._err(line, col, f"unsupported code {_fmt_code('M', value)}")
+        for letter in ("S", "T"):
+            if letter in vals:
+                self.ignored[letter] = self.ignored.get(letter, 0) + 1
+        if "P" in vals and not dwell_col and not any(v == 64.0 for v, _ in g_codes):
+            raise self._err(line, vals["P"][1], "P word without G4 (dwell)")
+        if "F" in vals:
+            f, col = vals["F"]
+            if not f > 0:
+                raise self._err(line, col, f"feed F must be above 0 (got {f:g})")
+            self.feed_mm_s = f * self.scale / 60.0
+
+        if dwell_col:
+            extra = [k for k in "XYZIJR" if k in vals]
+            if extra or motion is not None:
+                col = vals[extra[0]][1] if extra else motion_col
+                raise self._err(line, col, "G4 (dwell) cannot share a line with a move")
+            if "P" not in vals:
+                raise self._err(line, dwell_col, "G4 needs P (seconds)")
+            p, col = vals["P"]
+            if p < 0:
+                raise self._err(line, col, f"dwell P must not be negative (got {p:g})")
+        if motion is not None:
+            self.motion = motion
+        has_xy = "X" in vals or "Y" in vals
+        has_arc_words = any(k in vals for k in "IJR")
+        if (has_xy or has_arc_words) and self.motion is None:
+            letter = next(k for k in "XYIJR" if k in vals)
+            raise self._err(line, vals[letter][1], "coordinates without a motion code (G0/G1/G2/G3)")
+        if has_arc_words and self.motion in (0.0, 1.0):
+            letter = next(k for k in "IJR" if k in vals)
+            raise self._err(line, vals[letter][1], f"{letter} is only allowed on arcs (G2/G3)")
+
+        if "Z" in vals:
+            z, _ = vals["Z"]
+            z *= self.scale
+            self.z = (self.z or 0.0) + z if self.relative else z
+            if self.pen_mode == "z":
+                pen_change = self.z < 0
+        if pen_change is not None and pen_change != self.pen_down:
+            self.pen_down = pen_change
+            yield Pen(line, motion_col, pen_change)
+        if dwell_col:
+            yield Dwell(line, dwell_col, vals["P"][0])
+        if has_xy or (has_arc_words and self.motion in (2.0, 3.0)):
+            yield from self._move(vals, line, motion_col)
+        if end_col:
+            self.ended = True
+
+    def _move(self, vals: dict, line: int, col: int) -> Iterator[Move]:
+        s = self.scale
+        x0, y0 = self.x, self.y
+        if self.relative:
+            x1 = x0 + vals["X"][0] * s if "X" in vals else x0
+            y1 = y0 + vals["Y"][0] * s if "Y" in vals else y0
+        else:
+            x1 = vals["X"][0] * s if "X" in vals else x0
+            y1 = vals["Y"][0] * s if "Y" in vals else y0
+        for v in (x1, y1):
+            if not math.isfinite(v) or abs(v) > 1e6:
+                raise self._err(line, col, f"coordinate {v:g} is out of range")
+        self.x, self.y = x1, y1
+        if self.motion in (0.0, 1.0):
+            yield Move(line, col, x0, y0, x1, y1, 0, rapid=self.motion == 0.0, feed_mm_s=self.feed_mm_s)
+            return
+        arc = -1 if self.motion == 2.0 else 1
+        if "R" in vals:
+            if "I" in vals or "J" in vals:
+                raise self._err(line, vals["R"][1], "an arc takes either I/J or R, not both")
+            r, rcol = vals["R"]
+            r *= s
+            cx, cy = self._r_centre(x0, y0, x1, y1, r, arc, line, rcol)
+        else:
+            if "I" not in vals and "J" not in vals:
+                raise self._err(line, col, "arc without centre (I/J) or radius (R)")
+            cx = x0 + vals.get("I", (0.0, 0))[0] * s
+            cy = y0 + vals.get("J", (0.0, 0))[0] * s
+        r0 = math.hypot(x0 - cx, y0 - cy)
+        r1 = math.hypot(x1 - cx, y1 - cy)
+        if r0 <= 1e-9:
+            raise self._err(line, col, "arc with zero radius (centre on the start point)")
+        diff = abs(r1 - r0)
+        if diff > max(0.005, 0.001 * r0):
+            msg = (f"arc end radius {r1:.4f} differs from start radius {r0:.4f} by {diff:.4f} mm")
+            if self.strict:
+                raise self._err(line, col, msg)
+            self.warn(f"{self.name}:{line}:{col}: warning: {msg}; drawing a spiral")
+            self.spirals += 1
+        yield Move(line, col, x0, y0, x1, y1, arc, cx, cy, False, self.feed_mm_s)
+
+    def _r_centre(self, x0, y0, x1, y1, r, arc, line, col) -> tuple[float, float]:
+        dx, dy = x1 - x0, y1 - y0
+        d = math.hypot(dx, dy)
+        if r == 0:
+            raise self._err(line, col, "arc radius R must not be 0")
+        if d < 1e-9:
+            raise self._err(line, col, "an R arc needs an end point different from its start")
+        half = d / 2
+        h2 = r * r - half * half
+        if h2 < 0:
+            if half - abs(r) > max(1e-4, 1e-6 * abs(r)):
+                raise self._err(line, col, f"R arc: the chord ({d:.4f} mm) is longer than 2R "
+                                           f"({2 * abs(r):.4f} mm)")
+            h2 = 0.0
+        h = math.sqrt(h2)
+        side = (1 if arc > 0 else -1) * (1 if r > 0 else -1)
+        return x0 + dx / 2 - side * h * dy / d, y0 + dy / 2 + side * h * dx / d
+
+    def finish(self) -> None:
+        if self.after_end_line:
+            self.warn(f"{self.name}:{self.after_end_line}: warning: program ended (M2/M30); "
+                      f"the lines after it are ignored")
+        if self.ignored:
+            codes = ", ".join(f"{k} x{v}" if v > 1 else k for k, v in sorted(self.ignored.items()))
+            self.warn(f"{self.name}: warning: ignored codes that change nothing for a pen plotter: {codes}")
+
+
+def _stderr(msg: str) -> None:
+    import sys
+
+    print(msg, file=sys.stderr)
+
+
+def parse_lines(lines: Iterable[str], name: str = "<input>", pen_mode: str = "m",
+                strict: bool = False, warn: Warn = _stderr) -> Iterator[Record]:
+    """Parse an iterable of lines. pen_mode: 'z' (Z<0 is down) or 'm' (M3 down, M5 up)."""
+    p = Parser(name, pen_mode, strict, warn)
+    for number, raw in enumerate(lines, 1):
+        yield from p.block(raw, number)
+    p.finish()
+
+
+def read(path: str, strict: bool = False, warn: Warn = _stderr) -> Iterator[Record]:
+    """Stream the records of a G-code file (two passes: pen mode first, then the records)."""
+    try:
+        with open(path, encoding="utf-8", errors="replace") as f:
+            mode = detect_pen_mode(f)
+        with open(path, encoding="utf-8", errors="replace") as f:
+            yield from parse_lines(f, path, mode, strict, warn)
+    except FileNotFoundError:
+        raise InputError(f"{path}: error: no such file") from None
+    except IsADirectoryError:
+        raise InputError(f"{path}: error: is a directory, not a G-code file") from None
+    except OSError as e:
+        raise InputError(f"{path}: error: cannot read: {e.strerror}") from None

@@ -1,0 +1,23 @@
+"""Kinematics: pen position <-> motor coordinates, one module per machine kind.
+
+A machine kind is an object with these methods (all vectorised over rows, machine frame, mm):
+- `to_machine(xy_gcode)` / `to_gcode(xy)`: map between G-code and machine coordinates;
+- `inverse(xy) -> (N, M)` motor coordinates (cord lengths for the V-plotter);
+- `forward(q) -> (N, 2)` pen positions;
+- `slope(xy, e) -> (N, M)`: d(motor)/d(path length) moving along unit direction e;
+- `bend(xy, e) -> (N, M)`: second derivative d2(motor)/ds2 along a straight line;
+- `extrema(p0, e, d) -> (N, M)`: path distance in (0, d) where a motor turns round on a straight
+  piece (NaN where it does not), so that pieces can be cut into monotonic ones;
+- `crossing(p0, e, motor, q, rising) -> s`: path distance along the piece at which the motor
+  coordinate reaches q (the step solver).
+"""
+
+from __future__ import annotations
+
+from vplotter.config import Config
+
+
+def from_config(cfg: Config):
+    from vplotter.kinematics.vplotter import TwoCord
+
+    return TwoCord(cfg.machine.anchor_distance_mm, cfg.origin.x_mm, cfg.origin.y_mm)

@@ -1,0 +1,113 @@
+"""The drawing pipeline wired together: G-code -> pieces -> plan -> step schedule rows.
+
+`stream()` is a generator of Rows (or, with emit=False, only advances the clock so that a
+validation pass gives the exact plot time without computing a single step). Errors raised here
+carry file:line:col and come before anything has moved when the caller validates first.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable, Iterator
+
+import numpy as np
+
+from vplotter import gcode, kinematics, segment
+from vplotter.config import Config
+from vplotter.errors import InputError
+from vplotter.planner import Block, Planner
+from vplotter.schedule import Rows, Scheduler
+
+
+@dataclass
+class Summary:
+    moves: int = 0
+    pieces: int = 0
+    steps: np.ndarray = field(default_factory=lambda: np.zeros(2, dtype=np.int64))
+    drawn_mm: float = 0.0
+    travel_mm: float = 0.0
+    time_s: float = 0.0
+    pen_downs: int = 0
+    spirals: int = 0
+    end_counts: tuple[int, int] = (0, 0)
+    last_line: int = 0
+
+    def text(self) -> str:
+        m, s = divmod(int(round(self.time_s)), 60)
+        h, m = divmod(m, 60)
+        hms = f"{h}:{m:02d}:{s:02d}" if h else f"{m}:{s:02d}"
+        return (f"{self.moves} moves, {self.pieces} pieces, {self.pen_downs} strokes, "
+                f"steps left {self.steps[0]} right {self.steps[1]}, "
+                f"drawn {self.drawn_mm / 1000:.2f} m, travel {self.travel_mm / 1000:.2f} m, "
+                f"plot time {hms} ({self.time_s:.1f} s)")
+
+
+def stream(cfg: Config, path: str, counts, ref_mm, strict: bool = False,
+           warn: Callable[[str], None] | None = None, emit: bool = True,
+           summary: Summary | None = None) -> Iterator[Rows]:
+    """Rows for drawing `path` starting from the given step counts (cords = ref + counts/spm)."""
+    kin = kinematics.from_config(cfg)
+    spm = cfg.motors.steps_per_mm
+    summary = summary if summary is not None else Summary()
+    cords = np.asarray(ref_mm, dtype=float) + np.asarray(counts, dtype=float) / spm
+    start = kin.forward(cords[None, :])[0]
+    planner = Planner(kin, cfg.motors.max_step_rate, cfg.motors.max_accel, spm, start)
+    sched = Scheduler(cfg, kin, counts, ref_mm)
+    page = cfg.page
+    tol = cfg.motion.tolerance_mm
+    mo = cfg.motion
+    pen_down = False
+    kwargs = {"warn": warn} if warn is not None else {}
+
+    def blocks(bs: Iterator[Block]) -> Iterator[Rows]:
+        for b in bs:
+            summary.pieces += len(b.d)
+            drawn = float(b.d[b.drawing].sum())
+            summary.drawn_mm += drawn
+            summary.travel_mm += float(b.d.sum()) - drawn
+            rows = sched.motion(b, emit)
+            if rows is not None:
+                yield rows
+
+    first = sched.start()
+    if emit:
+        yield first
+    for rec in gcode.read(path, strict=strict, **kwargs):
+        if isinstance(rec, gcode.Move):
+            summary.moves += 1
+            pts = segment.points(rec, tol)
+            if len(pts) == 0:
+                continue
+            bad = segment.first_outside(pts, page.x_min_mm, page.x_max_mm, page.y_min_mm, page.y_max_mm)
+            if bad >= 0:
+                x, y = pts[bad]
+                raise InputError(
+                    f"{path}:{rec.line}:{rec.col}: error: point X{x:.3f} Y{y:.3f} is outside the "
+                    f"page (X {page.x_min_mm:g}..{page.x_max_mm:g}, Y {page.y_min_mm:g}..{page.y_max_mm:g})")
+            if pen_down:
+                cap = mo.draw_speed_mm_s
+                if rec.feed_mm_s is not None and not rec.rapid:
+                    cap = min(cap, rec.feed_mm_s)
+            else:
+                cap = mo.travel_speed_mm_s
+            yield from blocks(planner.add(kin.to_machine(pts), cap, rec.line, pen_down))
+        elif isinstance(rec, gcode.Pen):
+            yield from blocks(planner.stop())
+            rows = sched.pen(rec.down, rec.line)
+            pen_down = rec.down
+            summary.pen_downs += int(rec.down)
+            if rows is not None and emit:
+                yield rows
+        elif isinstance(rec, gcode.Dwell):
+            yield from blocks(planner.stop())
+            rows = sched.dwell(rec.seconds, rec.line)
+            if rows is not None and emit:
+                yield rows
+    yield from blocks(planner.stop())
+    rows = sched.finish()
+    if rows is not None and emit:
+        yield rows
+    summary.steps = sched.steps_total.copy()
+    summary.time_s = sched.t_us / 1e6
+    summary.end_counts = (int(sched.counts[0]), int(sched.counts[1]))
+    summary.last_line = sched.line

@@ -1,0 +1,171 @@
+"""Step schedule: planned motion + pen events -> rows of output states on one timeline.
+
+A `Rows` chunk says: at time t_us (microseconds since the start) the outputs become
+(coil word, pen pulse width). Backends play rows and compute no geometry; the trace is
+written from them. Each motor steps when its cord length, computed from the pen's planned
+position through the inverse kinematics, crosses the next step boundary (half-way between
+two step counts), so step targets are absolute and rounding never accumulates.
+
+Coils are energised only while moving: released at every pen change, dwell and at the end.
+Before moving again a motor's coils are energised at the phase they were released at and held
+for one step interval, so no step is lost.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from vplotter.config import Config
+from vplotter.planner import Block
+from vplotter.sequencer import TABLES, coil_words
+
+
+@dataclass
+class Rows:
+    t_us: np.ndarray     # int64
+    coils: np.ndarray    # uint8 coil word after the row
+    pen_us: np.ndarray   # int32 pen pulse width after the row (0 = pulses off)
+    line: np.ndarray     # int64 G-code line being drawn
+    steps: np.ndarray    # (n, 2) int64 step counts of both motors after the row
+
+    def __len__(self) -> int:
+        return len(self.t_us)
+
+    @staticmethod
+    def concat(parts: list["Rows"]) -> "Rows":
+        return Rows(*(np.concatenate([getattr(p, f) for p in parts])
+                      for f in ("t_us", "coils", "pen_us", "line", "steps")))
+
+
+class Scheduler:
+    """Turns a stream of planned blocks and pen events into Rows. Keeps the clock and phases."""
+
+    def __init__(self, cfg: Config, kin, counts, ref_mm):
+        m = cfg.motors
+        self.cfg = cfg
+        self.kin = kin
+        self.spm = m.steps_per_mm
+        self.table = TABLES[m.drive]
+        self.sign = np.array([-1 if m.left_reverse else 1, -1 if m.right_reverse else 1])
+        self.hold_us = int(np.ceil(1e6 / m.max_step_rate))
+        self.settle_us = int(round(cfg.pen.settle_s * 1e6))
+        self.ref = np.asarray(ref_mm, dtype=float)
+        self.counts = np.asarray(counts, dtype=np.int64).copy()
+        self.phase = (self.counts * self.sign) % len(self.table)
+        self.t_us = 0
+        self.energized = False
+        self.pen_down = False
+        self.pen_us = 0
+        self.line = 0
+        self.steps_total = np.zeros(2, dtype=np.int64)
+
+    # -- rows helpers
+    def _row(self, t_us: int, coils: int, pen_us: int) -> Rows:
+        return Rows(np.array([t_us], dtype=np.int64), np.array([coils], dtype=np.uint8),
+                    np.array([pen_us], dtype=np.int32), np.array([self.line], dtype=np.int64),
+                    self.counts[None, :].copy())
+
+    def _hold_word(self) -> int:
+        return int(coil_words(self.table, self.phase[:1], self.phase[1:])[0])
+
+    def start(self) -> Rows:
+        """Lift the pen (wherever it is) and let it settle, coils released."""
+        up = self.cfg.pen.up_us
+        rows = [self._row(0, 0, up), self._row(self.settle_us, 0, 0)]
+        self.t_us = self.settle_us
+        self.pen_us = 0
+        return Rows.concat(rows)
+
+    def pen(self, down: bool, line: int = 0) -> Rows | None:
+        if down == self.pen_down:
+            return None
+        self.line = line
+        self.pen_down = down
+        width = self.cfg.pen.down_us if down else self.cfg.pen.up_us
+        rows = [self._row(self.t_us, 0, width), self._row(self.t_us + self.settle_us, 0, 0)]
+        self.energized = False
+        self.t_us += self.settle_us
+        return Rows.concat(rows)
+
+    def release(self) -> Rows | None:
+        if not self.energized:
+            return None
+        self.energized = False
+        return self._row(self.t_us, 0, 0)
+
+    def dwell(self, seconds: float, line: int = 0) -> Rows | None:
+        self.line = line
+        rows = self.release()
+        self.t_us += int(round(seconds * 1e6))
+        return rows
+
+    def finish(self) -> Rows | None:
+        parts = [r for r in (self.pen(False, self.line), self.release()) if r is not None]
+        return Rows.concat(parts) if parts else None
+
+    def targets(self, block: Block) -> np.ndarray:
+        """Absolute step count of each motor at each vertex (rounded, never accumulated)."""
+        n = np.rint((block.cords - self.ref) * self.spm).astype(np.int64)
+        n[0] = self.counts
+        return n
+
+    def motion(self, block: Block, emit: bool = True) -> Rows | None:
+        """Rows for one planned block; with emit=False only the clock and counts advance."""
+        targets = self.targets(block)
+        dur = block.durations
+        self.steps_total += np.abs(np.diff(targets, axis=0)).sum(axis=0)
+        rows = []
+        if not self.energized:
+            if emit:
+                rows.append(self._row(self.t_us, self._hold_word(), 0))
+            self.energized = True
+            self.t_us += self.hold_us
+        t0 = self.t_us
+        starts = np.concatenate(([0.0], np.cumsum(dur)[:-1]))
+        self.t_us = t0 + int(round(float(dur.sum()) * 1e6))
+        if not emit:
+            self.counts = targets[-1].copy()
+            self.phase = (self.phase + (targets[-1] - targets[0]) * self.sign) % len(self.table)
+            self.line = int(block.line[-1])
+            return None
+        e = block.e
+        times, motors, dirs, pieces = [], [], [], []
+        for m in (0, 1):
+            ns, ne = targets[:-1, m], targets[1:, m]
+            c = np.abs(ne - ns)
+            total = int(c.sum())
+            if total == 0:
+                continue
+            piece = np.repeat(np.arange(len(c)), c)
+            j = np.arange(total) - np.repeat(np.cumsum(c) - c, c)
+            rising = (ne > ns)[piece]
+            q = self.ref[m] + (ns[piece] + np.where(rising, j + 0.5, -j - 0.5)) / self.spm
+            s = self.kin.crossing(block.verts[piece], e[piece], np.full(total, m), q, rising)
+            s = np.clip(s, 0.0, block.d[piece])
+            t = starts[piece] + block.time_at(piece, s)
+            times.append(t)
+            motors.append(np.full(total, m, dtype=np.int8))
+            dirs.append(np.where(rising, 1, -1).astype(np.int8))
+            pieces.append(piece)
+        if times:
+            t = np.concatenate(times)
+            t_us = t0 + np.rint(t * 1e6).astype(np.int64)
+            order = np.argsort(t_us, kind="stable")
+            t_us = np.minimum(t_us[order], self.t_us)
+            motor = np.concatenate(motors)[order]
+            dirn = np.concatenate(dirs)[order]
+            piece = np.concatenate(pieces)[order]
+            dl = np.where(motor == 0, dirn, 0).astype(np.int64)
+            dr = np.where(motor == 1, dirn, 0).astype(np.int64)
+            cl, cr = np.cumsum(dl), np.cumsum(dr)
+            words = coil_words(self.table, self.phase[0] + cl * self.sign[0],
+                               self.phase[1] + cr * self.sign[1])
+            steps = np.column_stack((self.counts[0] + cl, self.counts[1] + cr))
+            rows.append(Rows(t_us, words, np.zeros(len(t_us), dtype=np.int32),
+                             block.line[piece].astype(np.int64), steps))
+        self.counts = targets[-1].copy()
+        self.phase = (self.phase + (targets[-1] - targets[0]) * self.sign) % len(self.table)
+        self.line = int(block.line[-1])
+        return Rows.concat(rows) if rows else None

@@ -1,0 +1,72 @@
+"""Segmenter: lines and arcs -> straight pieces within tolerance_mm of the true curve.
+
+Pure numpy, G-code frame (+Y up, mm). A line stays one piece: the step schedule moves the pen
+along the true straight line (each cord steps when the pen crosses its next step boundary),
+so lines need no cutting for accuracy. Arcs become chords whose sagitta is at most the
+tolerance; an arc whose end radius differs from its start radius becomes a spiral (radius
+linear in the swept angle) that ends exactly at the programmed end point.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from vplotter.gcode import Move
+
+TWO_PI = 2.0 * math.pi
+
+
+def arc_sweep(move: Move) -> float:
+    """Signed swept angle in radians (+ counter-clockwise); a closed arc is a full turn."""
+    a0 = math.atan2(move.y0 - move.cy, move.x0 - move.cx)
+    a1 = math.atan2(move.y1 - move.cy, move.x1 - move.cx)
+    closed = math.hypot(move.x1 - move.x0, move.y1 - move.y0) <= 1e-9
+    if move.arc > 0:
+        return TWO_PI if closed else (a1 - a0) % TWO_PI
+    sweep = (a0 - a1) % TWO_PI
+    return -TWO_PI if closed else -sweep
+
+
+def chord_count(radius_mm: float, sweep: float, tol_mm: float) -> int:
+    """Chords needed so that a chord's sagitta on a circle of `radius_mm` stays <= tol_mm."""
+    if radius_mm <= tol_mm:
+        step = math.pi / 2
+    else:
+        step = 2.0 * math.acos(1.0 - tol_mm / radius_mm)
+    return max(1, math.ceil(abs(sweep) / step - 1e-9))
+
+
+def points(move: Move, tol_mm: float) -> np.ndarray:
+    """The piece end points of `move` as an (N, 2) array, without its start point.
+
+    The last row is exactly (x1, y1). A zero-length line gives an empty array.
+    """
+    if move.arc == 0:
+        if move.x1 == move.x0 and move.y1 == move.y0:
+            return np.empty((0, 2))
+        return np.array([[move.x1, move.y1]])
+    sweep = arc_sweep(move)
+    if abs(sweep) < 1e-12:  # a spiral that does not turn: a radial line
+        return np.array([[move.x1, move.y1]])
+    r0 = math.hypot(move.x0 - move.cx, move.y0 - move.cy)
+    r1 = math.hypot(move.x1 - move.cx, move.y1 - move.cy)
+    dr = (r1 - r0) / abs(sweep)
+    # A spiral bends like a circle of radius sqrt(r^2 + 4 r'^2) (r' = dr/dangle).
+    r_eff = math.sqrt(max(r0, r1) ** 2 + 4.0 * dr * dr)
+    n = chord_count(r_eff, sweep, tol_mm)
+    f = np.arange(1, n + 1) / n
+    a0 = math.atan2(move.y0 - move.cy, move.x0 - move.cx)
+    ang = a0 + sweep * f
+    rad = r0 + (r1 - r0) * f
+    out = np.column_stack((move.cx + rad * np.cos(ang), move.cy + rad * np.sin(ang)))
+    out[-1] = (move.x1, move.y1)
+    return out
+
+
+def first_outside(pts: np.ndarray, x_min: float, x_max: float, y_min: float, y_max: float) -> int:
+    """Index of the first point outside the rectangle, or -1."""
+    bad = (pts[:, 0] < x_min) | (pts[:, 0] > x_max) | (pts[:, 1] < y_min) | (pts[:, 1] > y_max)
+    idx = np.flatnonzero(bad)
+    return int(idx[0]) if idx.size else -1

@@ -1,0 +1,122 @@
+"""The stored position: cord lengths (mm and steps) in $XDG_STATE_HOME/vplotter/state.json.
+
+A V-plotter has no end stops; this file is the only thing that knows where the pen is.
+Writes are atomic (temporary file, fsync, rename, fsync of the directory).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+from vplotter.errors import StateError
+
+VERSION = 1
+
+
+def state_dir() -> Path:
+    base = os.environ.get("XDG_STATE_HOME") or os.path.join(os.path.expanduser("~"), ".local", "state")
+    return Path(base) / "vplotter"
+
+
+def state_path() -> Path:
+    return state_dir() / "state.json"
+
+
+@dataclass
+class Position:
+    """Cord lengths: left_mm = ref_left_mm + left_steps / steps_per_mm (same for right)."""
+
+    left_mm: float
+    right_mm: float
+    left_steps: int
+    right_steps: int
+    steps_per_mm: float
+    pen: str = "up"
+    clean: bool = True
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def ref_mm(self) -> tuple[float, float]:
+        return (self.left_mm - self.left_steps / self.steps_per_mm,
+                self.right_mm - self.right_steps / self.steps_per_mm)
+
+    @property
+    def counts(self) -> tuple[int, int]:
+        return (self.left_steps, self.right_steps)
+
+    @classmethod
+    def at_cords(cls, left_mm: float, right_mm: float, steps_per_mm: float) -> "Position":
+        return cls(float(left_mm), float(right_mm), 0, 0, float(steps_per_mm))
+
+    def moved_to(self, counts) -> "Position":
+        ref = self.ref_mm
+        return Position(ref[0] + int(counts[0]) / self.steps_per_mm,
+                        ref[1] + int(counts[1]) / self.steps_per_mm,
+                        int(counts[0]), int(counts[1]), self.steps_per_mm, self.pen,
+                        self.clean, dict(self.extra))
+
+    def rebased(self, steps_per_mm: float) -> "Position":
+        """The same cords counted with another steps/mm (after `calibrate steps`)."""
+        if steps_per_mm == self.steps_per_mm:
+            return self
+        return Position(self.left_mm, self.right_mm, 0, 0, steps_per_mm, self.pen, self.clean,
+                        dict(self.extra))
+
+
+def atomic_write(path: Path, text: str) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+    try:
+        dfd = os.open(path.parent, os.O_RDONLY)
+        try:
+            os.fsync(dfd)
+        finally:
+            os.close(dfd)
+    except OSError:
+        pass
+
+
+def load(path: Path | None = None) -> Position | None:
+    """The stored position, or None if there is none. Raises StateError if it is unreadable."""
+    p = path or state_path()
+    try:
+        text = p.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        return None
+    except OSError as e:
+        raise StateError(f"{p}: error: cannot read the stored position: {e.strerror}") from None
+    hint = "run `vplotter calibrate --at X Y` to set the position again"
+    try:
+        data = json.loads(text)
+        if not isinstance(data, dict) or data.get("version") != VERSION:
+            raise ValueError("unknown version")
+        pos = Position(float(data["left_mm"]), float(data["right_mm"]), int(data["left_steps"]),
+                       int(data["right_steps"]), float(data["steps_per_mm"]),
+                       str(data.get("pen", "up")), bool(data.get("clean", True)),
+                       dict(data.get("extra", {})))
+        if not (pos.left_mm > 0 and pos.right_mm > 0 and pos.steps_per_mm > 0):
+            raise ValueError("non-positive lengths")
+    except (ValueError, KeyError, TypeError) as e:
+        raise StateError(f"{p}: error: the stored position is corrupt ({e}); {hint}") from None
+    return pos
+
+
+def save(pos: Position, path: Path | None = None) -> None:
+    data = {"version": VERSION, **asdict(pos)}
+    atomic_write(path or state_path(), json.dumps(data, indent=2) + "\n")
