@@ -67,6 +67,9 @@ def _add_draw(p: argparse.ArgumentParser) -> None:
                    help="treat warnings about inconsistent arcs as errors")
     p.add_argument("--backend", choices=("lgpio", "gpiozero", "fake"),
                    help="GPIO backend (default: [gpio] backend in config.toml)")
+    p.add_argument("--realtime", action="store_true",
+                   help="with the fake backend: play in real time to measure timing lateness")
+    p.add_argument("--verbose", action="store_true", help="print timing lateness statistics")
 
 
 def cmd_draw(args) -> int:
@@ -85,7 +88,8 @@ def cmd_draw(args) -> int:
     trace_file = open(args.trace, "w", encoding="utf-8") if args.trace else None
     backend = None
     try:
-        backend = _open_backend(name, cfg)
+        options = {"realtime": True} if args.realtime else {}
+        backend = _open_backend(name, cfg, **options)
         tracer = None
         if trace_file:
             tracer = TraceWriter(trace_file, backend.coil_pins, backend.pen_pin)
@@ -97,6 +101,14 @@ def cmd_draw(args) -> int:
                 tracer.write(rows)
             last = rows
         end = (int(last.steps[-1, 0]), int(last.steps[-1, 1])) if last is not None else pos.counts
+        stats = backend.lateness()
+        if stats:
+            text = ("lateness (actual - planned change time): p50 {p50_ms:.3f} ms, "
+                    "p99 {p99_ms:.3f} ms, max {max_ms:.3f} ms over {n} changes").format(**stats)
+            if tracer:
+                tracer.comment(text)
+            if args.verbose:
+                print(text)
     finally:
         if backend is not None:
             backend.close()

@@ -19,6 +19,9 @@ from vplotter.planner import Block, Planner
 from vplotter.schedule import Rows, Scheduler
 
 
+BATCH = 512  # moves per batch handed to the planner
+
+
 @dataclass
 class Summary:
     moves: int = 0
@@ -28,7 +31,6 @@ class Summary:
     travel_mm: float = 0.0
     time_s: float = 0.0
     pen_downs: int = 0
-    spirals: int = 0
     end_counts: tuple[int, int] = (0, 0)
     last_line: int = 0
 
@@ -69,6 +71,29 @@ def stream(cfg: Config, path: str, counts, ref_mm, strict: bool = False,
             if rows is not None:
                 yield rows
 
+    # Moves are batched so that page checks and coordinate maps are vector operations.
+    batch: list[np.ndarray] = []
+    meta: list[tuple[int, float, int, int, bool]] = []   # points, cap, line, col, drawing
+
+    def flush(stop: bool) -> Iterator[Rows]:
+        if batch:
+            pts = np.concatenate(batch)
+            n, cap, line, col, draw = (np.array(v) for v in zip(*meta))
+            bad = segment.first_outside(pts, page.x_min_mm, page.x_max_mm, page.y_min_mm, page.y_max_mm)
+            if bad >= 0:
+                move = int(np.searchsorted(np.cumsum(n), bad, side="right"))
+                x, y = pts[bad]
+                raise InputError(
+                    f"{path}:{line[move]}:{col[move]}: error: point X{x:.3f} Y{y:.3f} is outside "
+                    f"the page (X {page.x_min_mm:g}..{page.x_max_mm:g}, "
+                    f"Y {page.y_min_mm:g}..{page.y_max_mm:g})")
+            batch.clear()
+            meta.clear()
+            yield from blocks(planner.add(kin.to_machine(pts), np.repeat(cap, n),
+                                          np.repeat(line, n), np.repeat(draw, n)))
+        if stop:
+            yield from blocks(planner.stop())
+
     first = sched.start()
     if emit:
         yield first
@@ -78,32 +103,29 @@ def stream(cfg: Config, path: str, counts, ref_mm, strict: bool = False,
             pts = segment.points(rec, tol)
             if len(pts) == 0:
                 continue
-            bad = segment.first_outside(pts, page.x_min_mm, page.x_max_mm, page.y_min_mm, page.y_max_mm)
-            if bad >= 0:
-                x, y = pts[bad]
-                raise InputError(
-                    f"{path}:{rec.line}:{rec.col}: error: point X{x:.3f} Y{y:.3f} is outside the "
-                    f"page (X {page.x_min_mm:g}..{page.x_max_mm:g}, Y {page.y_min_mm:g}..{page.y_max_mm:g})")
             if pen_down:
                 cap = mo.draw_speed_mm_s
                 if rec.feed_mm_s is not None and not rec.rapid:
                     cap = min(cap, rec.feed_mm_s)
             else:
                 cap = mo.travel_speed_mm_s
-            yield from blocks(planner.add(kin.to_machine(pts), cap, rec.line, pen_down))
+            batch.append(pts)
+            meta.append((len(pts), cap, rec.line, rec.col, pen_down))
+            if len(meta) >= BATCH:
+                yield from flush(False)
         elif isinstance(rec, gcode.Pen):
-            yield from blocks(planner.stop())
+            yield from flush(True)
             rows = sched.pen(rec.down, rec.line)
             pen_down = rec.down
             summary.pen_downs += int(rec.down)
             if rows is not None and emit:
                 yield rows
         elif isinstance(rec, gcode.Dwell):
-            yield from blocks(planner.stop())
+            yield from flush(True)
             rows = sched.dwell(rec.seconds, rec.line)
             if rows is not None and emit:
                 yield rows
-    yield from blocks(planner.stop())
+    yield from flush(True)
     rows = sched.finish()
     if rows is not None and emit:
         yield rows

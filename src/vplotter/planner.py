@@ -50,6 +50,7 @@ class Block:
     a: np.ndarray          # path acceleration mm/s^2 used on the ramps
     line: np.ndarray       # (N,) G-code line of each piece
     drawing: np.ndarray    # (N,) pen down?
+    cap: np.ndarray        # (N,) pen speed cap from the G-code and config (mm/s)
 
     @property
     def e(self) -> np.ndarray:
@@ -114,15 +115,16 @@ class Planner:
     def position(self) -> np.ndarray:
         return self.last
 
-    def add(self, pts: np.ndarray, cap_mm_s: float, line: int, drawing: bool) -> Iterator[Block]:
-        """Append pieces from the current position through pts (K, 2) machine mm."""
+    def add(self, pts: np.ndarray, cap_mm_s, line, drawing) -> Iterator[Block]:
+        """Append pieces from the current position through pts (K, 2) machine mm; cap, line and
+        drawing are scalars or one value per point."""
         k = len(pts)
         if k == 0:
             return
         self._pts.append(pts)
-        self._cap.append(np.full(k, cap_mm_s))
-        self._line.append(np.full(k, line, dtype=np.int64))
-        self._draw.append(np.full(k, drawing, dtype=bool))
+        self._cap.append(np.broadcast_to(np.asarray(cap_mm_s, dtype=float), (k,)))
+        self._line.append(np.broadcast_to(np.asarray(line, dtype=np.int64), (k,)))
+        self._draw.append(np.broadcast_to(np.asarray(drawing, dtype=bool), (k,)))
         self._count += k
         self.last = pts[-1]
         if self._count >= 2 * self.window:
@@ -229,7 +231,7 @@ class Planner:
             jump = np.abs(k0[1:] - k1[:-1]).max(axis=1)           # (n-1,)
             ds = np.minimum(d[1:], d[:-1])
             # jump * v <= budget * min(TAU, ds / v)  <=>  both limits below
-            with np.errstate(divide="ignore"):
+            with np.errstate(divide="ignore", invalid="ignore"):
                 v_tau = np.where(jump > 0, bend_budget * TAU_S / jump, np.inf)
                 v_ds = np.where(jump > 0, np.sqrt(bend_budget * ds / jump), np.inf)
             v_vert = np.minimum(np.minimum(v_tau, v_ds), np.minimum(vcap[1:], vcap[:-1]))
@@ -247,10 +249,10 @@ class Planner:
         up = np.minimum(vcap ** 2, (u0 + u1 + inc) / 2.0)
         up = np.maximum(up, np.maximum(u0, u1))
         cords = kin.inverse(verts)
-        block = Block(verts, cords, d, np.sqrt(u0), np.sqrt(up), np.sqrt(u1), a, line, draw)
+        block = Block(verts, cords, d, np.sqrt(u0), np.sqrt(up), np.sqrt(u1), a, line, draw, cap)
         return block, u
 
 
 def _slice(b: Block, i: int, j: int) -> Block:
     return Block(b.verts[i:j + 1], b.cords[i:j + 1], b.d[i:j], b.v0[i:j], b.vp[i:j], b.v1[i:j],
-                 b.a[i:j], b.line[i:j], b.drawing[i:j])
+                 b.a[i:j], b.line[i:j], b.drawing[i:j], b.cap[i:j])

@@ -16,6 +16,7 @@ import numpy as np
 from vplotter.gcode import Move
 
 TWO_PI = 2.0 * math.pi
+_EMPTY = np.empty((0, 2))
 
 
 def arc_sweep(move: Move) -> float:
@@ -45,8 +46,8 @@ def points(move: Move, tol_mm: float) -> np.ndarray:
     """
     if move.arc == 0:
         if move.x1 == move.x0 and move.y1 == move.y0:
-            return np.empty((0, 2))
-        return np.array([[move.x1, move.y1]])
+            return _EMPTY
+        return np.array(((move.x1, move.y1),))
     sweep = arc_sweep(move)
     if abs(sweep) < 1e-12:  # a spiral that does not turn: a radial line
         return np.array([[move.x1, move.y1]])

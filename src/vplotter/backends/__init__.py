@@ -39,6 +39,11 @@ class Backend:
     def close(self) -> None:
         raise NotImplementedError
 
+    def lateness(self) -> dict | None:
+        """For real-time backends: {"p50_ms", "p99_ms", "max_ms", "n"} of actual minus planned
+        change times; None when timing is simulated."""
+        return None
+
     def __enter__(self):
         self.open()
         return self

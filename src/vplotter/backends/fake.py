@@ -9,9 +9,10 @@ from vplotter.schedule import Rows
 class FakeBackend(Backend):
     name = "fake"
 
-    def __init__(self, cfg, record: bool = False):
+    def __init__(self, cfg, record: bool = False, realtime: bool = False):
         super().__init__(cfg)
         self.record = record
+        self.realtime = realtime  # real-time playing: see issue 4 (not yet built)
         self.recorded: list[Rows] = []
         self.clock_us = 0
         self.coils = 0
