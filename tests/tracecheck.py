@@ -1010,23 +1010,27 @@ def drawn_polylines(decoded: Decoded) -> list[np.ndarray]:
 
 
 def _densify(poly: np.ndarray, spacing: float) -> np.ndarray:
+    """Insert points on the segments of ``poly`` so that none is longer than ``spacing``."""
     poly = np.asarray(poly, dtype=float).reshape(-1, 2)
     if len(poly) < 2:
         return poly
-    seg = np.hypot(*(np.diff(poly, axis=0).T))
+    d = np.diff(poly, axis=0)
+    seg = np.hypot(d[:, 0], d[:, 1])
     if np.all(seg <= spacing):
         return poly
-    parts = [poly[:1]]
-    for i in range(len(poly) - 1):
-        if seg[i] <= spacing:
-            parts.append(poly[i + 1:i + 2])
-        else:
-            parts.append(_sample_line(poly[i], poly[i + 1], spacing))
-    return np.concatenate(parts)
+    nseg = np.maximum(1, np.ceil(seg / spacing).astype(np.int64))
+    idx = np.repeat(np.arange(len(seg)), nseg)               # segment of each new point
+    first = np.cumsum(nseg) - nseg
+    k = np.arange(len(idx)) - np.repeat(first, nseg) + 1     # 1..nseg within the segment
+    f = k / nseg[idx]
+    pts = poly[idx] + f[:, None] * d[idx]
+    ends = np.cumsum(nseg) - 1
+    pts[ends] = poly[1:]                                     # exact original vertices
+    return np.concatenate([poly[:1], pts])
 
 
 def distances_to_polylines(points, polylines: Sequence[np.ndarray], spacing: float = 0.005,
-                           k: int = 8, chunk: int = 200_000) -> np.ndarray:
+                           k: int = 4, chunk: int = 100_000) -> np.ndarray:
     """Distance from each point to the nearest of ``polylines`` (segments, not vertices).
 
     The polylines are densified to segments of at most ``spacing``; a
@@ -1050,27 +1054,26 @@ def distances_to_polylines(points, polylines: Sequence[np.ndarray], spacing: flo
     nV = len(V)
     kk = min(k, nV)
     out = np.empty(len(P))
+    Vx, Vy = V[:, 0], V[:, 1]
     for s in range(0, len(P), chunk):
         Q = P[s:s + chunk]
         dv, iv = tree.query(Q, k=kk)
         if kk == 1:
             dv, iv = dv[:, None], iv[:, None]
         best = dv.min(axis=1)
+        qx, qy = Q[:, 0:1], Q[:, 1:2]
         for off in ((0, -1) if nV >= 2 else ()):
             a = iv + off                    # segment a -> a+1
             valid = (a >= 0) & (a < nV - 1)
             a = np.clip(a, 0, nV - 2)
             valid &= has_next[a]
-            A, B = V[a], V[a + 1]
-            AB = B - A
-            AQ = Q[:, None, :] - A
-            L2 = np.einsum("ijk,ijk->ij", AB, AB)
-            with np.errstate(invalid="ignore", divide="ignore"):
-                tpar = np.where(L2 > 0, np.einsum("ijk,ijk->ij", AQ, AB) / np.where(L2 > 0, L2, 1), 0.0)
-            tpar = np.clip(tpar, 0.0, 1.0)
-            foot = A + tpar[..., None] * AB
-            dseg = np.hypot(Q[:, None, 0] - foot[..., 0], Q[:, None, 1] - foot[..., 1])
-            dseg = np.where(valid, dseg, np.inf)
+            ax, ay = Vx[a], Vy[a]
+            abx, aby = Vx[a + 1] - ax, Vy[a + 1] - ay
+            L2 = abx * abx + aby * aby
+            dot = (qx - ax) * abx + (qy - ay) * aby
+            tpar = np.clip(dot / np.where(L2 > 0, L2, 1.0), 0.0, 1.0)
+            dseg = np.hypot(qx - ax - tpar * abx, qy - ay - tpar * aby)
+            dseg[~valid] = np.inf
             best = np.minimum(best, dseg.min(axis=1))
         out[s:s + chunk] = best
     return out

@@ -8,7 +8,7 @@ carry file:line:col and come before anything has moved when the caller validates
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable, Iterator
+from typing import Iterable, Iterator
 
 import numpy as np
 
@@ -20,6 +20,9 @@ from vplotter.schedule import Rows, Scheduler
 
 
 BATCH = 512  # moves per batch handed to the planner
+# Share of tolerance_mm given to the chords of arcs; the rest is left for the step quantisation
+# (half a step of each cord moves the pen by up to ~0.008 mm on the seed machine's page).
+CHORD_SHARE = 0.75
 
 
 @dataclass
@@ -44,10 +47,23 @@ class Summary:
                 f"plot time {hms} ({self.time_s:.1f} s)")
 
 
-def stream(cfg: Config, path: str, counts, ref_mm, strict: bool = False,
-           warn: Callable[[str], None] | None = None, emit: bool = True,
-           summary: Summary | None = None) -> Iterator[Rows]:
-    """Rows for drawing `path` starting from the given step counts (cords = ref + counts/spm)."""
+@dataclass(frozen=True)
+class StartAt:
+    """Where a resumed drawing starts: G-code line, and the pen point on that line's move
+    (None: the start of the line)."""
+
+    line: int
+    xy: tuple[float, float] | None = None
+
+
+def stream(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str = "<input>",
+           emit: bool = True, summary: Summary | None = None,
+           start_at: StartAt | None = None, pen_down: bool | None = None) -> Iterator[Rows]:
+    """Rows for drawing `records` starting from the given step counts (cords = ref + counts/spm).
+
+    With `start_at`, records before that line are skipped (their pen changes still count), the
+    pen travels up to the resume point and goes down again if the file has it down there.
+    """
     kin = kinematics.from_config(cfg)
     spm = cfg.motors.steps_per_mm
     summary = summary if summary is not None else Summary()
@@ -56,10 +72,10 @@ def stream(cfg: Config, path: str, counts, ref_mm, strict: bool = False,
     planner = Planner(kin, cfg.motors.max_step_rate, cfg.motors.max_accel, spm, start)
     sched = Scheduler(cfg, kin, counts, ref_mm)
     page = cfg.page
-    tol = cfg.motion.tolerance_mm
+    tol = cfg.motion.tolerance_mm * CHORD_SHARE
     mo = cfg.motion
-    pen_down = False
-    kwargs = {"warn": warn} if warn is not None else {}
+    file_xy = (0.0, 0.0)
+    path = name
 
     def blocks(bs: Iterator[Block]) -> Iterator[Rows]:
         for b in bs:
@@ -94,13 +110,39 @@ def stream(cfg: Config, path: str, counts, ref_mm, strict: bool = False,
         if stop:
             yield from blocks(planner.stop())
 
-    first = sched.start()
-    if emit:
+    keep_pen = pen_down is not None
+    first = sched.start(pen_down)
+    pen_down = bool(pen_down)
+    if emit and first is not None:
         yield first
-    for rec in gcode.read(path, strict=strict, **kwargs):
+    for rec in records:
+        pts = None
+        if start_at is not None:
+            if rec.line < start_at.line:
+                if isinstance(rec, gcode.Pen):
+                    pen_down = rec.down
+                elif isinstance(rec, gcode.Move):
+                    file_xy = (rec.x1, rec.y1)
+                continue
+            # travel pen up to where the drawing goes on, then put the pen as the file has it
+            there = file_xy
+            if isinstance(rec, gcode.Move):
+                pts = segment.points(rec, tol)
+                there = (rec.x0, rec.y0)
+                if rec.line == start_at.line and start_at.xy is not None and len(pts):
+                    there, pts = segment.cut(np.vstack(([[rec.x0, rec.y0]], pts)), start_at.xy)
+            start_at = None
+            batch.append(np.array([there], dtype=float))
+            meta.append((1, mo.travel_speed_mm_s, rec.line, rec.col, False))
+            yield from flush(True)
+            if pen_down:
+                rows = sched.pen(True, rec.line)
+                if rows is not None and emit:
+                    yield rows
         if isinstance(rec, gcode.Move):
             summary.moves += 1
-            pts = segment.points(rec, tol)
+            if pts is None:
+                pts = segment.points(rec, tol)
             if len(pts) == 0:
                 continue
             if pen_down:
@@ -126,7 +168,7 @@ def stream(cfg: Config, path: str, counts, ref_mm, strict: bool = False,
             if rows is not None and emit:
                 yield rows
     yield from flush(True)
-    rows = sched.finish()
+    rows = sched.finish(lift=not keep_pen)
     if rows is not None and emit:
         yield rows
     summary.steps = sched.steps_total.copy()

@@ -70,8 +70,12 @@ class Scheduler:
     def _hold_word(self) -> int:
         return int(coil_words(self.table, self.phase[:1], self.phase[1:])[0])
 
-    def start(self) -> Rows:
-        """Lift the pen (wherever it is) and let it settle, coils released."""
+    def start(self, pen_down: bool | None = None) -> Rows | None:
+        """Lift the pen (wherever it is) and let it settle, coils released. With pen_down
+        given, the pen is known to be in that state already and nothing is sent."""
+        if pen_down is not None:
+            self.pen_down = pen_down
+            return None
         up = self.cfg.pen.up_us
         rows = [self._row(0, 0, up), self._row(self.settle_us, 0, 0)]
         self.t_us = self.settle_us
@@ -101,8 +105,9 @@ class Scheduler:
         self.t_us += int(round(seconds * 1e6))
         return rows
 
-    def finish(self) -> Rows | None:
-        parts = [r for r in (self.pen(False, self.line), self.release()) if r is not None]
+    def finish(self, lift: bool = True) -> Rows | None:
+        parts = [r for r in (self.pen(False, self.line) if lift else None, self.release())
+                 if r is not None]
         return Rows.concat(parts) if parts else None
 
     def targets(self, block: Block) -> np.ndarray:
@@ -169,3 +174,58 @@ class Scheduler:
         self.phase = (self.phase + (targets[-1] - targets[0]) * self.sign) % len(self.table)
         self.line = int(block.line[-1])
         return Rows.concat(rows) if rows else None
+
+    def cord_move(self, delta_steps, rate_share: float = 0.5) -> Rows | None:
+        """Move both cords by whole steps, linearly in cord space, rest to rest (jog by cord,
+        calibration). The leading motor runs at most rate_share x max_step_rate."""
+        delta = np.asarray(delta_steps, dtype=np.int64)
+        lead = int(np.abs(delta).max())
+        if lead == 0:
+            return None
+        m = self.cfg.motors
+        v = m.max_step_rate * rate_share
+        a = m.max_accel * 0.95
+        rows = []
+        if not self.energized:
+            rows.append(self._row(self.t_us, self._hold_word(), self.pen_us))
+            self.energized = True
+            self.t_us += self.hold_us
+        times, motors, dirs = [], [], []
+        for k in (0, 1):
+            n = abs(int(delta[k]))
+            if n == 0:
+                continue
+            x = (np.arange(n) + 0.5) * lead / n
+            times.append(_rest_to_rest(x, float(lead), v, a))
+            motors.append(np.full(n, k))
+            dirs.append(np.full(n, 1 if delta[k] > 0 else -1))
+        total = float(_rest_to_rest(np.array([float(lead)]), float(lead), v, a)[0])
+        t = np.concatenate(times)
+        order = np.argsort(t, kind="stable")
+        t_us = self.t_us + np.rint(t[order] * 1e6).astype(np.int64)
+        motor, dirn = np.concatenate(motors)[order], np.concatenate(dirs)[order]
+        cl = np.cumsum(np.where(motor == 0, dirn, 0))
+        cr = np.cumsum(np.where(motor == 1, dirn, 0))
+        words = coil_words(self.table, self.phase[0] + cl * self.sign[0], self.phase[1] + cr * self.sign[1])
+        steps = np.column_stack((self.counts[0] + cl, self.counts[1] + cr))
+        rows.append(Rows(t_us, words, np.zeros(len(t_us), dtype=np.int32),
+                         np.full(len(t_us), self.line, dtype=np.int64), steps))
+        self.t_us += int(round(total * 1e6))
+        self.counts = self.counts + delta
+        self.phase = (self.phase + delta * self.sign) % len(self.table)
+        rows.append(self.release())
+        return Rows.concat(rows)
+
+
+def _rest_to_rest(x: np.ndarray, d: float, v: float, a: float) -> np.ndarray:
+    """Times at which a trapezoidal move of length d (speed v, acceleration a, from rest to
+    rest) reaches the positions x."""
+    d_acc = min(v * v / (2 * a), d / 2)
+    vp = np.sqrt(2 * a * d_acc)
+    t_acc = vp / a
+    d_cru = d - 2 * d_acc
+    t_cru = d_cru / vp
+    rest = np.maximum(vp * vp - 2 * a * (x - d_acc - d_cru), 0.0)
+    return np.where(x < d_acc, np.sqrt(2 * np.maximum(x, 0) / a),
+                    np.where(x < d_acc + d_cru, t_acc + (x - d_acc) / vp,
+                             t_acc + t_cru + (vp - np.sqrt(rest)) / a))

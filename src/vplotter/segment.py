@@ -23,11 +23,11 @@ def arc_sweep(move: Move) -> float:
     """Signed swept angle in radians (+ counter-clockwise); a closed arc is a full turn."""
     a0 = math.atan2(move.y0 - move.cy, move.x0 - move.cx)
     a1 = math.atan2(move.y1 - move.cy, move.x1 - move.cx)
-    closed = math.hypot(move.x1 - move.x0, move.y1 - move.y0) <= 1e-9
-    if move.arc > 0:
-        return TWO_PI if closed else (a1 - a0) % TWO_PI
-    sweep = (a0 - a1) % TWO_PI
-    return -TWO_PI if closed else -sweep
+    # start == end, or a spiral ending at its start angle: a full turn
+    sweep = (a1 - a0) % TWO_PI if move.arc > 0 else (a0 - a1) % TWO_PI
+    if sweep == 0.0 or math.hypot(move.x1 - move.x0, move.y1 - move.y0) <= 1e-9:
+        sweep = TWO_PI
+    return move.arc * sweep
 
 
 def chord_count(radius_mm: float, sweep: float, tol_mm: float) -> int:
@@ -49,8 +49,6 @@ def points(move: Move, tol_mm: float) -> np.ndarray:
             return _EMPTY
         return np.array(((move.x1, move.y1),))
     sweep = arc_sweep(move)
-    if abs(sweep) < 1e-12:  # a spiral that does not turn: a radial line
-        return np.array([[move.x1, move.y1]])
     r0 = math.hypot(move.x0 - move.cx, move.y0 - move.cy)
     r1 = math.hypot(move.x1 - move.cx, move.y1 - move.cy)
     dr = (r1 - r0) / abs(sweep)
@@ -71,3 +69,15 @@ def first_outside(pts: np.ndarray, x_min: float, x_max: float, y_min: float, y_m
     bad = (pts[:, 0] < x_min) | (pts[:, 0] > x_max) | (pts[:, 1] < y_min) | (pts[:, 1] > y_max)
     idx = np.flatnonzero(bad)
     return int(idx[0]) if idx.size else -1
+
+
+def cut(poly: np.ndarray, xy) -> tuple[tuple[float, float], np.ndarray]:
+    """Split a polyline at the point nearest to xy: (that point, the points after it)."""
+    q = np.asarray(xy, dtype=float)
+    a, b = poly[:-1], poly[1:]
+    ab = b - a
+    len2 = np.einsum("ij,ij->i", ab, ab)
+    t = np.clip(np.einsum("ij,ij->i", q - a, ab) / np.where(len2 > 0, len2, 1.0), 0.0, 1.0)
+    near = a + ab * t[:, None]
+    i = int(np.argmin(np.hypot(*(near - q).T)))
+    return (float(near[i, 0]), float(near[i, 1])), poly[i + 1:]

@@ -120,3 +120,73 @@ def load(path: Path | None = None) -> Position | None:
 def save(pos: Position, path: Path | None = None) -> None:
     data = {"version": VERSION, **asdict(pos)}
     atomic_write(path or state_path(), json.dumps(data, indent=2) + "\n")
+
+
+# ---------------------------------------------------------------- journal (crash safety)
+def journal_path() -> Path:
+    return state_dir() / "journal"
+
+
+class Journal:
+    """Append-only record of the position while the machine moves (one JSON line, fsync'd).
+
+    Each record is written before a stretch of motion is played: the step counts where it
+    starts and how far (in steps) the motors may be from them until the next record. After a
+    crash the stored position is the last record and that distance bounds its error.
+    """
+
+    def __init__(self, path: Path | None = None):
+        self.path = path or journal_path()
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.f = open(self.path, "a", encoding="utf-8")
+
+    def record(self, counts, dev_steps, line: int, pen: str) -> None:
+        rec = {"steps": [int(counts[0]), int(counts[1])],
+               "dev": [int(dev_steps[0]), int(dev_steps[1])], "line": int(line), "pen": pen}
+        self.f.write(json.dumps(rec) + "\n")
+        self.f.flush()
+        os.fsync(self.f.fileno())
+
+    def close(self) -> None:
+        try:
+            self.f.close()
+        except OSError:
+            pass
+
+
+def last_journal_record(path: Path | None = None) -> dict | None:
+    """The last complete record (a power cut can leave a torn last line)."""
+    p = path or journal_path()
+    try:
+        lines = p.read_text(encoding="utf-8", errors="replace").splitlines()
+    except FileNotFoundError:
+        return None
+    for line in reversed(lines):
+        try:
+            rec = json.loads(line)
+            if isinstance(rec, dict) and len(rec.get("steps", ())) == 2 and len(rec.get("dev", ())) == 2:
+                return rec
+        except ValueError:
+            continue
+    return None
+
+
+def clear_journal() -> None:
+    try:
+        os.unlink(journal_path())
+    except FileNotFoundError:
+        pass
+
+
+def recovered(pos: Position) -> Position:
+    """After an unclean stop: the position from the journal, with its error bound in extra."""
+    if pos.clean:
+        return pos
+    rec = last_journal_record()
+    if rec is None:
+        return pos
+    new = pos.moved_to(rec["steps"])
+    new.pen = rec.get("pen", "unknown")
+    new.extra["uncertain_steps"] = [int(rec["dev"][0]), int(rec["dev"][1])]
+    new.extra["line"] = int(rec.get("line", 0))
+    return new

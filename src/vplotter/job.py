@@ -1,0 +1,256 @@
+"""Running a schedule on the machine safely: lock, position, backend, signals, journal, trace.
+
+`Session` is used by every command that moves something (draw, jog, goto, home, pen,
+calibrate steps). It guarantees, whatever happens (error, Ctrl+C, SIGTERM, SSH hang-up):
+the pen is lifted, the coils are released, the exact position reached is stored, and a second
+process cannot drive the same plotter at the same time. A dry run (the fake backend without
+--realtime) takes no lock and never writes the stored position.
+"""
+
+from __future__ import annotations
+
+import signal
+import sys
+from dataclasses import dataclass
+from typing import Iterable
+
+import numpy as np
+
+from vplotter import state
+from vplotter.errors import BackendError, Interrupted, MachineError, StateError
+from vplotter.schedule import Rows
+
+JOURNAL_EVERY_US = 500_000     # journal at least every 0.5 s of motion
+SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+
+@dataclass
+class Stop:
+    signum: int
+    counts: tuple[int, int]
+    line: int
+
+
+def _eprint(msg: str) -> None:
+    print(msg, file=sys.stderr, flush=True)
+
+
+def load_position(cfg, trust: bool = False, dry_run: bool = False) -> state.Position:
+    """The stored position, checked: refuses an unclean stop unless trusted (or a dry run)."""
+    pos = state.load()
+    if pos is None:
+        raise MachineError("error: the pen position is unknown; put the pen on a known point and "
+                           "run `vplotter calibrate --at X Y` first")
+    pos = state.recovered(pos).rebased(cfg.motors.steps_per_mm)
+    if not pos.clean and not trust and not dry_run:
+        mm = uncertainty_mm(cfg, pos)
+        raise StateError(f"error: the last stop was not clean (crash or power cut); the position "
+                         f"may be off by up to {mm:.2f} mm. Check the pen and run `vplotter "
+                         f"calibrate --at X Y`, or pass --trust-position to go on from it")
+    return pos
+
+
+def uncertainty_mm(cfg, pos: state.Position) -> float:
+    """How far the pen may be from the stored position after an unclean stop."""
+    dev = pos.extra.get("uncertain_steps")
+    if pos.clean or dev is None:
+        return 0.0
+    from vplotter import kinematics
+
+    kin = kinematics.from_config(cfg)
+    spm = pos.steps_per_mm
+    c = np.array([pos.left_mm, pos.right_mm])
+    here = kin.forward(c[None, :])[0]
+    corners = np.array([[sl, sr] for sl in (-1, 1) for sr in (-1, 1)]) * np.array(dev) / spm
+    return float(np.hypot(*(kin.forward(c + corners) - here).T).max())
+
+
+class Session:
+    def __init__(self, cfg, command: str, backend_name: str, dry_run: bool, trace=None,
+                 realtime: bool = False, position: state.Position | None = None):
+        self.cfg = cfg
+        self.command = command
+        self.backend_name = backend_name
+        self.dry_run = dry_run
+        self.realtime = realtime
+        self.trace_path = trace
+        self.position = position
+        self.counts = position.counts if position is not None else (0, 0)
+        self.stop: Stop | None = None
+        self.backend = None
+        self.tracer = None
+        self._trace_file = None
+        self._lock = None
+        self._journal = None
+        self._old_handlers: dict = {}
+        self._signum = 0
+        self.t_us = 0          # schedule time of the last row played
+        self.line = 0
+        self.pen_us = 0
+        self.pen_down = False
+        self._moved = False
+        self.resume_info: dict | None = None
+
+    @property
+    def saves_state(self) -> bool:
+        return not self.dry_run
+
+    # ------------------------------------------------------------ context
+    def __enter__(self) -> "Session":
+        from vplotter import backends, lock
+        from vplotter.trace import TraceWriter
+
+        if self.saves_state:
+            self._lock = lock.acquire(self.command)
+        try:
+            options = {"realtime": True} if self.realtime else {}
+            self.backend = backends.create(self.backend_name, self.cfg, **options)
+            self.backend.open()
+            if self.trace_path:
+                self._trace_file = open(self.trace_path, "w", encoding="utf-8")
+                self.tracer = TraceWriter(self._trace_file, self.backend.coil_pins, self.backend.pen_pin)
+            for s in SIGNALS:
+                self._old_handlers[s] = signal.signal(s, self._on_signal)
+        except BaseException:
+            self._cleanup()
+            raise
+        return self
+
+    def _on_signal(self, signum, frame) -> None:
+        if not self._signum:
+            self._signum = signum
+        if self.backend is not None:
+            self.backend.stop_requested = True
+
+    def __exit__(self, exc_type, exc, tb) -> bool:
+        try:
+            if exc is not None and self.backend is not None and not isinstance(exc, Interrupted):
+                self._abort()
+        finally:
+            if self._moved and self.saves_state:
+                # after a backend failure nobody knows what the motors last did
+                self._save(clean=not isinstance(exc, BackendError))
+            self._cleanup()
+        return False
+
+    def _cleanup(self) -> None:
+        for s, h in self._old_handlers.items():
+            try:
+                signal.signal(s, h)
+            except (ValueError, TypeError):
+                pass
+        self._old_handlers.clear()
+        if self.backend is not None:
+            self.backend.close()
+        if self._trace_file is not None:
+            self._trace_file.close()
+            self._trace_file = None
+        if self._journal is not None:
+            self._journal.close()
+            self._journal = None
+        if self._lock is not None:
+            self._lock.release()
+            self._lock = None
+
+    # ------------------------------------------------------------ playing
+    def play(self, chunks: Iterable[Rows], progress=None) -> None:
+        """Play rows; on a signal stop, lift the pen, release and raise Interrupted.
+        progress(t_us, line) is called after every stretch played."""
+        prev_dev_from = None
+        for rows in chunks:
+            for part in _split(rows):
+                if self._signum:
+                    break
+                if self.saves_state:
+                    self._begin_motion()
+                    lo = part if prev_dev_from is None else Rows.concat([prev_dev_from, part])
+                    dev = np.abs(lo.steps - np.asarray(self.counts)).max(axis=0)
+                    pen = "down" if self.pen_down or (part.pen_us == self.cfg.pen.down_us).any() else "up"
+                    self._journal.record(self.counts, dev, int(part.line[0]), pen)
+                    prev_dev_from = part
+                n = self.backend.play(part)
+                self._played(part, n)
+                if progress is not None:
+                    progress(self.t_us, self.line)
+                if n < len(part):
+                    break
+            if self._signum:
+                break
+        if self._signum:
+            self._abort()
+            signum = self._signum
+            self.stop = Stop(signum, self.counts, self.line)
+            raise Interrupted(f"stopped by {signal.Signals(signum).name}", signum)
+
+    def _played(self, part: Rows, n: int) -> None:
+        if n <= 0:
+            return
+        done = part if n == len(part) else Rows(part.t_us[:n], part.coils[:n], part.pen_us[:n],
+                                               part.line[:n], part.steps[:n])
+        if self.tracer is not None:
+            self.tracer.write(done)
+        self.counts = (int(done.steps[-1, 0]), int(done.steps[-1, 1]))
+        self.t_us = int(done.t_us[-1])
+        self.line = int(done.line[-1])
+        pens = done.pen_us[done.pen_us > 0]
+        if len(pens):
+            self.pen_down = int(pens[-1]) == self.cfg.pen.down_us
+        self._moved = True
+
+    def _begin_motion(self) -> None:
+        if self._journal is None:
+            pos = self.position.moved_to(self.counts)
+            pos.clean = False
+            state.save(pos)
+            state.clear_journal()
+            self._journal = state.Journal()
+
+    def _abort(self) -> None:
+        """Pen up and coils released, played to the end whatever else happens."""
+        if self.backend is None:
+            return
+        self.backend.stop_requested = False
+        t = self.t_us + 1 if self._moved else 0
+        up, settle = self.cfg.pen.up_us, int(round(self.cfg.pen.settle_s * 1e6))
+        rows = Rows(np.array([t, t + settle], dtype=np.int64), np.zeros(2, dtype=np.uint8),
+                    np.array([up, 0], dtype=np.int32), np.full(2, self.line, dtype=np.int64),
+                    np.array([self.counts, self.counts], dtype=np.int64))
+        try:
+            n = self.backend.play(rows)
+            self._played(rows, n)
+            self.pen_down = False
+        except Exception as e:  # noqa: BLE001 - keep going: close() still releases
+            _eprint(f"vplotter: warning: could not lift the pen: {e}")
+
+    def _save(self, clean: bool) -> None:
+        pos = self.position.moved_to(self.counts)
+        pos.pen = "down" if self.pen_down else "up"
+        pos.clean = clean
+        pos.extra = {k: v for k, v in pos.extra.items() if k not in ("uncertain_steps", "line")}
+        if self.stop is None:
+            pos.extra.pop("resume", None)
+        if self.resume_info:
+            pos.extra["resume"] = self.resume_info
+        state.save(pos)
+        if clean:
+            state.clear_journal()
+        self.position = pos
+
+
+def _split(rows: Rows) -> Iterable[Rows]:
+    """Cut rows into stretches of at most JOURNAL_EVERY_US, also right after pen changes."""
+    n = len(rows)
+    if n == 0:
+        return
+    t = rows.t_us
+    cuts = set(np.searchsorted(t, np.arange(t[0] + JOURNAL_EVERY_US, t[-1] + 1, JOURNAL_EVERY_US)).tolist())
+    pen_rows = np.flatnonzero(rows.pen_us > 0)
+    cuts.update((pen_rows + 1).tolist())
+    start = 0
+    for c in sorted(cuts):
+        if start < c < n:
+            yield Rows(rows.t_us[start:c], rows.coils[start:c], rows.pen_us[start:c],
+                       rows.line[start:c], rows.steps[start:c])
+            start = c
+    yield Rows(rows.t_us[start:], rows.coils[start:], rows.pen_us[start:], rows.line[start:],
+               rows.steps[start:])
