@@ -127,7 +127,7 @@ class Planner:
         self._draw.append(np.broadcast_to(np.asarray(drawing, dtype=bool), (k,)))
         self._count += k
         self.last = pts[-1]
-        if self._count >= 2 * self.window:
+        while self._count >= 2 * self.window:
             yield from self._plan(final=False)
 
     def stop(self) -> Iterator[Block]:
@@ -143,18 +143,17 @@ class Planner:
         return pts, cap, line, draw
 
     def _plan(self, final: bool) -> Iterator[Block]:
-        pts, cap, line, draw = self._take()
+        pts, raw_cap, raw_line, raw_draw = self._take()
         verts = np.vstack((self._start[None, :], pts))
-        verts, cap, line, draw, origin = self._pieces(verts, cap, line, draw)
-        if len(verts) < 2:
-            self._reset(pts[len(pts):], cap[:0], line[:0], draw[:0], pts[-1])
+        verts, cap, line, draw, origin = self._pieces(verts, raw_cap, raw_line, raw_draw)
+        if len(verts) < 2 or final:
+            entry = self._u_entry
+            self._reset(pts[:0], raw_cap[:0], raw_line[:0], raw_draw[:0], pts[-1])
+            self._u_entry = 0.0 if final else entry
+            if len(verts) >= 2:
+                yield self._profile(verts, cap, line, draw, entry)[0]
             return
         block, u = self._profile(verts, cap, line, draw, self._u_entry)
-        if final:
-            self._reset(pts[:0], cap[:0], line[:0], draw[:0], pts[-1])
-            self._u_entry = 0.0
-            yield block
-            return
         # commit the pieces that come from the first `window` input pieces
         n = int(np.searchsorted(origin, self.window, side="left"))
         n = max(n, 1)
@@ -162,7 +161,8 @@ class Planner:
         raw_keep = int(origin[n]) if n < len(origin) else len(pts)
         self._u_entry = float(u[n])
         # the committed end vertex is exactly pts[raw_keep - 1], where the kept pieces start
-        self._reset(pts[raw_keep:], cap[raw_keep:], line[raw_keep:], draw[raw_keep:], block.verts[n])
+        self._reset(pts[raw_keep:], raw_cap[raw_keep:], raw_line[raw_keep:], raw_draw[raw_keep:],
+                    block.verts[n])
 
     def _reset(self, pts, cap, line, draw, start) -> None:
         self._pts = [pts] if len(pts) else []
@@ -183,7 +183,8 @@ class Planner:
         keep = d > 1e-9
         origin = np.flatnonzero(keep)
         verts = np.vstack((verts[:1], verts[1:][keep]))
-        diff, d = diff[keep], d[keep]
+        diff = np.diff(verts, axis=0)
+        d = np.hypot(diff[:, 0], diff[:, 1])
         cap, line, draw = cap[keep], line[keep], draw[keep]
         if len(d) == 0:
             return verts, cap, line, draw, origin
