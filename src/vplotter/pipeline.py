@@ -167,6 +167,8 @@ def stream(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: s
             rows = sched.dwell(rec.seconds, rec.line)
             if rows is not None and emit:
                 yield rows
+    if start_at is not None:
+        raise InputError(f"{path}: error: line {start_at.line} is past the last move of the file")
     yield from flush(True)
     rows = sched.finish(lift=not keep_pen)
     if rows is not None and emit:

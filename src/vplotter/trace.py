@@ -67,6 +67,7 @@ class TraceWriter:
         lines = [f"{s}.{u:06d},{p},{v}\n" for s, u, p, v in
                  zip(sec.tolist(), usec.tolist(), pins[order].tolist(), values[order].tolist())]
         self.out.write("".join(lines))
+        self.out.flush()       # what was played is on disk, even if the process is killed
         self.coils, self.pen = int(words[-1]), int(pens[-1])
 
 
