@@ -20,18 +20,17 @@ import time
 
 import numpy as np
 
-from vplotter import config, kinematics, pipeline, planner
+from vplotter import config, gcode, kinematics, pipeline, planner
 from vplotter.schedule import Scheduler
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
-def big_file(path: str, n_lines: int = 40_000) -> str:
-    """A dense drawing: 20 rosettes of short G1 lines and G2/G3 arcs, about n_lines moves."""
+def big_file(path: str, n_lines: int = 40_000, per: int = 2000) -> str:
+    """A dense drawing: rosettes of `per` moves each (short G1 lines, every tenth a G3 arc)."""
     rng = np.random.default_rng(1)
     out = ["G21 G90", "G00 Z5"]
-    per = n_lines // 20
-    for k in range(20):
+    for k in range(max(1, n_lines // per)):
         cx, cy = rng.uniform(-120, 120), rng.uniform(-150, 200)
         r = rng.uniform(20, 45)
         out.append(f"G00 X{cx + r:.4f} Y{cy:.4f}")
@@ -48,6 +47,23 @@ def big_file(path: str, n_lines: int = 40_000) -> str:
     with open(path, "w") as f:
         f.write("\n".join(out) + "\n")
     return path
+
+
+def records(path):
+    return gcode.read(path, warn=lambda m: None)
+
+
+def peak_memory_mb(cfg, path) -> float:
+    """Peak Python heap while streaming the whole file through the planner (no steps)."""
+    import tracemalloc
+
+    counts, ref = start_of(cfg)
+    tracemalloc.start()
+    for _ in pipeline.stream(cfg, records(path), counts, ref, path, emit=False):
+        pass
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    return peak / 1e6
 
 
 def start_of(cfg):
@@ -74,8 +90,8 @@ def bound_and_plan(cfg, path):
 
     Scheduler.motion = motion
     try:
-        for _ in pipeline.stream(cfg, path, counts, ref, emit=False, summary=summary,
-                                 warn=lambda m: None):
+        for _ in pipeline.stream(cfg, records(path), counts, ref, path, emit=False,
+                                 summary=summary):
             pass
     finally:
         Scheduler.motion = orig
@@ -88,7 +104,7 @@ def speed(cfg, path):
     t0 = time.process_time()
     steps = 0
     summary = pipeline.Summary()
-    for rows in pipeline.stream(cfg, path, counts, ref, summary=summary, warn=lambda m: None):
+    for rows in pipeline.stream(cfg, records(path), counts, ref, path, summary=summary):
         steps += len(rows)
     cpu = time.process_time() - t0
     return cpu, int(summary.steps.sum()), summary.time_s
@@ -112,6 +128,12 @@ def main(argv):
         print(f"{os.path.basename(path):<14}{steps:>10}{cpu:>8.2f}{steps / cpu:>13.0f}{plot:>10.1f}"
               f"{plot / cpu:>10.0f}{bound:>10.1f}{planned / bound:>11.3f}{stop_each:>12.1f}"
               f"{stop_each / bound:>11.3f}")
+    if not argv:
+        print("\nmemory is flat in the length of the file (peak Python heap, planning pass):")
+        for n in (20_000, 160_000):
+            path = big_file(os.path.join(tmp, f"big{n}.ngc"), n)
+            size = os.path.getsize(path) / 1e6
+            print(f"  {n:>6} moves ({size:5.1f} MB of G-code): {peak_memory_mb(cfg, path):6.1f} MB")
 
 
 if __name__ == "__main__":

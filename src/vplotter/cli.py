@@ -260,6 +260,8 @@ def _add_calibrate(p) -> None:
 
 
 def cmd_calibrate(args, argv=None) -> int:
+    import math
+
     import numpy as np
 
     from vplotter import kinematics, lock, state
@@ -273,6 +275,9 @@ def cmd_calibrate(args, argv=None) -> int:
         raise ConfigError("error: say where the pen is: --at X Y or --cords LEFT RIGHT "
                           "(or `calibrate steps --motor left`)")
     kin = kinematics.from_config(cfg)
+    values = args.at if args.at is not None else args.cords
+    if not all(math.isfinite(v) and abs(v) < 1e5 for v in values):
+        raise ConfigError(f"error: {' '.join(f'{v:g}' for v in values)} is not a position on a wall")
     if args.at is not None:
         xy = kin.to_machine(np.array([args.at]))
         if not xy[0, 1] > 0:
@@ -308,7 +313,8 @@ def _pen_xy(cfg, pos):
 
 
 def _describe(cfg, pos) -> str:
-    xy = _pen_xy(cfg, pos)
+    xy = _pen_xy(cfg, pos) + 0.0     # no "-0.000"
+    xy[abs(xy) < 5e-4] = 0.0
     return (f"pen at X{xy[0]:.3f} Y{xy[1]:.3f}  "
             f"cords left {pos.left_mm:.3f} mm ({pos.left_steps} steps) "
             f"right {pos.right_mm:.3f} mm ({pos.right_steps} steps)  pen {pos.pen}")

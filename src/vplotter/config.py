@@ -6,6 +6,7 @@ key nobody declared is an error (it is usually a typo), and every error names th
 
 from __future__ import annotations
 
+import difflib
 import tomllib
 from dataclasses import dataclass, fields
 from pathlib import Path
@@ -129,7 +130,11 @@ SECTION_CLASSES = {"machine": Machine, "origin": Origin, "page": Page, "motors":
 
 
 def _fmt(v: Any) -> str:
-    return repr(v) if isinstance(v, str) else str(v).lower() if isinstance(v, bool) else str(v)
+    if isinstance(v, bool):
+        return str(v).lower()
+    if isinstance(v, float):
+        return f"{v:g}"
+    return repr(v) if isinstance(v, str) else str(v)
 
 
 def _value(where: str, kind: str, raw: Any, lo: Any, hi: Any) -> Any:
@@ -183,7 +188,9 @@ def from_dict(data: dict, path: str = "config.toml") -> Config:
             raise ConfigError(f"{path}: [{section}] must be a table")
         for key in table:
             if key not in keys:
-                raise ConfigError(f"{path}: unknown key [{section}] {key}")
+                close = difflib.get_close_matches(key, keys, n=1)
+                hint = f" (did you mean {close[0]}?)" if close else ""
+                raise ConfigError(f"{path}: unknown key [{section}] {key}{hint}")
         values = {}
         for key, (kind, default, lo, hi) in keys.items():
             where = f"{path}: [{section}] {key}"
@@ -201,25 +208,30 @@ def from_dict(data: dict, path: str = "config.toml") -> Config:
 
 def _check_geometry(cfg: Config) -> None:
     path = cfg.path
-    pins = [*cfg.motors.left_pins, *cfg.motors.right_pins, cfg.pen.pin]
-    seen = set()
-    for p in pins:
+    pins = [*(("[motors] left_pins", p) for p in cfg.motors.left_pins),
+            *(("[motors] right_pins", p) for p in cfg.motors.right_pins),
+            ("[pen] pin", cfg.pen.pin)]
+    seen: dict[int, str] = {}
+    for key, p in pins:
         if p in seen:
-            raise ConfigError(f"{path}: pin {p} is used twice ([motors] left_pins, right_pins, [pen] pin)")
-        seen.add(p)
+            raise ConfigError(f"{path}: {key}: pin {p} is already used by {seen[p]}")
+        seen[p] = key
     pg = cfg.page
     if pg.x_min_mm >= pg.x_max_mm:
-        raise ConfigError(f"{path}: [page] x_min_mm must be below x_max_mm")
+        raise ConfigError(f"{path}: [page] x_min_mm must be below x_max_mm "
+                          f"(got {pg.x_min_mm:g} and {pg.x_max_mm:g})")
     if pg.y_min_mm >= pg.y_max_mm:
-        raise ConfigError(f"{path}: [page] y_min_mm must be below y_max_mm")
+        raise ConfigError(f"{path}: [page] y_min_mm must be below y_max_mm "
+                          f"(got {pg.y_min_mm:g} and {pg.y_max_mm:g})")
     if cfg.pen.up_us == cfg.pen.down_us:
-        raise ConfigError(f"{path}: [pen] up_us and down_us must differ")
-    # The page must hang below the anchor line and between... anywhere below it.
+        raise ConfigError(f"{path}: [pen] up_us and down_us must differ (both {cfg.pen.up_us})")
+    # The whole page must hang below the anchor line.
     top = cfg.origin.y_mm - pg.y_max_mm
     if top <= 0:
         raise ConfigError(
-            f"{path}: [page] y_max_mm = {pg.y_max_mm} puts the page top {-top:g} mm above the "
-            f"anchors (origin y_mm = {cfg.origin.y_mm}); lower y_max_mm or raise [origin] y_mm")
+            f"{path}: [page] y_max_mm = {pg.y_max_mm:g} puts the page top {-top:g} mm above "
+            f"the anchors ([origin] y_mm = {cfg.origin.y_mm:g}); lower y_max_mm or increase "
+            f"[origin] y_mm")
 
 
 def load(path: str | Path) -> Config:

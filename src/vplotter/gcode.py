@@ -17,11 +17,17 @@ from typing import Callable, Iterable, Iterator
 from vplotter.errors import InputError
 
 MM_PER_INCH = 25.4
+MAX_VALUE = 1e6  # mm for X Y Z I J R, seconds for P: anything larger is a typo
 # Codes that change nothing for a pen plotter: accepted, summarised in one warning.
 IGNORED_G = {40.0, 49.0, 54.0, 61.0, 64.0, 80.0, 94.0}
 IGNORED_M = {7.0, 8.0, 9.0}
 MOTION_G = {0.0, 1.0, 2.0, 3.0}
+END_M = {2.0, 30.0}
 ALLOWED_LETTERS = set("GMXYZIJRFPNST")
+UNSUPPORTED_HINTS = {18.0: " (only the XY plane, G17, is drawn)",
+                     19.0: " (only the XY plane, G17, is drawn)",
+                     41.0: " (cutter compensation)", 42.0: " (cutter compensation)",
+                     92.0: " (coordinate offsets)", 93.0: " (inverse-time feed)"}
 
 
 @dataclass(frozen=True, slots=True)
@@ -58,15 +64,32 @@ class Dwell:
 Record = Move | Pen | Dwell
 Warn = Callable[[str], None]
 
-_NUMBER = re.compile(r"[ \t]*([+-]?[ \t]*(?:\d+\.?\d*|\.\d+))")
+# ASCII digits only: \d would accept other scripts' digits, which float() also takes.
+_NUMBER = re.compile(r"[ \t]*([+-]?[ \t]*(?:[0-9]+\.?[0-9]*|\.[0-9]+))")
+_CHECKSUM = re.compile(r"\*[ \t]*([0-9]+)")
 _COMMENT = re.compile(r"\([^)]*\)|;.*")
 
 
+def _blank(text: str) -> bool:
+    """Nothing but white space and comments."""
+    return not _COMMENT.sub("", text).strip()
+
+
 def detect_pen_mode(lines: Iterable[str]) -> str:
-    """'z' if any Z word moves the pen (Inkscape gcodetools, CamBam), else 'm' (M3/M5)."""
+    """'z' if a Z word comes before the program end (Inkscape gcodetools, CamBam), else 'm'
+    (M3/M5). A line that does not tokenize ends the search: parsing will report it."""
     for raw in lines:
-        if "z" in _COMMENT.sub("", raw).lower():
+        low = raw.lower()
+        if "z" not in low and "m" not in low:  # cheap: most lines need no tokenizing
+            continue
+        try:
+            words = tokenize(raw, "")
+        except InputError:
+            return "m"
+        if any(letter == "Z" for letter, _, _ in words):
             return "z"
+        if any(letter == "M" and value in END_M for letter, value, _ in words):
+            return "m"
     return "m"
 
 
@@ -74,22 +97,24 @@ def _fmt_code(letter: str, value: float) -> str:
     return f"{letter}{int(value)}" if value == int(value) else f"{letter}{value:g}"
 
 
+def _checksum(text: str, star: int, where: str) -> None:
+    """Check `*N` at text[star]: N is the XOR of the characters before the '*'."""
+    m = _CHECKSUM.match(text, star)
+    if not m or not _blank(text[m.end():]):
+        raise InputError(f"{where}:{star + 1}: error: checksum after '*' must be a number "
+                         f"at the end of the line")
+    expected = 0
+    for ch in text[:star]:
+        expected ^= ord(ch)
+    if int(m.group(1)) != expected:
+        raise InputError(f"{where}:{star + 1}: error: checksum {m.group(1)} does not match "
+                         f"the line (expected {expected})")
+
+
 def tokenize(raw: str, where: str) -> list[tuple[str, float, int]]:
     """Split one line into (letter, value, col) words; col is 1-based. Raises InputError."""
     words: list[tuple[str, float, int]] = []
     text = raw.rstrip("\r\n")
-    star = text.find("*")
-    if star >= 0 and "(" not in text[:star] and ";" not in text[:star]:
-        digits = text[star + 1:].strip()
-        if not digits.isdigit():
-            raise InputError(f"{where}:{star + 1}: error: checksum after '*' must be a number")
-        expected = 0
-        for ch in text[:star]:
-            expected ^= ord(ch)
-        if int(digits) != expected:
-            raise InputError(f"{where}:{star + 1}: error: checksum {digits} does not match "
-                             f"the line (expected {expected})")
-        text = text[:star]
     i, n = 0, len(text)
     while i < n:
         ch = text[i]
@@ -102,22 +127,34 @@ def tokenize(raw: str, where: str) -> list[tuple[str, float, int]]:
             i = end + 1
         elif ch == ";":
             break
-        elif ch == "%" and not words and text[i + 1:].strip() == "":
+        elif ch == "*":
+            _checksum(text, i, where)
             break
-        elif ch.isalpha():
+        elif ch == "%" and not words and _blank(text[i + 1:]):
+            break
+        elif ch.isascii() and ch.isalpha():
             letter = ch.upper()
             col = i + 1
             m = _NUMBER.match(text, i + 1)
             if letter == "O":
                 raise InputError(f"{where}:{col}: error: O-words (subroutines) are not supported")
+            if letter == "E" and words and text[i - 1] in "0123456789.":
+                raise InputError(f"{where}:{col}: error: a G-code number cannot have an "
+                                 f"exponent ('e'): write it out in full")
+            if letter not in ALLOWED_LETTERS:
+                number = m.group(1).strip() if m else ""
+                raise InputError(f"{where}:{col}: error: unsupported word {letter}{number}")
             if not m:
-                got = text[i + 1:i + 8].strip() or "end of line"
+                rest = text[i + 1:].lstrip(" \t")
+                if rest[:1] in ("#", "["):
+                    i = n - len(rest)
+                    continue  # reported as #parameters or [expressions] below
+                got = rest[:7] or "end of line"
                 raise InputError(f"{where}:{col}: error: {letter} must be followed by a number "
                                  f"(got {got!r})")
             value = float(m.group(1).replace(" ", "").replace("\t", ""))
-            if letter not in ALLOWED_LETTERS:
-                raise InputError(f"{where}:{col}: error: unsupported word "
-                                 f"{letter}{m.group(1).strip()}")
+            if not math.isfinite(value):
+                raise InputError(f"{where}:{col}: error: the number after {letter} is too large")
             words.append((letter, value, col))
             i = m.end()
         elif ch == "#":
@@ -147,19 +184,17 @@ class Parser:
         self.ended = False
         self.after_end_line = 0
         self.ignored: dict[str, int] = {}
-        self.spirals = 0
 
     def _err(self, line: int, col: int, msg: str) -> InputError:
         return InputError(f"{self.name}:{line}:{col}: error: {msg}")
 
     def block(self, raw: str, line: int) -> Iterator[Record]:
-        where = f"{self.name}:{line}"
-        words = tokenize(raw, where)
-        if not words:
-            return
-        if self.ended:
-            if not self.after_end_line:
+        if self.ended:  # whatever follows M2/M30 is not even tokenized: it is ignored
+            if not self.after_end_line and not _blank(raw.replace("%", "")):
                 self.after_end_line = line
+            return
+        words = tokenize(raw, f"{self.name}:{line}")
+        if not words:
             return
         seen: dict[str, int] = {}
         g_codes: list[tuple[float, int]] = []
@@ -199,18 +234,24 @@ class Parser:
                 key = _fmt_code("G", value)
                 self.ignored[key] = self.ignored.get(key, 0) + 1
             else:
-                code = _fmt_code("G", value)
-                hint = {18.0: " (only the XY plane, G17, is drawn)", 19.0: " (only the XY plane, G17, is drawn)",
-                        41.0: " (cutter compensation)", 42.0: " (cutter compensation)",
-                        92.0: " (coordinate offsets)", 93.0: " (inverse-time feed)"}.get(value, "")
-                raise self._err(line, col, f"unsupported code {code}{hint}")
+                hint = UNSUPPORTED_HINTS.get(value, "")
+                raise self._err(line, col, f"unsupported code {_fmt_code('G', value)}{hint}")
+        for letter in "XYZIJRP":
+            if letter in vals:
+                value, col = vals[letter]
+                size = abs(value) * (1.0 if letter == "P" else self.scale)
+                if size > MAX_VALUE:
+                    unit = "s" if letter == "P" else "mm"
+                    raise self._err(line, col, f"{letter}{value:g} is out of range "
+                                               f"(at most {MAX_VALUE:.0f} {unit})")
         pen_change: bool | None = None
+        pen_col = 0
         end_col = 0
         for value, col in m_codes:
             if value in (3.0, 5.0):
-                if self.pen_mode == "m":
-                    pen_change = value == 3.0
-            elif value in (2.0, 30.0):
+                if self.pen_mode == "m":  # in a Z-pen file M3/M5 drive a spindle: ignored
+                    pen_change, pen_col = value == 3.0, col
+            elif value in END_M:
                 end_col = col
             elif value in IGNORED_M:
                 key = _fmt_code("M", value)
@@ -250,14 +291,14 @@ class Parser:
             raise self._err(line, vals[letter][1], f"{letter} is only allowed on arcs (G2/G3)")
 
         if "Z" in vals:
-            z, _ = vals["Z"]
+            z, zcol = vals["Z"]
             z *= self.scale
             self.z = (self.z or 0.0) + z if self.relative else z
             if self.pen_mode == "z":
-                pen_change = self.z < 0
+                pen_change, pen_col = self.z < 0, zcol
         if pen_change is not None and pen_change != self.pen_down:
             self.pen_down = pen_change
-            yield Pen(line, motion_col, pen_change)
+            yield Pen(line, pen_col, pen_change)
         if dwell_col:
             yield Dwell(line, dwell_col, vals["P"][0])
         if has_xy or (has_arc_words and self.motion in (2.0, 3.0)):
@@ -275,8 +316,9 @@ class Parser:
             x1 = vals["X"][0] * s if "X" in vals else x0
             y1 = vals["Y"][0] * s if "Y" in vals else y0
         for v in (x1, y1):
-            if not math.isfinite(v) or abs(v) > 1e6:
-                raise self._err(line, col, f"coordinate {v:g} is out of range")
+            if abs(v) > MAX_VALUE:
+                raise self._err(line, col, f"coordinate {v:g} is out of range "
+                                           f"(at most {MAX_VALUE:.0f} mm)")
         self.x, self.y = x1, y1
         if self.motion in (0.0, 1.0):
             yield Move(line, col, x0, y0, x1, y1, 0, rapid=self.motion == 0.0, feed_mm_s=self.feed_mm_s)
@@ -303,7 +345,6 @@ class Parser:
             if self.strict:
                 raise self._err(line, col, msg)
             self.warn(f"{self.name}:{line}:{col}: warning: {msg}; drawing a spiral")
-            self.spirals += 1
         yield Move(line, col, x0, y0, x1, y1, arc, cx, cy, False, self.feed_mm_s)
 
     def _r_centre(self, x0, y0, x1, y1, r, arc, line, col) -> tuple[float, float]:
@@ -351,9 +392,9 @@ def parse_lines(lines: Iterable[str], name: str = "<input>", pen_mode: str = "m"
 def read(path: str, strict: bool = False, warn: Warn = _stderr) -> Iterator[Record]:
     """Stream the records of a G-code file (two passes: pen mode first, then the records)."""
     try:
-        with open(path, encoding="utf-8", errors="replace") as f:
+        with open(path, encoding="utf-8-sig", errors="replace") as f:
             mode = detect_pen_mode(f)
-        with open(path, encoding="utf-8", errors="replace") as f:
+        with open(path, encoding="utf-8-sig", errors="replace") as f:
             yield from parse_lines(f, path, mode, strict, warn)
     except FileNotFoundError:
         raise InputError(f"{path}: error: no such file") from None

@@ -110,8 +110,8 @@ def load(path: Path | None = None) -> Position | None:
                        int(data["right_steps"]), float(data["steps_per_mm"]),
                        str(data.get("pen", "up")), bool(data.get("clean", True)),
                        dict(data.get("extra", {})))
-        if not (pos.left_mm > 0 and pos.right_mm > 0 and pos.steps_per_mm > 0):
-            raise ValueError("non-positive lengths")
+        if not all(0 < v < 1e6 for v in (pos.left_mm, pos.right_mm, pos.steps_per_mm)):
+            raise ValueError("cord lengths out of range")
     except (ValueError, KeyError, TypeError) as e:
         raise StateError(f"{p}: error: the stored position is corrupt ({e}); {hint}") from None
     return pos
