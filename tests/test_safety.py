@@ -272,3 +272,37 @@ def test_pen_cycle_with_override(config_path, tmp_path):
     assert run(config_path, "pen", "cycle", "--down-us", "1700", "--dry-run", "--trace", str(t)) == 0
     tr = tc.read_trace(t)
     assert 1700 in tr.value[tr.pin == 24].tolist() and tr.value[-1] == 0
+
+
+def test_interactive_jog_in_a_terminal(config_path, tmp_path):
+    """Arrow keys, step size, pen and quit, typed into a pseudo-terminal like over SSH."""
+    import pty
+    import select
+
+    assert run(config_path, "calibrate", "--at", "0", "0") == 0
+    pid, fd = pty.fork()
+    if pid == 0:   # child: the real command line
+        os.execvpe(sys.executable, [sys.executable, "-m", "vplotter", "--config", str(config_path),
+                                    "jog", "--backend", "fake", "--step", "2"], os.environ)
+    out = b""
+
+    def wait_for(text: bytes) -> None:
+        nonlocal out
+        while text not in out:
+            ready, _, _ = select.select([fd], [], [], 10)
+            assert ready, out.decode(errors="replace")
+            out += os.read(fd, 4096)
+
+    wait_for(b"step   2.0 mm")
+    for key, seen in ((b"\x1b[C", b"X    2.00"), (b"+", b"step   4.0"), (b"\x1b[A", b"Y    4.00"),
+                      (b"d", b"pen down"), (b"u", b"pen up"), (b"\x1b[D", b"X   -2.00")):
+        os.write(fd, key)
+        wait_for(seen)
+    os.write(fd, b"q")
+    _, status = os.waitpid(pid, 0)
+    assert os.waitstatus_to_exitcode(status) == 0
+    from vplotter import config, jog
+
+    pos = state.load()
+    xy = jog.pen_xy(config.load(config_path), pos, pos.counts)
+    assert xy == pytest.approx([-2.0, 4.0], abs=0.01)

@@ -82,20 +82,11 @@ def _stream(cfg, records, pos, name, emit=True, summary=None, start_at=None):
     return pipeline.stream(cfg, records, pos.counts, pos.ref_mm, name, emit, summary, start_at)
 
 
-def _moves_to(cfg, pos, points, pen_down=False):
-    """G-code records moving the pen from where it is through the given G-code points."""
-    import numpy as np
+def _moves_to(cfg, pos, target):
+    """A G-code record moving the pen from where it is to the G-code point `target`."""
+    from vplotter import jog
 
-    from vplotter import gcode, kinematics
-
-    kin = kinematics.from_config(cfg)
-    here = kin.to_gcode(kin.forward(np.array([[pos.left_mm, pos.right_mm]])))[0]
-    recs = []
-    x0, y0 = float(here[0]), float(here[1])
-    for x, y in points:
-        recs.append(gcode.Move(0, 0, x0, y0, float(x), float(y), 0, rapid=not pen_down))
-        x0, y0 = float(x), float(y)
-    return recs, (x0, y0)
+    return jog.xy_records(cfg, pos, pos.counts, target)
 
 
 def _check_on_page(cfg, x: float, y: float, what: str) -> None:
@@ -304,12 +295,9 @@ def cmd_calibrate(args, argv=None) -> int:
 
 
 def _pen_xy(cfg, pos):
-    import numpy as np
+    from vplotter import jog
 
-    from vplotter import kinematics
-
-    kin = kinematics.from_config(cfg)
-    return kin.to_gcode(kin.forward(np.array([[pos.left_mm, pos.right_mm]])))[0]
+    return jog.pen_xy(cfg, pos, pos.counts)
 
 
 def _describe(cfg, pos) -> str:
@@ -420,8 +408,7 @@ def cmd_jog(args, argv=None) -> int:
         xy = _pen_xy(cfg, pos)
         target = (float(xy[0]) + (args.dx or 0.0), float(xy[1]) + (args.dy or 0.0))
         _check_on_page(cfg, *target, "jog target")
-        recs, _ = _moves_to(cfg, pos, [target])
-        return _run_records(args, cfg, _command_line(argv), pos, recs)
+        return _run_records(args, cfg, _command_line(argv), pos, _moves_to(cfg, pos, target))
     if args.left is not None or args.right is not None:
         with _session(args, cfg, _command_line(argv), pos) as s:
             s.play([jog.cord_rows(cfg, pos, s.counts, args.left or 0.0, args.right or 0.0)])
@@ -439,16 +426,14 @@ def cmd_goto(args, argv=None) -> int:
     cfg = _config(args)
     _check_on_page(cfg, args.x, args.y, "goto target")
     pos = _position(cfg, args, args.dry_run)
-    recs, _ = _moves_to(cfg, pos, [(args.x, args.y)])
-    return _run_records(args, cfg, _command_line(argv), pos, recs)
+    return _run_records(args, cfg, _command_line(argv), pos, _moves_to(cfg, pos, (args.x, args.y)))
 
 
 def cmd_home(args, argv=None) -> int:
     cfg = _config(args)
     pos = _position(cfg, args, args.dry_run)
     home = pos.extra.get("home", (0.0, 0.0))
-    recs, _ = _moves_to(cfg, pos, [tuple(home)])
-    return _run_records(args, cfg, _command_line(argv), pos, recs)
+    return _run_records(args, cfg, _command_line(argv), pos, _moves_to(cfg, pos, tuple(home)))
 
 
 COMMANDS: dict[str, tuple[Callable, Callable, str]] = {

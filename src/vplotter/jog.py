@@ -43,10 +43,16 @@ def cord_rows(cfg, pos, counts, left_mm: float, right_mm: float, pen_down: bool 
     return sched.cord_move(delta)
 
 
-def xy_records(cfg, pos, counts, target, pen_down: bool) -> list:
+def pen_xy(cfg, pos, counts) -> np.ndarray:
+    """G-code point of the pen after `counts` steps from the stored position's reference."""
     kin = kinematics.from_config(cfg)
     cords = np.asarray(pos.ref_mm) + np.asarray(counts) / cfg.motors.steps_per_mm
-    here = kin.to_gcode(kin.forward(cords[None, :]))[0]
+    return kin.to_gcode(kin.forward(cords[None, :]))[0]
+
+
+def xy_records(cfg, pos, counts, target) -> list:
+    """A G-code record moving the pen from where it is to the G-code point `target`."""
+    here = pen_xy(cfg, pos, counts)
     return [gcode.Move(0, 0, float(here[0]), float(here[1]), float(target[0]), float(target[1]))]
 
 
@@ -73,9 +79,8 @@ def interactive(args, cfg, pos, session) -> int:
         try:
             tty.setcbreak(fd)
             while True:
-                here = pos.moved_to(s.counts)
                 kin = kinematics.from_config(cfg)
-                xy = kin.to_gcode(kin.forward(np.array([[here.left_mm, here.right_mm]])))[0]
+                xy = pen_xy(cfg, pos, s.counts)
                 sys.stdout.write(f"\rX{xy[0]:8.2f} Y{xy[1]:8.2f}  step {step:5.1f} mm  "
                                  f"pen {'down' if pen_down else 'up  '}  ")
                 sys.stdout.flush()
@@ -101,7 +106,7 @@ def interactive(args, cfg, pos, session) -> int:
                         if not (pg.x_min_mm <= target[0] <= pg.x_max_mm
                                 and pg.y_min_mm <= target[1] <= pg.y_max_mm):
                             raise MachineError("refused: that move leaves the page")
-                        recs = xy_records(cfg, pos, s.counts, target, pen_down)
+                        recs = xy_records(cfg, pos, s.counts, target)
                         s.play(pipeline.stream(cfg, recs, s.counts, pos.ref_mm, "jog",
                                                pen_down=pen_down))
                     elif key in ("l", "L", "r", "R"):
