@@ -10,7 +10,7 @@ from vplotter.cli import main
 
 from conftest import REPO
 
-SAMPLES = sorted((REPO / "gcode_samples").glob("*.ngc"))
+SAMPLES = sorted((REPO / "gcode_samples").glob("*.ngc")) + [REPO / "tests" / "data" / "corners.ngc"]
 
 
 def draw(config_path, gfile, trace, *extra):

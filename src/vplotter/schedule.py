@@ -50,6 +50,8 @@ class Scheduler:
         self.table = TABLES[m.drive]
         self.sign = np.array([-1 if m.left_reverse else 1, -1 if m.right_reverse else 1])
         self.hold_us = int(np.ceil(1e6 / m.max_step_rate))
+        self.min_interval_us = self.hold_us + 1
+        self.last_step_us = [-(10 ** 12), -(10 ** 12)]
         self.settle_us = int(round(cfg.pen.settle_s * 1e6))
         self.ref = np.asarray(ref_mm, dtype=float)
         self.counts = np.asarray(counts, dtype=np.int64).copy()
@@ -149,16 +151,17 @@ class Scheduler:
             q = self.ref[m] + (ns[piece] + np.where(rising, j + 0.5, -j - 0.5)) / self.spm
             s = self.kin.crossing(block.verts[piece], e[piece], np.full(total, m), q, rising)
             s = np.clip(s, 0.0, block.d[piece])
-            t = starts[piece] + block.time_at(piece, s)
-            times.append(t)
-            motors.append(np.full(total, m, dtype=np.int8))
-            dirs.append(np.where(rising, 1, -1).astype(np.int8))
+            t_us = t0 + np.rint((starts[piece] + block.time_at(piece, s)) * 1e6).astype(np.int64)
+            t_us, dirn, piece = self._spaced(m, t_us, np.where(rising, 1, -1).astype(np.int8), piece)
+            times.append(t_us)
+            motors.append(np.full(len(t_us), m, dtype=np.int8))
+            dirs.append(dirn)
             pieces.append(piece)
         if times:
-            t = np.concatenate(times)
-            t_us = t0 + np.rint(t * 1e6).astype(np.int64)
+            t_us = np.concatenate(times)
             order = np.argsort(t_us, kind="stable")
-            t_us = np.minimum(t_us[order], self.t_us)
+            t_us = t_us[order]
+            self.t_us = max(self.t_us, int(t_us[-1]) if len(t_us) else 0)
             motor = np.concatenate(motors)[order]
             dirn = np.concatenate(dirs)[order]
             piece = np.concatenate(pieces)[order]
@@ -174,6 +177,32 @@ class Scheduler:
         self.phase = (self.phase + (targets[-1] - targets[0]) * self.sign) % len(self.table)
         self.line = int(block.line[-1])
         return Rows.concat(rows) if rows else None
+
+    def _spaced(self, m: int, t_us, dirn, piece):
+        """Keep one motor's steps at least one step interval apart.
+
+        Where a cord turns round at a corner right at a step boundary it would step there and
+        straight back; such a pair is dropped (the count is the same and the cord stays within
+        half a step of its ideal length). Whatever is still too close (only across blocks) is
+        delayed just enough: t'_i = max(t_i, t'_(i-1) + interval), a running maximum.
+        """
+        gap = self.min_interval_us
+        while len(t_us) > 1:
+            quick = (np.diff(t_us) < gap) & (dirn[1:] != dirn[:-1])
+            idx = np.flatnonzero(quick)
+            if not len(idx):
+                break
+            idx = idx[np.concatenate(([True], np.diff(idx) > 1))]   # pairs that do not overlap
+            keep = np.ones(len(t_us), dtype=bool)
+            keep[idx] = keep[idx + 1] = False
+            t_us, dirn, piece = t_us[keep], dirn[keep], piece[keep]
+        if len(t_us):
+            i = np.arange(len(t_us)) * gap
+            u = t_us - i
+            u[0] = max(u[0], self.last_step_us[m] + gap)
+            t_us = np.maximum.accumulate(u) + i
+            self.last_step_us[m] = int(t_us[-1])
+        return t_us, dirn, piece
 
     def cord_move(self, delta_steps, rate_share: float = 0.5) -> Rows | None:
         """Move both cords by whole steps, linearly in cord space, rest to rest (jog by cord,
