@@ -334,7 +334,8 @@ def cmd_status(args, argv=None) -> int:
             "calibrated": True, "x_mm": round(float(xy[0]), 4), "y_mm": round(float(xy[1]), 4),
             "left_mm": pos.left_mm, "right_mm": pos.right_mm,
             "left_steps": pos.left_steps, "right_steps": pos.right_steps, "pen": pos.pen,
-            "last_stop": "clean" if pos.clean else "unclean", "uncertainty_mm": round(off, 4),
+            "clean": pos.clean, "last_stop": "clean" if pos.clean else "unclean",
+            "uncertainty_mm": round(off, 4),
             "resume": resume or None, "state_file": str(state.state_path())}))
         return 0
     print(_describe(cfg, pos))
