@@ -191,6 +191,8 @@ def cmd_draw(args, argv=None) -> int:
         if stats:
             text = ("lateness (actual - planned change time): p50 {p50_ms:.3f} ms, "
                     "p99 {p99_ms:.3f} ms, max {max_ms:.3f} ms over {n} changes").format(**stats)
+            if stats.get("underruns"):
+                text += f", {stats['underruns']} queue underruns"
             if s.tracer is not None:
                 s.tracer.comment(text)
             if args.verbose:

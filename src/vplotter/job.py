@@ -126,6 +126,11 @@ class Session:
         try:
             if exc is not None and self.backend is not None and not isinstance(exc, Interrupted):
                 self._abort()
+            if self.backend is not None and not isinstance(exc, BackendError):
+                try:
+                    self.backend.drain()     # the stored position must be where the motors are
+                except Exception:  # noqa: BLE001 - close() below still releases everything
+                    pass
         finally:
             if self._moved and self.saves_state:
                 # after a backend failure nobody knows what the motors last did

@@ -39,6 +39,10 @@ class Backend:
     def close(self) -> None:
         raise NotImplementedError
 
+    def drain(self) -> None:
+        """Wait until every row handed to play() has been output (backends that queue ahead
+        of the motors, lgpio, override this)."""
+
     def lateness(self) -> dict | None:
         """For real-time backends: {"p50_ms", "p99_ms", "max_ms", "n"} of actual minus planned
         change times; None when timing is simulated."""

@@ -23,7 +23,6 @@ class FakeBackend(Backend):
         self.record = record
         self.realtime = realtime
         self.recorded: list[Rows] = []
-        self.changes = 0          # output changes written (real-time mode)
         self.clock_us = 0
         self.coils = 0
         self.pen_us = 0
@@ -35,11 +34,9 @@ class FakeBackend(Backend):
 
     def _write_coils(self, word: int, changed: int) -> None:
         self.coils = word
-        self.changes += 1
 
     def _write_pen(self, pulse_us: int) -> None:
         self.pen_us = pulse_us
-        self.changes += 1
 
     def open(self) -> None:
         self.is_open = True

@@ -1,0 +1,602 @@
+"""Backends without a Raspberry Pi: the shared software timing loop on a simulated clock, the
+lgpio backend on a stand-in lgpio that simulates its C thread (tests/fake_lgpio.py), gpiozero on
+its MockFactory, and one contract every backend keeps. Nothing here really sleeps."""
+
+from __future__ import annotations
+
+import random
+import sys
+
+import numpy as np
+import pytest
+from gpiozero.pins.mock import MockFactory, MockPWMPin
+
+from fake_lgpio import (DroppingLgpio, FakeLgpio, SimClock, SwappingLgpio,
+                        expected_coil_changes, shifted)
+from vplotter import config, gcode, kinematics, pipeline, state
+from vplotter.backends import create
+from vplotter.backends.lgpio import WAVE_US
+from vplotter.backends.realtime import Player
+from vplotter.errors import BackendError
+from vplotter.job import _split
+from vplotter.schedule import Rows
+
+from conftest import REPO
+
+SHORT = """G21
+G0 X0 Y0
+G1 Z-1 F100
+G1 X3 Y0 F240
+G1 X3 Y2
+G4 P0.2
+G1 X0 Y2
+G0 Z5
+G0 X1 Y1
+M2
+"""
+FIELDS = ("t_us", "coils", "pen_us", "line", "steps")
+
+
+@pytest.fixture(scope="module")
+def cfg():
+    return config.load(REPO / "config.toml")
+
+
+@pytest.fixture(scope="module")
+def parts(cfg, tmp_path_factory):
+    """A short drawing (pen down, two lines, a dwell, pen up, travel: 4.8 s) in the parts
+    `vplotter draw` hands to the backend."""
+    path = tmp_path_factory.mktemp("g") / "short.ngc"
+    path.write_text(SHORT)
+    kin = kinematics.from_config(cfg)
+    cords = kin.inverse(kin.to_machine(np.array([[0.0, 0.0]])))[0]
+    pos = state.Position.at_cords(cords[0], cords[1], cfg.motors.steps_per_mm)
+    out = []
+    for rows in pipeline.stream(cfg, gcode.read(str(path)), pos.counts, pos.ref_mm):
+        out.extend(_split(rows))
+    return out
+
+
+def concat(parts) -> Rows:
+    return Rows.concat(list(parts))
+
+
+def rechunk(parts, seed: int) -> list[Rows]:
+    """The same rows cut at random places (chunks of 1..40 rows)."""
+    rows, rng, out, i = concat(parts), random.Random(seed), [], 0
+    while i < len(rows):
+        j = min(len(rows), i + rng.randint(1, 40))
+        out.append(Rows(*(getattr(rows, f)[i:j] for f in FIELDS)))
+        i = j
+    return out
+
+
+def index(parts, part) -> int:
+    return next(i for i, p in enumerate(parts) if p is part)
+
+
+def make_rows(t, coils, pen) -> Rows:
+    n = len(t)
+    return Rows(np.asarray(t, np.int64), np.asarray(coils, np.uint8), np.asarray(pen, np.int32),
+                np.zeros(n, np.int64), np.zeros((n, 2), np.int64))
+
+
+def head(rows: Rows, n: int) -> Rows:
+    return Rows(*(getattr(rows, f)[:n] for f in FIELDS))
+
+
+def row_changes(parts) -> list[tuple[int, int]]:
+    """(t_us, coil word) of every row that changes the coil word: what a software-timed
+    backend writes, row by row (rows at equal times included)."""
+    out, word = [], 0
+    for t, w in zip(concat(parts).t_us.tolist(), concat(parts).coils.tolist()):
+        if w != word:
+            out.append((t, w))
+            word = w
+    return out
+
+
+def pen_changes(parts) -> list[tuple[int, int]]:
+    out, pen = [], 0
+    for t, p in zip(concat(parts).t_us.tolist(), concat(parts).pen_us.tolist()):
+        if p != pen:
+            out.append((t, p))
+            pen = p
+    return out
+
+
+# ---------------------------------------------------------------- the software timing loop
+class Recorder:
+    """Outputs of a Player: (clock ns, word, pen) after every change."""
+
+    def __init__(self, clock: SimClock):
+        self.clock, self.coils, self.pen, self.log = clock, 0, 0, []
+
+    def coils_out(self, word, changed):
+        assert changed == word ^ self.coils
+        self.coils = word
+        self.log.append((self.clock.ns, self.coils, self.pen))
+
+    def pen_out(self, width):
+        self.pen = width
+        self.log.append((self.clock.ns, self.coils, self.pen))
+
+
+def player(clock: SimClock, **kw):
+    rec = Recorder(clock)
+    return Player(rec.coils_out, rec.pen_out, clock.now, clock.sleep, **kw), rec
+
+
+def test_player_outputs_every_row_on_time(parts):
+    clock = SimClock(tick_ns=1000, oversleep_ns=80_000)
+    p, rec = player(clock, spin_us=200)
+    for part in parts:
+        assert p.play(part, lambda: False) == len(part)
+    rows = concat(parts)
+    anchor = rec.log[0][0] - int(rows.t_us[0]) * 1000
+    expect = row_changes(parts)
+    got = [((t - anchor) // 1000, w) for i, (t, w, _) in enumerate(rec.log)
+           if w != (rec.log[i - 1][1] if i else 0)]
+    assert [w for _, w in got] == [w for _, w in expect]
+    assert max(abs(a[0] - b[0]) for a, b in zip(got, expect)) <= 50   # clock ticks
+    pens = [(round((t - anchor) / 1000), p) for i, (t, _, p) in enumerate(rec.log)
+            if p != (rec.log[i - 1][2] if i else 0)]
+    assert [p for _, p in pens] == [p for _, p in pen_changes(parts)]
+    assert max(abs(a[0] - b[0]) for a, b in zip(pens, pen_changes(parts))) <= 50
+    s = p.lateness.stats()
+    changed = (np.diff(rows.coils, prepend=0) != 0) | (np.diff(rows.pen_us, prepend=0) != 0)
+    assert s["n"] == changed.sum() and s["max_ms"] < 0.01
+
+
+def test_player_does_not_drift_when_sleep_overshoots(parts):
+    # sleeps overshoot by 0.15 ms, yet the last row is as punctual as the first
+    clock = SimClock(tick_ns=1000, oversleep_ns=150_000)
+    p, _ = player(clock, spin_us=200)
+    for part in parts:
+        p.play(part, lambda: False)
+    late = np.frombuffer(p.lateness.ns, dtype=np.int64)
+    assert late.max() < 10_000 and abs(late[-50:].mean() - late[:50].mean()) < 5_000
+
+
+def steady(n=400, gap_us=1500) -> Rows:
+    """A motor stepping at a steady rate (energised throughout)."""
+    t = np.arange(n, dtype=np.int64) * gap_us
+    words = np.array([1, 3, 2, 6, 4, 12, 8, 9] * (n // 8 + 1), np.uint8)[:n]
+    return make_rows(t, words, np.zeros(n))
+
+
+def test_player_catches_up_at_most_a_third_faster():
+    clock = SimClock(tick_ns=1000, oversleep_ns=50_000)
+    clock.at(1_000_000_000 + 100_000_000, lambda: setattr(clock, "ns", clock.ns + 20_000_000))
+    p, rec = player(clock, spin_us=200)
+    rows = steady()
+    p.play(rows, lambda: False)
+    times = np.array([t for t, _, _ in rec.log])
+    gaps = np.diff(times) / 1000
+    assert gaps.min() >= 0.75 * 1500 - 5           # never more than 4/3 of the planned rate
+    late = np.frombuffer(p.lateness.ns, dtype=np.int64) / 1e6
+    assert late.max() > 19 and late[-100:].max() < 0.01   # the 20 ms stall was made up
+
+
+def test_player_pauses_instead_of_racing_when_the_motors_stand_still():
+    """Rows late while the coils are released shift the timeline: the next stroke starts
+    with its planned timing, the settle after a pen change is kept whole."""
+    clock = SimClock(tick_ns=1000, oversleep_ns=50_000)
+    p, rec = player(clock, spin_us=200)
+    pen = make_rows([0, 300_000], [0, 0], [1500, 0])
+    p.play(pen, lambda: False)
+    clock.ns += 50_000_000                           # the caller computes the stroke: 50 ms
+    stroke = steady(40)
+    stroke.t_us += 300_000
+    p.play(stroke, lambda: False)
+    times = np.array([t for t, _, _ in rec.log])[2:]
+    assert np.all(np.abs(np.diff(times) / 1000 - 1500) < 5)   # no catching up at all
+
+
+def test_player_stops_within_a_few_milliseconds():
+    clock = SimClock(tick_ns=1000, oversleep_ns=50_000)
+    stop = {"now": False}
+    clock.at(1_000_000_000 + 200_000_000, lambda: stop.update(now=True))
+    p, rec = player(clock, spin_us=200)
+    rows = make_rows([0, 1_000_000], [1, 3], [0, 0])
+    assert p.play(rows, lambda: stop["now"]) == 1
+    assert clock.ns - 1_000_000_000 < 205_000_000
+
+
+# ---------------------------------------------------------------- lgpio on the stand-in
+def lgpio_backend(cfg, clock, lg=None, **kw):
+    lg = lg or FakeLgpio(clock)
+    b = create("lgpio", cfg, lgpio=lg, clock=clock.now, sleep=clock.sleep, **kw)
+    return b, lg
+
+
+def play_all(b, parts):
+    b.open()
+    try:
+        for part in parts:
+            assert b.play(part) == len(part)
+    finally:
+        b.close()
+
+
+def wave_timeline_problems(lg: FakeLgpio, parts) -> list[str]:
+    """What is wrong with the coil outputs of the waves, compared with the planned rows."""
+    expect = expected_coil_changes(parts)
+    got = lg.coil_changes()
+    if not got:
+        return ["no coil output at all"]
+    got = shifted(got, got[0][0] - expect[0][0])
+    problems = []
+    if got != expect:
+        bad = next((i for i, (a, b) in enumerate(zip(got, expect)) if a != b),
+                   min(len(got), len(expect)))
+        problems.append(f"coil change {bad}: played {got[bad:bad + 2]}, planned "
+                        f"{expect[bad:bad + 2]} ({len(got)} vs {len(expect)} changes)")
+    return problems
+
+
+@pytest.mark.parametrize("chunking", ["draw parts", "random 1", "random 2"])
+def test_lgpio_waves_reproduce_the_planned_rows_exactly(cfg, parts, chunking):
+    chunks = parts if chunking == "draw parts" else rechunk(parts, int(chunking[-1]))
+    clock = SimClock()
+    b, lg = lgpio_backend(cfg, clock)
+    play_all(b, chunks)
+    assert wave_timeline_problems(lg, chunks) == []
+    assert all(w.end - w.start <= WAVE_US for w in lg.submitted)
+    assert b.lateness()["underruns"] == 0
+    # one group of all eight coil pins, the pen pin alone
+    assert ("group_claim_output", 100, [0, 5, 6, 13, 12, 16, 20, 21], [0] * 8) in lg.calls
+
+
+@pytest.mark.parametrize("latency_us", [0, 15_000])
+def test_lgpio_pen_changes_follow_the_waves(cfg, parts, latency_us):
+    """Also when lgpio's thread starts a wave late (it wakes at most every 20 ms when idle):
+    the pen follows the waves, not the wall clock."""
+    clock = SimClock()
+    b, lg = lgpio_backend(cfg, clock, FakeLgpio(clock, start_latency_us=latency_us))
+    play_all(b, parts)
+    first_wave = lg.submitted[0].start
+    planned = pen_changes(parts)
+    made = [(t - first_wave, w) for t, w in lg.servo]
+    assert [w for _, w in made[:len(planned)]] == [w for _, w in planned]
+    # made when the C thread passed the pen row (polled every millisecond), never before
+    for (tm, _), (tp, _) in zip(made, planned):
+        assert 0 <= tm - tp <= 2_000
+    # the pen moves while the coils are released: the coil word there is 0
+    for t, _ in [p for p in planned if p[1]]:
+        words = [w for tt, w in lg.coil_changes() if tt - first_wave <= t]
+        assert not words or words[-1] == 0
+    assert all(c[4] == 50 for c in lg.calls if c[0] == "tx_servo" and c[3])
+
+
+def test_lgpio_keeps_a_quarter_second_queued(cfg, parts, monkeypatch):
+    clock = SimClock()
+    b, lg = lgpio_backend(cfg, clock)
+    ahead = []
+    orig = FakeLgpio.tx_room
+
+    def tx_room(self, handle, gpio, kind):
+        room = orig(self, handle, gpio, kind)
+        if self.queue:
+            ahead.append((self._us(), self.queue[-1].end - self._us()))
+        return room
+
+    monkeypatch.setattr(FakeLgpio, "tx_room", tx_room)
+    play_all(b, parts)
+    start = lg.submitted[0].start
+    rows = concat(parts)
+    moving = rows.t_us[rows.coils > 0]
+    lo, hi = start + int(moving[0]) + 50_000, start + int(moving[-1]) - 400_000
+    during = [a for t, a in ahead if lo <= t <= hi]
+    assert during and min(during) >= 250_000
+
+
+@pytest.mark.parametrize("mutant", [DroppingLgpio, SwappingLgpio])
+def test_the_wave_check_catches_a_dropped_or_reordered_wave(cfg, parts, mutant):
+    clock = SimClock()
+    b, lg = lgpio_backend(cfg, clock, mutant(clock))
+    play_all(b, parts)
+    assert wave_timeline_problems(lg, parts) != []
+
+
+def test_lgpio_pauses_when_the_queue_runs_dry(cfg, parts):
+    """A caller too slow for the queue: the motors pause (relative timing within each
+    stretch is kept, nothing is played early or compressed); lateness reports it."""
+    clock = SimClock()
+    b, lg = lgpio_backend(cfg, clock)
+    b.open()
+    for i, part in enumerate(parts):
+        b.play(part)
+        if i == 5:
+            clock.ns += 700_000_000                  # 0.7 s: longer than the queue
+    b.close()
+    expect = expected_coil_changes(parts)
+    got = lg.coil_changes()
+    assert [w for _, w in got] == [w for _, w in expect]
+    d = np.array([g[0] for g in got]) - np.array([e[0] for e in expect])
+    assert np.all(np.diff(d) >= 0) and d[-1] - d[0] > 300_000      # paused, never raced
+    stats = b.lateness()
+    assert stats["underruns"] >= 1 and stats["max_ms"] > 300
+
+
+def test_lgpio_drain_waits_for_everything_handed_over(cfg, parts):
+    clock = SimClock()
+    b, lg = lgpio_backend(cfg, clock)
+    b.open()
+    for part in parts:
+        b.play(part)
+    b.drain()
+    assert not lg.queue and wave_timeline_problems(lg, parts) == []
+    assert [w for _, w in lg.servo] == [w for _, w in pen_changes(parts)]
+    b.close()
+
+
+def test_lgpio_close_after_a_stop_cuts_the_queue(cfg, parts):
+    clock = SimClock()
+    b, lg = lgpio_backend(cfg, clock)
+    b.open()
+    for part in parts[:6]:
+        b.play(part)
+    assert lg.queue                                  # waves are queued ahead of the motors
+    b.stop_requested = True                          # a second signal: no time to play them out
+    t_close = lg._us()
+    b.close()
+    assert not lg.queue and lg.coil_changes()[-1] == (t_close, 0)
+    assert not lg.claimed and not lg.open_handles and not lg.servo_on
+
+
+def test_lgpio_without_a_gpiochip_suggests_dry_run(cfg):
+    clock = SimClock()
+    b, _ = lgpio_backend(cfg, clock, FakeLgpio(clock, chips=()))
+    with pytest.raises(BackendError, match="--dry-run") as e:
+        b.open()
+    assert "\n" not in str(e.value)
+    b.close()
+
+
+def test_lgpio_real_module_on_a_machine_without_gpio(cfg):
+    lgpio = pytest.importorskip("lgpio")
+    try:
+        h = lgpio.gpiochip_open(cfg.gpio.chip)
+    except lgpio.error:
+        h = -1
+    if h >= 0:
+        lgpio.gpiochip_close(h)
+        pytest.skip("this machine has a gpiochip")
+    with pytest.raises(BackendError, match="--dry-run"):
+        create("lgpio", cfg).open()
+
+
+def test_lgpio_stand_in_through_sys_modules(cfg, parts, monkeypatch):
+    """The backend imports lgpio when it opens: the stand-in can take the module's place."""
+    clock = SimClock()
+    lg = FakeLgpio(clock)
+    monkeypatch.setitem(sys.modules, "lgpio", lg)
+    b = create("lgpio", cfg, clock=clock.now, sleep=clock.sleep)
+    play_all(b, parts[:6])                         # stops mid-stroke: close releases
+    words = [w for _, w in expected_coil_changes(parts[:6])]
+    assert [w for _, w in lg.coil_changes()] == words + [0]
+
+
+def test_lgpio_uses_the_configured_chip(cfg):
+    clock = SimClock()
+    pi5 = config.Config(**{**cfg.__dict__, "gpio": config.Gpio("lgpio", 4)})
+    b, lg = lgpio_backend(pi5, clock, FakeLgpio(clock, chips=(4,)))
+    b.open()
+    b.close()
+    assert lg.calls[0] == ("gpiochip_open", 4) and lg.calls[-1] == ("gpiochip_close", 104)
+
+
+# ---------------------------------------------------------------- gpiozero on MockFactory
+class LogPin(MockPWMPin):
+    """A mock pin that logs its changes with the simulated time."""
+
+    log: list = []
+    clock: SimClock | None = None
+
+    def _change_state(self, value):
+        changed = super()._change_state(value)
+        if changed:
+            LogPin.log.append((LogPin.clock.ns, self.info.name, value))
+        return changed
+
+
+def gpiozero_backend(cfg, clock, factory=None):
+    LogPin.log, LogPin.clock = [], clock
+    factory = factory or MockFactory(pin_class=LogPin)
+    b = create("gpiozero", cfg, pin_factory=factory, clock=clock.now, sleep=clock.sleep,
+               spin_us=200)
+    return b, factory
+
+
+def mock_outputs(cfg, factory) -> tuple[int, int]:
+    """(coil word, pen pulse width) on the mock pins now."""
+    pins = [*cfg.motors.left_pins, *cfg.motors.right_pins]
+    word = sum(int(bool(factory.pin(f"GPIO{p}").state)) << i for i, p in enumerate(pins))
+    pen = factory.pin(f"GPIO{cfg.pen.pin}")
+    width = 0 if pen.frequency is None else int(round(pen.state * 1e6 / pen.frequency))
+    return word, width
+
+
+def coil_words_from_log(cfg, log, start_ns):
+    """Group single-pin changes by time into (t_us, coil word) changes."""
+    bit = {f"GPIO{p}": i for i, p in enumerate([*cfg.motors.left_pins, *cfg.motors.right_pins])}
+    word, out = 0, []
+    for t, name, value in log:
+        if name not in bit:
+            continue
+        word = word | (1 << bit[name]) if value else word & ~(1 << bit[name])
+        t_us = (t - start_ns) // 1000
+        if out and out[-1][0] == t_us:
+            out[-1] = (t_us, word)
+        else:
+            out.append((t_us, word))
+    return [c for i, c in enumerate(out) if c[1] != (out[i - 1][1] if i else 0)]
+
+
+def test_gpiozero_on_mock_pins_plays_what_the_fake_records(cfg, parts):
+    fake = create("fake", cfg, record=True)
+    fake.open()
+    for part in parts:
+        fake.play(part)
+    fake.close()
+    clock = SimClock(tick_ns=1000, oversleep_ns=80_000)
+    b, factory = gpiozero_backend(cfg, clock)
+    b.open()
+    start = clock.ns
+    for part in parts:
+        assert b.play(part) == len(part)
+    got = coil_words_from_log(cfg, LogPin.log, start)
+    expect = row_changes(fake.recorded)
+    assert [w for _, w in got] == [w for _, w in expect]            # the same coil sequence
+    assert max(abs(g[0] - e[0]) for g, e in zip(got, expect)) <= 20  # at the planned times
+    pens = [(t, v) for t, name, v in LogPin.log if name == f"GPIO{cfg.pen.pin}"]
+    widths = [round(v * 20_000) for _, v in pens]
+    assert widths == [w for _, w in pen_changes(parts)]              # 500, 0, 1500, 0, ...
+    b.close()
+    assert mock_outputs(cfg, factory) == (0, 0)
+    assert b.lateness()["p99_ms"] < 0.05
+
+
+def test_gpiozero_pin_factory_mock_from_the_environment(cfg, monkeypatch):
+    """GPIOZERO_PIN_FACTORY=mock: plain mock pins (no PWM) still give a simulated servo."""
+    from gpiozero import Device
+
+    monkeypatch.setenv("GPIOZERO_PIN_FACTORY", "mock")
+    monkeypatch.delenv("GPIOZERO_MOCK_PIN_CLASS", raising=False)
+    monkeypatch.setattr(Device, "pin_factory", None)
+    clock = SimClock(tick_ns=1000)
+    b = create("gpiozero", cfg, clock=clock.now, sleep=clock.sleep)
+    b.open()
+    try:
+        rows = make_rows([0, 300_000], [0, 0], [cfg.pen.down_us, 0])
+        assert b.play(rows) == 2
+    finally:
+        b.close()
+        if Device.pin_factory is not None:
+            Device.pin_factory.close()
+
+
+def test_gpiozero_without_gpio_suggests_dry_run(cfg, monkeypatch):
+    from gpiozero import Device
+
+    monkeypatch.delenv("GPIOZERO_PIN_FACTORY", raising=False)
+    monkeypatch.setattr(Device, "pin_factory", None)
+    b = create("gpiozero", cfg)
+    try:
+        b.open()
+    except BackendError as e:
+        assert "--dry-run" in str(e) and "\n" not in str(e)
+    else:
+        b.close()
+        pytest.skip("this machine has GPIO")
+
+
+def test_gpiozero_refuses_a_factory_without_pwm(cfg):
+    from gpiozero.pins.mock import MockPin
+
+    class NoPwmFactory(MockFactory):   # not called MockFactory: gets no PWM pen pin
+        pass
+
+    b = create("gpiozero", cfg, pin_factory=NoPwmFactory(pin_class=MockPin))
+    with pytest.raises(BackendError, match="servo"):
+        b.open()
+    b.close()
+
+
+# ---------------------------------------------------------------- fake in real time
+def test_fake_realtime_uses_the_timing_loop(cfg, parts):
+    clock = SimClock(tick_ns=1000, oversleep_ns=80_000)
+    b = create("fake", cfg, realtime=True, record=True, clock=clock.now, sleep=clock.sleep,
+               spin_us=200)
+    b.open()
+    for part in parts:
+        assert b.play(part) == len(part)
+    b.close()
+    span = (clock.ns - 1_000_000_000) / 1e3
+    assert abs(span - int(concat(parts).t_us[-1])) < 2_000     # it took the plot time
+    s = b.lateness()
+    rows = concat(parts)
+    changed = (np.diff(rows.coils, prepend=0) != 0) | (np.diff(rows.pen_us, prepend=0) != 0)
+    assert s["n"] == changed.sum() and s["p99_ms"] < 0.01
+    assert create("fake", cfg).lateness() is None
+
+
+# ---------------------------------------------------------------- one contract, every backend
+def machine(kind, cfg):
+    """(backend, clock, outputs()) for each backend on its simulated machine."""
+    clock = SimClock(tick_ns=1000, oversleep_ns=80_000)
+    if kind == "fake":
+        b = create("fake", cfg, realtime=True, clock=clock.now, sleep=clock.sleep, spin_us=200)
+        return b, clock, lambda: (b.coils, b.pen_us)
+    if kind == "gpiozero":
+        b, factory = gpiozero_backend(cfg, clock)
+        return b, clock, lambda: mock_outputs(cfg, factory)
+    b, lg = lgpio_backend(cfg, clock)
+
+    def outputs():
+        lg._advance()
+        word = sum(lg.levels.get(p, 0) << i for i, p in enumerate(lg.group))
+        stuck_high = not lg.servo_on and lg.levels.get(cfg.pen.pin, 0)
+        return word, -1 if stuck_high else lg.servo_on
+
+    return b, clock, outputs
+
+
+BACKENDS = ["fake", "gpiozero", "lgpio"]
+
+
+@pytest.mark.parametrize("kind", BACKENDS)
+def test_close_leaves_coils_low_and_pulses_off(cfg, parts, kind):
+    b, clock, outputs = machine(kind, cfg)
+    b.open()
+    assert outputs() == (0, 0)
+    mid = [p for p in parts if (p.coils > 0).all() and len(p) > 50][0]
+    for part in parts[:index(parts, mid) + 1]:
+        b.play(part)
+    assert outputs()[0] != 0                       # the motors are energised
+    b.close()
+    assert outputs() == (0, 0)
+    b.close()                                      # twice is fine
+
+
+@pytest.mark.parametrize("kind", BACKENDS)
+def test_stop_requested_makes_play_return_early_with_the_rows_played(cfg, parts, kind):
+    b, clock, outputs = machine(kind, cfg)
+    b.open()
+    stroke = max(parts, key=len)
+    before = parts[:index(parts, stroke)]
+    for part in before:
+        b.play(part)
+    stop_at = clock.ns + int((stroke.t_us[len(stroke) // 2] - stroke.t_us[0]) * 1000)
+    clock.at(stop_at, lambda: setattr(b, "stop_requested", True))
+    n = b.play(stroke)
+    assert 0 < n < len(stroke)
+    assert clock.ns - stop_at < 400_000_000          # stopped within the queue's 0.35 s
+    # the outputs are exactly those after the last row reported played
+    assert outputs() == (int(stroke.coils[n - 1]), int(stroke.pen_us[n - 1]))
+    assert b.play(stroke) == 0                       # stays stopped until cleared
+    b.close()
+    assert outputs() == (0, 0)
+
+
+def test_lgpio_stop_outputs_exactly_the_rows_it_reports(cfg, parts):
+    clock = SimClock()
+    b, lg = lgpio_backend(cfg, clock)
+    b.open()
+    stroke = max(parts, key=len)
+    before = parts[:index(parts, stroke)]
+    for part in before:
+        b.play(part)
+    clock.at(clock.ns + 200_000_000, lambda: setattr(b, "stop_requested", True))
+    n = b.play(stroke)
+    assert wave_timeline_problems(lg, [*before, head(stroke, n)]) == []
+    # after a stop the session lifts the pen: the backend plays on from where it stopped
+    b.stop_requested = False
+    t = int(stroke.t_us[n - 1]) + 1
+    up = make_rows([t, t + 300_000], [0, 0], [cfg.pen.up_us, 0])
+    assert b.play(up) == 2
+    b.close()
+    (t_up, up_us), (t_off, off) = lg.servo[-2:]
+    assert (up_us, off) == (cfg.pen.up_us, 0)
+    assert t_off - t_up >= 299_000                                # the settle is kept
