@@ -9,8 +9,10 @@ process cannot drive the same plotter at the same time. A dry run (the fake back
 
 from __future__ import annotations
 
+import queue
 import signal
 import sys
+import threading
 from dataclasses import dataclass
 from typing import Iterable
 
@@ -90,6 +92,7 @@ class Session:
         self.pen_down = False
         self._moved = False
         self.resume_info: dict | None = None
+        self._writer: _Writer | None = None
 
     @property
     def saves_state(self) -> bool:
@@ -160,27 +163,42 @@ class Session:
     # ------------------------------------------------------------ playing
     def play(self, chunks: Iterable[Rows], progress=None) -> None:
         """Play rows; on a signal stop, lift the pen, release and raise Interrupted.
-        progress(t_us, line) is called after every stretch played."""
-        prev_dev_from = None
-        for rows in chunks:
-            for part in _split(rows):
-                if self._signum:
-                    break
+        progress(t_us, line) is called after every stretch played.
+
+        The schedule is computed on a helper thread ahead of the motors, and the journal and
+        the trace are written on another, so that the thread driving the outputs does nothing
+        else while the motors run.
+        """
+        ahead = _Ahead(chunks)
+        self._writer = _Writer(self.tracer)
+        switch = sys.getswitchinterval()
+        sys.setswitchinterval(0.0005)     # hand the interpreter back to the player quickly
+        try:
+            cur, k = ahead.get(), 0
+            while cur is not None and not self._signum:
+                nxt = ahead.get()
                 if self.saves_state:
                     self._begin_motion()
-                    lo = part if prev_dev_from is None else Rows.concat([prev_dev_from, part])
-                    dev = np.abs(lo.steps - np.asarray(self.counts)).max(axis=0)
-                    pen = "down" if self.pen_down or (part.pen_us == self.cfg.pen.down_us).any() else "up"
-                    self._journal.record(self.counts, dev, int(part.line[0]), pen)
-                    prev_dev_from = part
-                n = self.backend.play(part)
-                self._played(part, n)
+                    # until the next record lands the motors are in this part or the next
+                    span = cur if nxt is None else Rows.concat([cur, nxt])
+                    dev = np.abs(span.steps - np.asarray(self.counts)).max(axis=0)
+                    down = self.pen_down or bool((cur.pen_us == self.cfg.pen.down_us).any())
+                    self._writer.wait_journal(k - 1)
+                    self._writer.journal(self._journal, self.counts, dev, int(cur.line[0]),
+                                         "down" if down else "up")
+                    k += 1
+                n = self.backend.play(cur)
+                self._played(cur, n)
                 if progress is not None:
                     progress(self.t_us, self.line)
-                if n < len(part):
+                if n < len(cur):
                     break
-            if self._signum:
-                break
+                cur = nxt
+        finally:
+            sys.setswitchinterval(switch)
+            ahead.close()
+            writer, self._writer = self._writer, None
+            writer.close()
         if self._signum:
             self._abort()
             signum = self._signum
@@ -192,7 +210,9 @@ class Session:
             return
         done = part if n == len(part) else Rows(part.t_us[:n], part.coils[:n], part.pen_us[:n],
                                                part.line[:n], part.steps[:n])
-        if self.tracer is not None:
+        if self._writer is not None:
+            self._writer.trace(done)
+        elif self.tracer is not None:
             self.tracer.write(done)
         self.counts = (int(done.steps[-1, 0]), int(done.steps[-1, 1]))
         self.t_us = int(done.t_us[-1])
@@ -259,3 +279,107 @@ def _split(rows: Rows) -> Iterable[Rows]:
             start = c
     yield Rows(rows.t_us[start:], rows.coils[start:], rows.pen_us[start:], rows.line[start:],
                rows.steps[start:])
+
+
+_END = object()
+
+
+class _Failure:
+    def __init__(self, exc: BaseException):
+        self.exc = exc
+
+
+class _Ahead:
+    """Computes the schedule's parts on a helper thread, a bounded number ahead."""
+
+    def __init__(self, chunks: Iterable[Rows], depth: int = 8):
+        self.q: queue.Queue = queue.Queue(maxsize=depth)
+        self.stopped = threading.Event()
+        self.thread = threading.Thread(target=self._run, args=(chunks,), daemon=True,
+                                       name="vplotter-plan")
+        self.thread.start()
+
+    def _put(self, item) -> bool:
+        while not self.stopped.is_set():
+            try:
+                self.q.put(item, timeout=0.05)
+                return True
+            except queue.Full:
+                continue
+        return False
+
+    def _run(self, chunks) -> None:
+        try:
+            for rows in chunks:
+                for part in _split(rows):
+                    if not self._put(part):
+                        return
+            self._put(_END)
+        except BaseException as e:  # noqa: BLE001 - handed to the main thread
+            self._put(_Failure(e))
+
+    def get(self) -> Rows | None:
+        item = self.q.get()
+        if isinstance(item, _Failure):
+            self.q.put(item)            # later calls see it too
+            raise item.exc
+        if item is _END:
+            self.q.put(_END)
+            return None
+        return item
+
+    def close(self) -> None:
+        self.stopped.set()
+        self.thread.join(timeout=5)
+
+
+class _Writer:
+    """Writes journal records and trace rows in order on a helper thread (fsync and text
+    formatting stay off the thread that drives the outputs)."""
+
+    def __init__(self, tracer):
+        self.tracer = tracer
+        self.q: queue.Queue = queue.Queue()
+        self.landed = 0
+        self.cond = threading.Condition()
+        self.error: BaseException | None = None
+        self.thread = threading.Thread(target=self._run, daemon=True, name="vplotter-write")
+        self.thread.start()
+
+    def _run(self) -> None:
+        while True:
+            item = self.q.get()
+            if item is None:
+                return
+            kind, args = item
+            try:
+                if kind == "journal":
+                    journal, *rest = args
+                    journal.record(*rest)
+                    with self.cond:
+                        self.landed += 1
+                        self.cond.notify_all()
+                elif self.tracer is not None:
+                    self.tracer.write(args)
+            except BaseException as e:  # noqa: BLE001 - reported by close()
+                self.error = e
+                with self.cond:
+                    self.landed = 1 << 62
+                    self.cond.notify_all()
+
+    def journal(self, journal, counts, dev, line: int, pen: str) -> None:
+        self.q.put(("journal", (journal, tuple(counts), tuple(int(d) for d in dev), line, pen)))
+
+    def trace(self, rows: Rows) -> None:
+        self.q.put(("trace", rows))
+
+    def wait_journal(self, records: int) -> None:
+        with self.cond:
+            while self.landed < records:
+                self.cond.wait()
+
+    def close(self) -> None:
+        self.q.put(None)
+        self.thread.join()
+        if self.error is not None:
+            raise self.error

@@ -13,6 +13,10 @@ milliseconds under load. Two refinements keep a late row from hurting the motors
   stand unpowered: the caller was computing the next stroke, a pen change follows), the anchor
   moves by the lateness. A pause there is harmless and keeps the pen's settle time whole;
   racing through the start of the next stroke is not.
+- stalls: a row more than `stall_us` (0.5 ms) late means the process did not run for a while
+  (on a loaded machine, or a virtual one whose host takes the CPU away); the motors have
+  stopped meanwhile, so the anchor moves too and they go on at the planned speed, instead of
+  racing to make up time they cannot make up safely. Smaller lateness is made up as above.
 
 Lateness (actual minus planned time of each output change, measured after the write) is
 collected in `Lateness`. The clock and sleep are injectable so tests run on a simulated clock.
@@ -58,7 +62,8 @@ class Player:
     def __init__(self, write_coils: Callable[[int, int], None], write_pen: Callable[[int], None],
                  clock: Callable[[], int] | None = None,
                  sleep: Callable[[float], None] | None = None,
-                 spin_us: int = 2000, poll_us: int = 2000, catchup: float = 0.75):
+                 spin_us: int = 2000, poll_us: int = 2000, catchup: float = 0.75,
+                 stall_us: int = 500):
         self.write_coils = write_coils
         self.write_pen = write_pen
         self.clock = clock or time.perf_counter_ns
@@ -66,6 +71,7 @@ class Player:
         self.spin_ns = spin_us * 1000
         self.poll_ns = poll_us * 1000
         self.catchup_ns = int(round(catchup * 1000))  # per planned microsecond of gap
+        self.stall_ns = stall_us * 1000
         self.anchor_ns: int | None = None
         self.coils = 0
         self.pen_us = 0
@@ -118,8 +124,8 @@ class Player:
             out = clock()
             late_ns = out - (self.anchor_ns + t * 1000)
             late.append(late_ns)
-            if late_ns > 0 and (self.coils == 0 or word == 0):
-                self.anchor_ns += late_ns  # the motors stand still: pause instead of racing
+            if late_ns > self.stall_ns or late_ns > 0 and (self.coils == 0 or word == 0):
+                self.anchor_ns += late_ns  # the motors stand (or stood) still: pause, never race
             self.coils, self.pen_us = word, pen
             self.last_t_us, self.last_out_ns = t, out
         return n
