@@ -306,3 +306,60 @@ def test_interactive_jog_in_a_terminal(config_path, tmp_path):
     pos = state.load()
     xy = jog.pen_xy(config.load(config_path), pos, pos.counts)
     assert xy == pytest.approx([-2.0, 4.0], abs=0.01)
+
+
+SHORT = """G21 G90
+G00 Z5
+G00 X2 Y2
+G01 Z-1 F600
+G01 X6 Y2
+G01 X6 Y6
+G02 X2 Y6 R2
+G01 X2 Y2
+G00 Z5
+G00 X0 Y0
+M2
+"""
+
+
+@pytest.mark.parametrize("signum,after_s", [(signal.SIGINT, 1.3), (signal.SIGTERM, 2.1)])
+def test_real_time_draw_on_mock_pins_stops_within_a_second(signum, after_s, config_path, tmp_path,
+                                                             capsys):
+    """The acceptance check of the safety issue, in real time: gpiozero on its MockFactory in a
+    subprocess, a signal mid-stroke, then --resume. (Waits about 3 s of wall-clock time.)"""
+    import time
+
+    cfg = tc.load_config(config_path)
+    gfile = tmp_path / "short.ngc"
+    gfile.write_text(SHORT)
+    assert run(config_path, "calibrate", "--at", "0", "0") == 0
+    t1, t2 = tmp_path / "t1.csv", tmp_path / "t2.csv"
+    env = dict(os.environ, GPIOZERO_PIN_FACTORY="mock")
+    proc = subprocess.Popen([sys.executable, "-m", "vplotter", "--config", str(config_path), "draw",
+                             str(gfile), "--backend", "gpiozero", "--trace", str(t1)],
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc.stdout.readline()                    # the summary: validation done, drawing starts
+    with pytest.raises(subprocess.TimeoutExpired):
+        proc.wait(timeout=after_s)
+    sent = time.monotonic()
+    proc.send_signal(signum)
+    proc.wait(timeout=5)
+    assert time.monotonic() - sent < 1.0
+    assert proc.returncode == 128 + signum
+    assert "--resume" in proc.stderr.read()
+    tr = tc.read_trace(t1)
+    assert tc.released_at_end(tr, cfg) == []
+    dec1, end = cords_at_end(t1, cfg, (0.0, 0.0))
+    pos = state.load()
+    assert np.allclose([pos.left_mm, pos.right_mm], end, atol=1e-9)
+    capsys.readouterr()
+    assert run(config_path, "status", "--json") == 0
+    info = json.loads(capsys.readouterr().out)
+    assert run(config_path, "draw", str(gfile), "--backend", "fake", "--resume", "--trace", str(t2)) == 0
+    dec2 = tc.decode(tc.read_trace(t2), cfg, (info["x_mm"], info["y_mm"]))
+    ref = tc.reference_path(gfile)
+    drawn = np.vstack([np.column_stack((d.x, d.y))[d.pen_down] for d in (dec1, dec2)])
+    assert tc.distances_to_polylines(drawn, ref).max() <= 0.02
+    from scipy.spatial import cKDTree
+
+    assert max(cKDTree(drawn).query(r)[0].max() for r in ref) <= 0.02
