@@ -217,14 +217,26 @@ def test_corrupt_state_gives_one_clear_line(content, config_path, capsys):
     assert run(config_path, "status") == 0
 
 
-def test_calibrate_steps_writes_the_circumference_keeping_comments(tmp_path, config_path,
-                                                                   monkeypatch, capsys):
+def calibrate_steps(tmp_path, config_path, monkeypatch, motor, *answers):
+    """Run `calibrate steps` on a copy of config.toml with scripted answers."""
     cfg_file = tmp_path / "config.toml"
     cfg_file.write_text(config_path.read_text())
     assert run(cfg_file, "calibrate", "--at", "0", "0") == 0
-    answers = iter(["480.0", "492.5"])
-    monkeypatch.setattr("builtins.input", lambda prompt="": next(answers))
-    assert run(cfg_file, "calibrate", "steps", "--motor", "left", "--backend", "fake") == 0
+    replies = iter(answers)
+
+    def ask(prompt=""):
+        for reply in replies:
+            return reply
+        raise EOFError          # the person pressed Ctrl+D
+
+    monkeypatch.setattr("builtins.input", ask)
+    return cfg_file, run(cfg_file, "calibrate", "steps", "--motor", motor, "--backend", "fake")
+
+
+def test_calibrate_steps_writes_the_circumference_keeping_comments(tmp_path, config_path,
+                                                                   monkeypatch):
+    cfg_file, code = calibrate_steps(tmp_path, config_path, monkeypatch, "left", "480.0", "492.5")
+    assert code == 0
     text = cfg_file.read_text()
     assert "spool_circumference_mm = 25.6    # cord wound per revolution" in text
     assert text.replace("25.6 ", "25.0 ") == config_path.read_text()
@@ -232,14 +244,12 @@ def test_calibrate_steps_writes_the_circumference_keeping_comments(tmp_path, con
     assert pos.left_mm == pytest.approx(492.5) and pos.steps_per_mm == pytest.approx(4096 / 25.6)
 
 
-def test_calibrate_steps_rejects_nonsense(tmp_path, config_path, monkeypatch, capsys):
-    cfg_file = tmp_path / "config.toml"
-    cfg_file.write_text(config_path.read_text())
-    assert run(cfg_file, "calibrate", "--at", "0", "0") == 0
-    answers = iter(["480", "abc"])
-    monkeypatch.setattr("builtins.input", lambda prompt="": next(answers))
-    assert run(cfg_file, "calibrate", "steps", "--motor", "right", "--backend", "fake") == 2
+@pytest.mark.parametrize("answers", [("480", "abc"), ("480", "700"), ("480",), ("-3", "4")])
+def test_calibrate_steps_rejects_nonsense(answers, tmp_path, config_path, monkeypatch, capsys):
+    cfg_file, code = calibrate_steps(tmp_path, config_path, monkeypatch, "right", *answers)
+    assert code == 2
     assert cfg_file.read_text() == config_path.read_text()
+    assert len(capsys.readouterr().err.strip().splitlines()) == 1
 
 
 def test_jog_and_goto_refuse_leaving_the_page(config_path, capsys):
