@@ -163,3 +163,29 @@ def test_strict_makes_spiral_warnings_errors(capsys, tmp_path, config_path):
 def test_every_sample_draws(capsys, config_path, sample):
     code, out, _ = run(capsys, ["--config", config_path, "draw", sample, "--dry-run"])
     assert code == 0 and "plot time" in out
+
+
+def test_help_is_fast_and_imports_nothing_heavy():
+    """`vplotter --help` must not import numpy, gpiozero, lgpio (a Pi Zero takes seconds)."""
+    import subprocess
+    import sys
+
+    code = ("import sys; from vplotter.cli import main; rc = main(['--help']); "
+            "heavy = [m for m in ('numpy', 'gpiozero', 'lgpio', 'tomlkit') if m in sys.modules]; "
+            "print(heavy); sys.exit(rc)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert out.returncode == 0
+    assert out.stdout.strip().splitlines()[-1] == "[]"
+    assert "draw" in out.stdout and "calibrate" in out.stdout
+
+
+def test_python_dash_m_works(config_path, tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    env = dict(os.environ, XDG_STATE_HOME=str(tmp_path))
+    out = subprocess.run([sys.executable, "-m", "vplotter", "--config", str(config_path), "estimate",
+                          str(config_path.parent / "gcode_samples" / "square.ngc")],
+                         capture_output=True, text=True, env=env)
+    assert out.returncode == 0 and "plot time" in out.stdout

@@ -373,3 +373,25 @@ def test_real_time_draw_on_mock_pins_stops_within_a_second(signum, after_s, conf
     from scipy.spatial import cKDTree
 
     assert max(cKDTree(drawn).query(r)[0].max() for r in ref) <= 0.02
+
+
+def test_hangup_with_the_terminal_gone_still_stops_and_saves(config_path, monkeypatch, capsys):
+    """After SIGHUP writing to the SSH terminal fails; the stop must still be clean."""
+    assert run(config_path, "calibrate", "--at", "0", "0") == 0
+    interrupt_after(monkeypatch, 9000, signal.SIGHUP)
+
+    class Gone:
+        def write(self, text):
+            raise OSError(5, "Input/output error")
+
+        def flush(self):
+            raise OSError(5, "Input/output error")
+
+    import vplotter.cli as cli
+
+    real = cli._eprint
+    monkeypatch.setattr(cli, "_eprint", lambda msg: cli._say(msg, Gone()))
+    assert run(config_path, "draw", str(CIRCLES), "--backend", "fake") == 128 + signal.SIGHUP
+    monkeypatch.setattr(cli, "_eprint", real)
+    pos = state.load()
+    assert pos.clean and pos.pen == "up" and pos.extra["resume"]["line"] > 0

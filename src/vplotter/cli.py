@@ -16,7 +16,18 @@ from vplotter.errors import BusyError, ConfigError, InputError, MachineError, Vp
 
 
 def _eprint(msg: str) -> None:
-    print(msg, file=sys.stderr, flush=True)
+    _say(msg, sys.stderr)
+
+
+def _say(msg: str, stream=None, end: str = "\n") -> None:
+    """Print, but never fail: after SIGHUP the SSH terminal is gone and writing to it raises,
+    while the machine still has to be stopped and its position saved."""
+    try:
+        stream = stream or sys.stdout
+        stream.write(msg + end)
+        stream.flush()
+    except (OSError, ValueError):
+        pass
 
 
 # ---------------------------------------------------------------- shared helpers
@@ -196,7 +207,7 @@ def cmd_draw(args, argv=None) -> int:
             if s.tracer is not None:
                 s.tracer.comment(text)
             if args.verbose:
-                print(text)
+                _say(text)
     return 0
 
 
@@ -214,11 +225,11 @@ class _Progress:
         self.last = pct
         left = max(0.0, (self.total_us - t_us) / 1e6)
         bar = "#" * (pct // 4) + "-" * (25 - pct // 4)
-        sys.stderr.write(f"\r[{bar}] {pct:3d}%  line {line}  {int(left // 60)}:{int(left % 60):02d} left ")
-        sys.stderr.flush()
+        _say(f"\r[{bar}] {pct:3d}%  line {line}  {int(left // 60)}:{int(left % 60):02d} left ",
+             sys.stderr, end="")
 
     def done(self) -> None:
-        sys.stderr.write("\n")
+        _say("", sys.stderr)
 
 
 def cmd_estimate(args, argv=None) -> int:
