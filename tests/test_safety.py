@@ -100,6 +100,19 @@ def test_signal_stops_lifts_saves_and_resume_completes(signum, rows, config_path
     assert "resume" not in state.load().extra
 
 
+def test_moving_the_pen_keeps_the_place_to_resume(config_path, monkeypatch):
+    assert run(config_path, "calibrate", "--at", "0", "0") == 0
+    orig = interrupt_after(monkeypatch, 20_000, signal.SIGINT)
+    assert run(config_path, "draw", str(CIRCLES), "--backend", "fake") == 130
+    monkeypatch.setattr(FakeBackend, "play", orig)
+    resume = state.load().extra["resume"]
+    assert run(config_path, "pen", "up", "--backend", "fake") == 0        # change the pen
+    assert run(config_path, "jog", "--dx", "5", "--backend", "fake") == 0
+    assert state.load().extra["resume"] == resume
+    assert run(config_path, "draw", str(CIRCLES), "--backend", "fake", "--resume") == 0
+    assert "resume" not in state.load().extra
+
+
 def test_resume_refuses_a_changed_file(config_path, tmp_path, monkeypatch, capsys):
     gfile = tmp_path / "c.ngc"
     gfile.write_text(CIRCLES.read_text())
@@ -178,8 +191,16 @@ def test_crash_leaves_an_unclean_stop_with_a_bound_that_holds(config_path, tmp_p
     assert run(config_path, "draw", str(CIRCLES), "--backend", "fake") == 2
     err = capsys.readouterr().err
     assert "calibrate" in err and "--trust-position" in err
-    assert run(config_path, "draw", str(CIRCLES), "--backend", "fake", "--trust-position") == 0
-    assert json.loads((state.state_dir() / "state.json").read_text())["clean"] is True
+    assert info["resume"]["line"] > 0 and info["resume"]["xy"] is None
+    t2 = tmp_path / "t2.csv"
+    assert run(config_path, "draw", str(CIRCLES), "--backend", "fake", "--trust-position",
+               "--resume", "--trace", str(t2)) == 0
+    saved = json.loads((state.state_dir() / "state.json").read_text())
+    assert saved["clean"] is True and "resume" not in saved["extra"]
+    # what the resumed draw puts on paper is on the path
+    dec2 = tc.decode(tc.read_trace(t2), cfg, (info["x_mm"], info["y_mm"]))
+    pts = np.column_stack((dec2.x, dec2.y))[dec2.pen_down]
+    assert tc.distances_to_polylines(pts, tc.reference_path(CIRCLES)).max() <= 0.02
 
 
 def test_second_process_is_refused_with_exit_3(config_path, capsys):

@@ -176,6 +176,7 @@ def cmd_draw(args, argv=None) -> int:
     print(f"{args.file}: {summary.text()}", flush=True)
     quiet = gcode.read(args.file, strict=args.strict, warn=lambda m: None)
     session = _session(args, cfg, _command_line(argv), pos)
+    session.drawing = {"file": os.path.abspath(args.file), "sha256": _file_hash(args.file)}
     with session as s:
         if s.tracer is not None:
             s.tracer.comment(f"file {os.path.abspath(args.file)}")
@@ -186,8 +187,7 @@ def cmd_draw(args, argv=None) -> int:
             kin = kinematics.from_config(cfg)
             cords = np.asarray(pos.ref_mm) + np.asarray(s.counts) / cfg.motors.steps_per_mm
             xy = kin.to_gcode(kin.forward(cords[None, :]))[0]
-            s.resume_info = {"file": os.path.abspath(args.file), "sha256": _file_hash(args.file),
-                             "line": s.line, "xy": [float(xy[0]), float(xy[1])]}
+            s.resume_info = {**session.drawing, "line": s.line, "xy": [float(xy[0]), float(xy[1])]}
             if progress:
                 progress.done()
             _eprint(f"{args.file}:{s.line}: stopped at X{xy[0]:.3f} Y{xy[1]:.3f}; pen lifted, "
@@ -358,8 +358,9 @@ def cmd_status(args, argv=None) -> int:
         print(f"last stop: UNCLEAN (crash or power cut): the position may be off by up to "
               f"{off:.2f} mm; check it and run `vplotter calibrate`, or draw with --trust-position")
     if resume:
-        print(f"resume: {resume['file']} line {resume['line']} at X{resume['xy'][0]:.3f} "
-              f"Y{resume['xy'][1]:.3f} (vplotter draw FILE --resume)")
+        where = (f"at X{resume['xy'][0]:.3f} Y{resume['xy'][1]:.3f}" if resume.get("xy")
+                 else "from its start")
+        print(f"resume: {resume['file']} line {resume['line']} {where} (vplotter draw FILE --resume)")
     print(f"state file: {state.state_path()}")
     return 0
 

@@ -93,6 +93,7 @@ class Session:
         self._moved = False
         self.resume_info: dict | None = None
         self._writer: _Writer | None = None
+        self.drawing: dict | None = None     # {"file", "sha256"} while a draw runs
 
     @property
     def saves_state(self) -> bool:
@@ -226,6 +227,8 @@ class Session:
         if self._journal is None:
             pos = self.position.moved_to(self.counts)
             pos.clean = False
+            if self.drawing:             # after a crash, --resume goes on from the journal
+                pos.extra["drawing"] = self.drawing
             state.save(pos)
             state.clear_journal()
             self._journal = state.Journal()
@@ -252,10 +255,12 @@ class Session:
         pos.pen = "down" if self.pen_down else "up"
         pos.clean = clean
         pos.extra = {k: v for k, v in pos.extra.items() if k not in ("uncertain_steps", "line")}
-        if self.stop is None:
+        if clean:
+            pos.extra.pop("drawing", None)
+        if self.resume_info is not None:          # only draw says where to resume (or not)
             pos.extra.pop("resume", None)
-        if self.resume_info:
-            pos.extra["resume"] = self.resume_info
+            if self.resume_info:
+                pos.extra["resume"] = self.resume_info
         state.save(pos)
         if clean:
             state.clear_journal()

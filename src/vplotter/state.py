@@ -189,4 +189,8 @@ def recovered(pos: Position) -> Position:
     new.pen = rec.get("pen", "unknown")
     new.extra["uncertain_steps"] = [int(rec["dev"][0]), int(rec["dev"][1])]
     new.extra["line"] = int(rec.get("line", 0))
+    drawing = new.extra.get("drawing")
+    if drawing and new.extra["line"] > 0:
+        # the line being drawn when the record was written: resume from its start
+        new.extra["resume"] = {**drawing, "line": new.extra["line"], "xy": None}
     return new
