@@ -78,7 +78,6 @@ def bound_and_plan(cfg, path):
     rate = cfg.motors.max_step_rate
     summary = pipeline.Summary()
     lower = 0.0
-    spm = cfg.motors.steps_per_mm
     orig = Scheduler.motion
 
     def motion(self, block, emit=True):

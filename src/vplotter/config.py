@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import difflib
 import tomllib
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -247,7 +247,3 @@ def load(path: str | Path) -> Config:
     except tomllib.TOMLDecodeError as e:
         raise ConfigError(f"{p}: error: not valid TOML: {e}") from None
     return from_dict(data, str(p))
-
-
-def section_fields(section: str) -> list[str]:
-    return [f.name for f in fields(SECTION_CLASSES[section])]

@@ -209,8 +209,7 @@ class Session:
     def _played(self, part: Rows, n: int) -> None:
         if n <= 0:
             return
-        done = part if n == len(part) else Rows(part.t_us[:n], part.coils[:n], part.pen_us[:n],
-                                               part.line[:n], part.steps[:n])
+        done = part[:n]
         if self._writer is not None:
             self._writer.trace(done)
         elif self.tracer is not None:
@@ -279,11 +278,9 @@ def _split(rows: Rows) -> Iterable[Rows]:
     start = 0
     for c in sorted(cuts):
         if start < c < n:
-            yield Rows(rows.t_us[start:c], rows.coils[start:c], rows.pen_us[start:c],
-                       rows.line[start:c], rows.steps[start:c])
+            yield rows[start:c]
             start = c
-    yield Rows(rows.t_us[start:], rows.coils[start:], rows.pen_us[start:], rows.line[start:],
-               rows.steps[start:])
+    yield rows[start:]
 
 
 _END = object()

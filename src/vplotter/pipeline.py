@@ -34,8 +34,6 @@ class Summary:
     travel_mm: float = 0.0
     time_s: float = 0.0
     pen_downs: int = 0
-    end_counts: tuple[int, int] = (0, 0)
-    last_line: int = 0
 
     def text(self) -> str:
         m, s = divmod(int(round(self.time_s)), 60)
@@ -175,5 +173,3 @@ def stream(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: s
         yield rows
     summary.steps = sched.steps_total.copy()
     summary.time_s = sched.t_us / 1e6
-    summary.end_counts = (int(sched.counts[0]), int(sched.counts[1]))
-    summary.last_line = sched.line

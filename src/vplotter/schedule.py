@@ -33,6 +33,10 @@ class Rows:
     def __len__(self) -> int:
         return len(self.t_us)
 
+    def __getitem__(self, rows: slice) -> "Rows":
+        return Rows(self.t_us[rows], self.coils[rows], self.pen_us[rows], self.line[rows],
+                    self.steps[rows])
+
     @staticmethod
     def concat(parts: list["Rows"]) -> "Rows":
         return Rows(*(np.concatenate([getattr(p, f) for p in parts])

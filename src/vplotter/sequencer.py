@@ -26,7 +26,3 @@ def coil_words(table: np.ndarray, phase_left: np.ndarray, phase_right: np.ndarra
     n = len(table)
     return table[phase_left % n] | (table[phase_right % n] << np.uint8(4))
 
-
-def pins_of_word(left_pins, right_pins) -> list[int]:
-    """BCM pin for each bit of the coil word."""
-    return [*left_pins, *right_pins]

@@ -45,7 +45,7 @@ class TraceWriter:
             init.append(f"{_t(int(rows.t_us[0]))},{self.pen_pin},{int(pens[0])}")
             self.out.write("\n".join(init) + "\n")
             self.coils, self.pen = int(words[0]), int(pens[0])
-            rows = Rows(rows.t_us[1:], rows.coils[1:], rows.pen_us[1:], rows.line[1:], rows.steps[1:])
+            rows = rows[1:]
             words, pens = words[1:], pens[1:]
             if len(words) == 0:
                 return

@@ -23,11 +23,8 @@ class FakeBackend(Backend):
         self.record = record
         self.realtime = realtime
         self.recorded: list[Rows] = []
-        self.clock_us = 0
         self.coils = 0
         self.pen_us = 0
-        self.is_open = False
-        self.rows_played = 0
         self._player = None
         if realtime:
             self._player = Player(self._write_coils, self._write_pen, clock, sleep, **timing)
@@ -39,7 +36,6 @@ class FakeBackend(Backend):
         self.pen_us = pulse_us
 
     def open(self) -> None:
-        self.is_open = True
         self.coils = 0
         self.pen_us = 0
 
@@ -51,23 +47,17 @@ class FakeBackend(Backend):
             n = self._player.play(rows, lambda: self.stop_requested)
             if n == 0:
                 return 0
-            rows = rows if n == len(rows) else _head(rows, n)
+            rows = rows[:n]
         if self.record:
             self.recorded.append(rows)
-        self.clock_us = int(rows.t_us[-1])
         self.coils = int(rows.coils[-1])
         self.pen_us = int(rows.pen_us[-1])
-        self.rows_played += n
         return n
 
     def close(self) -> None:
         self.coils = 0
         self.pen_us = 0
-        self.is_open = False
 
     def lateness(self) -> dict | None:
         return self._player.lateness.stats() if self._player is not None else None
 
-
-def _head(rows: Rows, n: int) -> Rows:
-    return Rows(rows.t_us[:n], rows.coils[:n], rows.pen_us[:n], rows.line[:n], rows.steps[:n])
