@@ -341,7 +341,7 @@ class _Writer:
 
     def __init__(self, tracer):
         self.tracer = tracer
-        self.q: queue.Queue = queue.Queue()
+        self.q: queue.Queue = queue.Queue(maxsize=64)   # a dry run must not outrun it unbounded
         self.landed = 0
         self.cond = threading.Condition()
         self.error: BaseException | None = None
