@@ -169,15 +169,19 @@ def cmd_draw(args, argv=None) -> int:
     pos = _position(cfg, args, args.dry_run)
     start_at = _start_at(args, pos)
     summary = pipeline.Summary()
-    # validation pass: the whole file, page limits and exact plot time before anything moves
-    records = gcode.read(args.file, strict=args.strict)
-    for _ in _stream(cfg, records, pos, args.file, False, summary, start_at):
-        pass
-    print(f"{args.file}: {summary.text()}", flush=True)
-    quiet = gcode.read(args.file, strict=args.strict, warn=lambda m: None)
     session = _session(args, cfg, _command_line(argv), pos)
     session.drawing = {"file": os.path.abspath(args.file), "sha256": _file_hash(args.file)}
+    # the session (lock, pins, signal handlers) is open first, so that a signal at any moment
+    # ends the same way; nothing is output before the whole file has been validated
     with session as s:
+        # validation pass: the whole file, page limits and exact plot time before anything moves
+        records = gcode.read(args.file, strict=args.strict)
+        for _ in _stream(cfg, records, pos, args.file, False, summary, start_at):
+            if s.stop_pending:
+                break
+        else:
+            _say(f"{args.file}: {summary.text()}")
+        quiet = gcode.read(args.file, strict=args.strict, warn=lambda m: None)
         if s.tracer is not None:
             s.tracer.comment(f"file {os.path.abspath(args.file)}")
         progress = _Progress(summary.time_s) if sys.stderr.isatty() and not s.dry_run else None
@@ -187,12 +191,16 @@ def cmd_draw(args, argv=None) -> int:
             kin = kinematics.from_config(cfg)
             cords = np.asarray(pos.ref_mm) + np.asarray(s.counts) / cfg.motors.steps_per_mm
             xy = kin.to_gcode(kin.forward(cords[None, :]))[0]
-            s.resume_info = {**session.drawing, "line": s.line, "xy": [float(xy[0]), float(xy[1])]}
+            if s.line > 0:      # something of the file was drawn
+                s.resume_info = {**session.drawing, "line": s.line,
+                                 "xy": [float(xy[0]), float(xy[1])]}
             if progress:
                 progress.done()
-            _eprint(f"{args.file}:{s.line}: stopped at X{xy[0]:.3f} Y{xy[1]:.3f}; pen lifted, "
-                    f"coils released, position saved")
-            if not s.dry_run:
+            xy = np.where(np.abs(xy) < 5e-4, 0.0, xy)
+            where = f"{args.file}:{s.line}: stopped" if s.line else f"{args.file}: stopped before drawing"
+            _eprint(f"{where} at X{xy[0]:.3f} Y{xy[1]:.3f}; pen lifted, coils released"
+                    f"{'' if s.dry_run else ', position saved'}")
+            if not s.dry_run and s.resume_info:
                 _eprint(f"resume with: vplotter draw {args.file} --resume")
             raise
         if progress:

@@ -120,6 +120,11 @@ class Session:
             raise
         return self
 
+    @property
+    def stop_pending(self) -> bool:
+        """A signal asked to stop."""
+        return bool(self._signum)
+
     def _on_signal(self, signum, frame) -> None:
         if not self._signum:
             self._signum = signum
@@ -128,7 +133,7 @@ class Session:
 
     def __exit__(self, exc_type, exc, tb) -> bool:
         try:
-            if exc is not None and self.backend is not None and not isinstance(exc, Interrupted):
+            if exc is not None and self._moved and not isinstance(exc, Interrupted):
                 self._abort()
             if self.backend is not None and not isinstance(exc, BackendError):
                 try:
