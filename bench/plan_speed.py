@@ -59,8 +59,7 @@ def peak_memory_mb(cfg, path) -> float:
 
     counts, ref = start_of(cfg)
     tracemalloc.start()
-    for _ in pipeline.stream(cfg, records(path), counts, ref, path, emit=False):
-        pass
+    pipeline.validate(cfg, records(path), counts, ref, path)
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     return peak / 1e6
@@ -76,7 +75,6 @@ def bound_and_plan(cfg, path):
     """Lower bound (s) and planned time (s), walking the planner's blocks once."""
     counts, ref = start_of(cfg)
     rate = cfg.motors.max_step_rate
-    summary = pipeline.Summary()
     lower = 0.0
     orig = Scheduler.motion
 
@@ -89,9 +87,7 @@ def bound_and_plan(cfg, path):
 
     Scheduler.motion = motion
     try:
-        for _ in pipeline.stream(cfg, records(path), counts, ref, path, emit=False,
-                                 summary=summary):
-            pass
+        summary = pipeline.validate(cfg, records(path), counts, ref, path)
     finally:
         Scheduler.motion = orig
     settles = (2 * summary.pen_downs + 1) * cfg.pen.settle_s

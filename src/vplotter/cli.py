@@ -87,10 +87,10 @@ def _file_hash(path: str) -> str:
     return h.hexdigest()
 
 
-def _stream(cfg, records, pos, name, emit=True, summary=None, start_at=None):
+def _stream(cfg, records, pos, name, start_at=None):
     from vplotter import pipeline
 
-    return pipeline.stream(cfg, records, pos.counts, pos.ref_mm, name, emit, summary, start_at)
+    return pipeline.stream(cfg, records, pos.counts, pos.ref_mm, name, start_at=start_at)
 
 
 def _moves_to(cfg, pos, target):
@@ -111,9 +111,7 @@ def _run_records(args, cfg, command: str, pos, records) -> int:
     """Validate, then play records on the machine (used by jog, goto and home)."""
     from vplotter import pipeline
 
-    summary = pipeline.Summary()
-    for _ in _stream(cfg, records, pos, command, emit=False, summary=summary):
-        pass
+    pipeline.validate(cfg, records, pos.counts, pos.ref_mm, command)
     with _session(args, cfg, command, pos) as s:
         s.play(_stream(cfg, records, pos, command))
     return 0
@@ -168,7 +166,6 @@ def cmd_draw(args, argv=None) -> int:
     cfg = _config(args)
     pos = _position(cfg, args, args.dry_run)
     start_at = _start_at(args, pos)
-    summary = pipeline.Summary()
     session = _session(args, cfg, _command_line(argv), pos)
     session.drawing = {"file": os.path.abspath(args.file), "sha256": _file_hash(args.file)}
     # the session (lock, pins, signal handlers) is open first, so that a signal at any moment
@@ -176,15 +173,15 @@ def cmd_draw(args, argv=None) -> int:
     with session as s:
         # validation pass: the whole file, page limits and exact plot time before anything moves
         records = gcode.read(args.file, strict=args.strict)
-        for _ in _stream(cfg, records, pos, args.file, False, summary, start_at):
-            if s.stop_pending:
-                break
-        else:
+        summary = pipeline.validate(cfg, records, pos.counts, pos.ref_mm, args.file, start_at,
+                                    lambda: s.stop_pending)
+        if summary is not None:
             _say(f"{args.file}: {summary.text()}")
         quiet = gcode.read(args.file, strict=args.strict, warn=lambda m: None)
         if s.tracer is not None:
             s.tracer.comment(f"file {os.path.abspath(args.file)}")
-        progress = _Progress(summary.time_s) if sys.stderr.isatty() and not s.dry_run else None
+        progress = (_Progress(summary.time_s) if summary and sys.stderr.isatty() and not s.dry_run
+                    else None)
         try:
             s.play(_stream(cfg, quiet, pos, args.file, start_at=start_at), progress)
         except Interrupted:
@@ -245,9 +242,8 @@ def cmd_estimate(args, argv=None) -> int:
 
     cfg = _config(args)
     pos = _position(cfg, args, True)
-    summary = pipeline.Summary()
-    for _ in _stream(cfg, gcode.read(args.file, strict=args.strict), pos, args.file, False, summary):
-        pass
+    summary = pipeline.validate(cfg, gcode.read(args.file, strict=args.strict), pos.counts,
+                                pos.ref_mm, args.file)
     print(f"{args.file}: {summary.text()}")
     return 0
 

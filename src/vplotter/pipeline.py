@@ -73,7 +73,6 @@ def stream(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: s
     tol = cfg.motion.tolerance_mm * CHORD_SHARE
     mo = cfg.motion
     file_xy = (0.0, 0.0)
-    path = name
 
     def blocks(bs: Iterator[Block]) -> Iterator[Rows]:
         for b in bs:
@@ -98,7 +97,7 @@ def stream(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: s
                 move = int(np.searchsorted(np.cumsum(n), bad, side="right"))
                 x, y = pts[bad]
                 raise InputError(
-                    f"{path}:{line[move]}:{col[move]}: error: point X{x:.3f} Y{y:.3f} is outside "
+                    f"{name}:{line[move]}:{col[move]}: error: point X{x:.3f} Y{y:.3f} is outside "
                     f"the page (X {page.x_min_mm:g}..{page.x_max_mm:g}, "
                     f"Y {page.y_min_mm:g}..{page.y_max_mm:g})")
             batch.clear()
@@ -166,10 +165,21 @@ def stream(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: s
             if rows is not None and emit:
                 yield rows
     if start_at is not None:
-        raise InputError(f"{path}: error: line {start_at.line} is past the last move of the file")
+        raise InputError(f"{name}: error: line {start_at.line} is past the last move of the file")
     yield from flush(True)
     rows = sched.finish(lift=not keep_pen)
     if rows is not None and emit:
         yield rows
     summary.steps = sched.steps_total.copy()
     summary.time_s = sched.t_us / 1e6
+
+
+def validate(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str = "<input>",
+             start_at: StartAt | None = None, stop=lambda: False) -> Summary | None:
+    """The validation pass: every record checked, planned and timed, no step computed.
+    Returns the summary, or None if stop() turned true first."""
+    summary = Summary()
+    for _ in stream(cfg, records, counts, ref_mm, name, False, summary, start_at):
+        if stop():
+            return None
+    return summary
