@@ -20,7 +20,8 @@ import time
 
 import numpy as np
 
-from vplotter import config, gcode, kinematics, pipeline, planner
+from vplotter import config, kinematics, pipeline, planner
+from vplotter.inputs import gcode
 from vplotter.schedule import Scheduler
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))

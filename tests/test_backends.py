@@ -13,7 +13,8 @@ from gpiozero.pins.mock import MockFactory, MockPWMPin
 
 from fake_lgpio import (DroppingLgpio, FakeLgpio, SimClock, SwappingLgpio,
                         expected_coil_changes, shifted)
-from vplotter import config, gcode, kinematics, pipeline, state
+from vplotter import config, kinematics, pipeline, state
+from vplotter.inputs import gcode
 from vplotter.backends import create
 from vplotter.backends.lgpio import WAVE_US
 from vplotter.backends.realtime import Player

@@ -11,9 +11,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from vplotter import gcode
+from vplotter.inputs import gcode
 from vplotter.errors import InputError
-from vplotter.gcode import Dwell, Move, Pen
+from vplotter.inputs.gcode import Dwell, Move, Pen
 
 NAME = "t.ngc"
 

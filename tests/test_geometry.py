@@ -6,7 +6,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from vplotter.gcode import Move
+from vplotter.inputs.gcode import Move
 from vplotter.kinematics.vplotter import TwoCord
 from vplotter.segment import arc_sweep, points
 

@@ -331,7 +331,8 @@ def test_interactive_jog_in_a_terminal(config_path, tmp_path):
     os.write(fd, b"q")
     _, status = os.waitpid(pid, 0)
     assert os.waitstatus_to_exitcode(status) == 0
-    from vplotter import config, jog
+    from vplotter import config
+    from vplotter.commands import jog
 
     pos = state.load()
     xy = jog.pen_xy(config.load(config_path), pos, pos.counts)
@@ -407,11 +408,11 @@ def test_hangup_with_the_terminal_gone_still_stops_and_saves(config_path, monkey
         def flush(self):
             raise OSError(5, "Input/output error")
 
-    import vplotter.cli as cli
+    import vplotter.commands.draw as cli
 
-    real = cli._eprint
-    monkeypatch.setattr(cli, "_eprint", lambda msg: cli._say(msg, Gone()))
+    real = cli.eprint
+    monkeypatch.setattr(cli, "eprint", lambda msg: cli.say(msg, Gone()))
     assert run(config_path, "draw", str(CIRCLES), "--backend", "fake") == 128 + signal.SIGHUP
-    monkeypatch.setattr(cli, "_eprint", real)
+    monkeypatch.setattr(cli, "eprint", real)
     pos = state.load()
     assert pos.clean and pos.pen == "up" and pos.extra["resume"]["line"] > 0

@@ -12,7 +12,8 @@ from typing import Iterable, Iterator
 
 import numpy as np
 
-from vplotter import gcode, kinematics, segment
+from vplotter import kinematics, segment
+from vplotter.inputs import gcode
 from vplotter.config import Config
 from vplotter.errors import InputError
 from vplotter.planner import Block, Planner

@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from vplotter.gcode import Move
+from vplotter.inputs.gcode import Move
 
 TWO_PI = 2.0 * math.pi
 _EMPTY = np.empty((0, 2))

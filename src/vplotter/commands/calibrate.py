@@ -52,11 +52,11 @@ def calibrate_steps(args, cfg, command: str) -> int:
     pos = job.load_position(cfg, trust=True, dry_run=args.dry_run) if state.load() else None
     if pos is None:
         pos = state.Position.at_cords(before, before, spm)
-    from vplotter.cli import _session
+    from vplotter.commands.common import session
 
     delta = [0, 0]
     delta[m] = args.steps
-    with _session(args, cfg, command, pos) as s:
+    with session(args, cfg, command, pos) as s:
         sched = Scheduler(cfg, None, s.counts, pos.ref_mm)
         s.play([sched.cord_move(delta)])
         moved = s.counts

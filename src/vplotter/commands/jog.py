@@ -16,7 +16,8 @@ import sys
 
 import numpy as np
 
-from vplotter import gcode, kinematics, pipeline
+from vplotter import kinematics, pipeline
+from vplotter.inputs import gcode
 from vplotter.errors import ConfigError, Interrupted, MachineError, VplotterError
 from vplotter.schedule import Scheduler
 

@@ -1,0 +1,110 @@
+"""What the commands share: config, stored position, the session, printing that never fails."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from vplotter.errors import InputError, MachineError
+
+
+def eprint(msg: str) -> None:
+    say(msg, sys.stderr)
+
+
+def say(msg: str, stream=None, end: str = "\n") -> None:
+    """Print, but never fail: after SIGHUP the SSH terminal is gone and writing to it raises,
+    while the machine still has to be stopped and its position saved."""
+    try:
+        stream = stream or sys.stdout
+        stream.write(msg + end)
+        stream.flush()
+    except (OSError, ValueError):
+        pass
+
+
+def load_config(args):
+    from vplotter import config
+
+    return config.load(args.config)
+
+
+def position(cfg, args, dry_run: bool):
+    """The position to start from. A dry run without a stored position assumes X0 Y0."""
+    from vplotter import job, kinematics, state
+
+    if dry_run and state.load() is None:
+        kin = kinematics.from_config(cfg)
+        cords = kin.inverse(kin.to_machine([[0.0, 0.0]]))[0]
+        eprint("note: no calibrated position stored; the dry run assumes the pen at X0 Y0")
+        return state.Position.at_cords(cords[0], cords[1], cfg.motors.steps_per_mm)
+    return job.load_position(cfg, getattr(args, "trust_position", False), dry_run)
+
+
+def add_machine_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--dry-run", action="store_true",
+                   help="simulate with the fake backend: nothing moves, no state is saved")
+    p.add_argument("--backend", choices=("lgpio", "gpiozero", "fake"),
+                   help="GPIO backend (default: [gpio] backend in config.toml)")
+    p.add_argument("--trace", metavar="OUT.csv", help="write every GPIO change to a CSV trace")
+    p.add_argument("--trust-position", action="store_true",
+                   help="go on from the stored position after an unclean stop")
+    p.add_argument("--realtime", action="store_true",
+                   help="with the fake backend: play in real time to measure timing lateness")
+
+
+def session(args, cfg, command: str, pos):
+    from vplotter.job import Session
+
+    dry = getattr(args, "dry_run", False)
+    name = "fake" if dry else (args.backend or cfg.gpio.backend)
+    # --backend fake is a simulated machine (lock, stored position); --dry-run touches nothing
+    return Session(cfg, command, name, dry, args.trace, args.realtime, pos)
+
+
+def command_line(argv) -> str:
+    return "vplotter " + " ".join(argv if argv is not None else sys.argv[1:])
+
+
+def file_hash(path: str) -> str:
+    import hashlib
+
+    h = hashlib.sha256()
+    try:
+        with open(path, "rb") as f:
+            for block in iter(lambda: f.read(1 << 20), b""):
+                h.update(block)
+    except OSError as e:
+        raise InputError(f"{path}: error: cannot read: {e.strerror}") from None
+    return h.hexdigest()
+
+
+def stream_rows(cfg, records, pos, name, start_at=None):
+    from vplotter import pipeline
+
+    return pipeline.stream(cfg, records, pos.counts, pos.ref_mm, name, start_at=start_at)
+
+
+def moves_to(cfg, pos, target):
+    """A G-code record moving the pen from where it is to the G-code point `target`."""
+    from vplotter.commands import jog
+
+    return jog.xy_records(cfg, pos, pos.counts, target)
+
+
+def check_on_page(cfg, x: float, y: float, what: str) -> None:
+    pg = cfg.page
+    if not (pg.x_min_mm <= x <= pg.x_max_mm and pg.y_min_mm <= y <= pg.y_max_mm):
+        raise MachineError(f"error: {what} X{x:.3f} Y{y:.3f} is outside the page "
+                           f"(X {pg.x_min_mm:g}..{pg.x_max_mm:g}, Y {pg.y_min_mm:g}..{pg.y_max_mm:g})")
+
+
+def run_records(args, cfg, command: str, pos, records) -> int:
+    """Validate, then play records on the machine (used by jog, goto and home)."""
+    from vplotter import pipeline
+
+    pipeline.validate(cfg, records, pos.counts, pos.ref_mm, command)
+    with session(args, cfg, command, pos) as s:
+        s.play(stream_rows(cfg, records, pos, command))
+    return 0
+

@@ -1,0 +1,148 @@
+"""draw and estimate."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from vplotter.commands.common import (command_line, load_config, eprint, file_hash, position,
+                                      add_machine_options, say, session, stream_rows)
+from vplotter.errors import ConfigError, MachineError
+
+
+def add_draw(p: argparse.ArgumentParser) -> None:
+    p.add_argument("file", help="G-code file (.ngc, .gcode, .nc)")
+    add_machine_options(p)
+    p.add_argument("--strict", action="store_true",
+                   help="treat warnings about inconsistent arcs as errors")
+    p.add_argument("--verbose", action="store_true", help="print timing lateness statistics")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--resume", action="store_true",
+                   help="go on from where the last interrupted draw of FILE stopped")
+    g.add_argument("--from-line", type=int, metavar="N", help="start at line N of FILE")
+    p.add_argument("--force", action="store_true", help="--resume even if FILE changed since")
+
+
+def start_at(args, pos):
+    from vplotter.pipeline import StartAt
+
+    if args.from_line is not None:
+        if args.from_line < 1:
+            raise ConfigError(f"error: --from-line must be 1 or more (got {args.from_line})")
+        return StartAt(args.from_line)
+    if not args.resume:
+        return None
+    info = pos.extra.get("resume")
+    if not info:
+        raise MachineError("error: nothing to resume: no interrupted draw is stored")
+    import os
+
+    if os.path.abspath(args.file) != info.get("file") and not args.force:
+        raise MachineError(f"error: the interrupted draw was {info.get('file')}, not "
+                           f"{os.path.abspath(args.file)} (--force to resume anyway)")
+    if file_hash(args.file) != info.get("sha256") and not args.force:
+        raise MachineError(f"error: {args.file} changed since the draw was interrupted "
+                           f"(--force to resume anyway, or --from-line N)")
+    xy = info.get("xy")
+    return StartAt(int(info["line"]), (float(xy[0]), float(xy[1])) if xy else None)
+
+
+def cmd_draw(args, argv=None) -> int:
+    import os
+
+    import numpy as np
+
+    from vplotter import kinematics, pipeline
+    from vplotter.inputs import gcode
+    from vplotter.errors import Interrupted
+
+    cfg = load_config(args)
+    pos = position(cfg, args, args.dry_run)
+    begin = start_at(args, pos)
+    sess = session(args, cfg, command_line(argv), pos)
+    sess.drawing = {"file": os.path.abspath(args.file), "sha256": file_hash(args.file)}
+    # the session (lock, pins, signal handlers) is open first, so that a signal at any moment
+    # ends the same way; nothing is output before the whole file has been validated
+    with sess as s:
+        # validation pass: the whole file, page limits and exact plot time before anything moves
+        records = gcode.read(args.file, strict=args.strict)
+        summary = pipeline.validate(cfg, records, pos.counts, pos.ref_mm, args.file, begin,
+                                    lambda: s.stop_pending)
+        if summary is not None:
+            say(f"{args.file}: {summary.text()}")
+        quiet = gcode.read(args.file, strict=args.strict, warn=lambda m: None)
+        if s.tracer is not None:
+            s.tracer.comment(f"file {os.path.abspath(args.file)}")
+        progress = (_Progress(summary.time_s) if summary and sys.stderr.isatty() and not s.dry_run
+                    else None)
+        try:
+            s.play(stream_rows(cfg, quiet, pos, args.file, start_at=begin), progress)
+        except Interrupted:
+            kin = kinematics.from_config(cfg)
+            cords = np.asarray(pos.ref_mm) + np.asarray(s.counts) / cfg.motors.steps_per_mm
+            xy = kin.to_gcode(kin.forward(cords[None, :]))[0]
+            if s.line > 0:      # something of the file was drawn
+                s.resume_info = {**sess.drawing, "line": s.line,
+                                 "xy": [float(xy[0]), float(xy[1])]}
+            if progress:
+                progress.done()
+            xy = np.where(np.abs(xy) < 5e-4, 0.0, xy)
+            where = f"{args.file}:{s.line}: stopped" if s.line else f"{args.file}: stopped before drawing"
+            eprint(f"{where} at X{xy[0]:.3f} Y{xy[1]:.3f}; pen lifted, coils released"
+                    f"{'' if s.dry_run else ', position saved'}")
+            if not s.dry_run and s.resume_info:
+                eprint(f"resume with: vplotter draw {args.file} --resume")
+            raise
+        if progress:
+            progress.done()
+        s.resume_info = {}
+        stats = s.backend.lateness()
+        if stats:
+            text = ("lateness (actual - planned change time): p50 {p50_ms:.3f} ms, "
+                    "p99 {p99_ms:.3f} ms, max {max_ms:.3f} ms over {n} changes").format(**stats)
+            if stats.get("underruns"):
+                text += f", {stats['underruns']} queue underruns"
+            if s.tracer is not None:
+                s.tracer.comment(text)
+            if args.verbose:
+                say(text)
+    return 0
+
+
+class _Progress:
+    """A one-line progress bar on stderr (only on a terminal)."""
+
+    def __init__(self, total_s: float):
+        self.total_us = max(total_s * 1e6, 1.0)
+        self.last = -1
+
+    def __call__(self, t_us: int, line: int) -> None:
+        pct = min(100, int(100 * t_us / self.total_us))
+        if pct == self.last:
+            return
+        self.last = pct
+        left = max(0.0, (self.total_us - t_us) / 1e6)
+        bar = "#" * (pct // 4) + "-" * (25 - pct // 4)
+        say(f"\r[{bar}] {pct:3d}%  line {line}  {int(left // 60)}:{int(left % 60):02d} left ",
+             sys.stderr, end="")
+
+    def done(self) -> None:
+        say("", sys.stderr)
+
+
+def cmd_estimate(args, argv=None) -> int:
+    from vplotter import pipeline
+    from vplotter.inputs import gcode
+
+    cfg = load_config(args)
+    pos = position(cfg, args, True)
+    summary = pipeline.validate(cfg, gcode.read(args.file, strict=args.strict), pos.counts,
+                                pos.ref_mm, args.file)
+    print(f"{args.file}: {summary.text()}")
+    return 0
+
+
+def add_estimate(p) -> None:
+    p.add_argument("file")
+    p.add_argument("--strict", action="store_true")
+

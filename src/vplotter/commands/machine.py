@@ -1,0 +1,207 @@
+"""The machine commands: calibrate, status, pen, jog, goto, home."""
+
+from __future__ import annotations
+
+from vplotter.commands.common import (add_machine_options, check_on_page, command_line,
+                                      load_config, moves_to, position, run_records, session)
+from vplotter.errors import ConfigError, MachineError
+
+
+def add_calibrate(p) -> None:
+    p.add_argument("what", nargs="?", choices=("steps",),
+                   help="`steps`: measure steps per mm by moving one motor")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--at", nargs=2, type=float, metavar=("X", "Y"),
+                   help="the pen is now at this G-code point")
+    g.add_argument("--cords", nargs=2, type=float, metavar=("LEFT", "RIGHT"),
+                   help="measured cord lengths in mm (anchor to pen)")
+    p.add_argument("--motor", choices=("left", "right"), help="with `steps`: the motor to move")
+    p.add_argument("--steps", type=int, default=2000, help="with `steps`: how many (default 2000)")
+    add_machine_options(p)
+
+
+def cmd_calibrate(args, argv=None) -> int:
+    import math
+
+    import numpy as np
+
+    from vplotter import kinematics, lock, state
+
+    cfg = load_config(args)
+    if args.what == "steps":
+        from vplotter.commands.calibrate import calibrate_steps
+
+        return calibrate_steps(args, cfg, command_line(argv))
+    if args.at is None and args.cords is None:
+        raise ConfigError("error: say where the pen is: --at X Y or --cords LEFT RIGHT "
+                          "(or `calibrate steps --motor left`)")
+    kin = kinematics.from_config(cfg)
+    values = args.at if args.at is not None else args.cords
+    if not all(math.isfinite(v) and abs(v) < 1e5 for v in values):
+        raise ConfigError(f"error: {' '.join(f'{v:g}' for v in values)} is not a position on a wall")
+    if args.at is not None:
+        xy = kin.to_machine(np.array([args.at]))
+        if not xy[0, 1] > 0:
+            raise MachineError(f"error: G-code point X{args.at[0]:g} Y{args.at[1]:g} is not below "
+                               f"the anchors")
+        cords = kin.inverse(xy)[0]
+    else:
+        left, right = args.cords
+        d = cfg.machine.anchor_distance_mm
+        if not (left > 0 and right > 0) or left + right <= d or abs(left - right) >= d:
+            raise ConfigError(f"error: cords {left:g} and {right:g} mm cannot meet below anchors "
+                              f"{d:g} mm apart")
+        cords = np.array([left, right])
+    held = lock.acquire(command_line(argv))
+    try:
+        pos = state.Position.at_cords(cords[0], cords[1], cfg.motors.steps_per_mm)
+        pos.extra["home"] = [float(v) for v in kin.to_gcode(kin.forward(cords[None, :]))[0]]
+        state.save(pos)
+        state.clear_journal()
+    finally:
+        held.release()
+    print(_describe(cfg, pos))
+    return 0
+
+
+def _pen_xy(cfg, pos):
+    from vplotter.commands import jog
+
+    return jog.pen_xy(cfg, pos, pos.counts)
+
+
+def _describe(cfg, pos) -> str:
+    xy = _pen_xy(cfg, pos) + 0.0     # no "-0.000"
+    xy[abs(xy) < 5e-4] = 0.0
+    return (f"pen at X{xy[0]:.3f} Y{xy[1]:.3f}  "
+            f"cords left {pos.left_mm:.3f} mm ({pos.left_steps} steps) "
+            f"right {pos.right_mm:.3f} mm ({pos.right_steps} steps)  pen {pos.pen}")
+
+
+def add_status(p) -> None:
+    p.add_argument("--json", action="store_true", help="machine-readable output")
+
+
+def cmd_status(args, argv=None) -> int:
+    import json
+
+    from vplotter import job, state
+
+    cfg = load_config(args)
+    stored = state.load()
+    if stored is None:
+        if args.json:
+            print(json.dumps({"calibrated": False}))
+        else:
+            print("position unknown: run `vplotter calibrate --at X Y`")
+        return 0
+    pos = state.recovered(stored).rebased(cfg.motors.steps_per_mm)
+    off = job.uncertainty_mm(cfg, pos)
+    xy = _pen_xy(cfg, pos)
+    resume = pos.extra.get("resume")
+    if args.json:
+        print(json.dumps({
+            "calibrated": True, "x_mm": round(float(xy[0]), 4), "y_mm": round(float(xy[1]), 4),
+            "left_mm": pos.left_mm, "right_mm": pos.right_mm,
+            "left_steps": pos.left_steps, "right_steps": pos.right_steps, "pen": pos.pen,
+            "clean": pos.clean, "last_stop": "clean" if pos.clean else "unclean",
+            "uncertainty_mm": round(off, 4),
+            "resume": resume or None, "state_file": str(state.state_path())}))
+        return 0
+    print(_describe(cfg, pos))
+    if pos.clean:
+        print("last stop: clean")
+    else:
+        print(f"last stop: UNCLEAN (crash or power cut): the position may be off by up to "
+              f"{off:.2f} mm; check it and run `vplotter calibrate`, or draw with --trust-position")
+    if resume:
+        where = (f"at X{resume['xy'][0]:.3f} Y{resume['xy'][1]:.3f}" if resume.get("xy")
+                 else "from its start")
+        print(f"resume: {resume['file']} line {resume['line']} {where} (vplotter draw FILE --resume)")
+    print(f"state file: {state.state_path()}")
+    return 0
+
+
+def add_pen(p) -> None:
+    p.add_argument("action", choices=("up", "down", "cycle"))
+    p.add_argument("--up-us", type=int, help="try this pen-up pulse width (us) instead of config")
+    p.add_argument("--down-us", type=int, help="try this pen-down pulse width (us)")
+    p.add_argument("--hold", type=float, default=1.0, help="cycle: seconds to stay down (default 1)")
+    add_machine_options(p)
+
+
+def cmd_pen(args, argv=None) -> int:
+    import dataclasses
+
+    from vplotter.schedule import Rows, Scheduler
+
+    cfg = load_config(args)
+    for name in ("up_us", "down_us"):
+        v = getattr(args, name)
+        if v is not None:
+            if not 0 < v <= 2600:
+                raise ConfigError(f"error: --{name.replace('_', '-')} must be 1..2600 (got {v})")
+            cfg = dataclasses.replace(cfg, pen=dataclasses.replace(cfg.pen, **{name: v}))
+    pos = position(cfg, args, args.dry_run)
+    sched = Scheduler(cfg, None, pos.counts, pos.ref_mm)
+    if args.action == "up":
+        sched.pen_down = True       # always send it: the servo may be anywhere
+        parts = [sched.pen(False)]
+    elif args.action == "down":
+        parts = [sched.pen(True)]
+    else:
+        parts = [sched.pen(True), sched.dwell(args.hold), sched.pen(False)]
+    rows = Rows.concat([r for r in parts if r is not None])
+    with session(args, cfg, command_line(argv), pos) as s:
+        s.play([rows])
+    print(f"pen {args.action}")
+    return 0
+
+
+def add_jog(p) -> None:
+    p.add_argument("--dx", type=float, help="move the pen right by this many mm (- for left)")
+    p.add_argument("--dy", type=float, help="move the pen up by this many mm (- for down)")
+    p.add_argument("--left", type=float, help="lengthen the left cord by mm (- shortens)")
+    p.add_argument("--right", type=float, help="lengthen the right cord by mm (- shortens)")
+    p.add_argument("--step", type=float, default=1.0, help="interactive: first step size in mm")
+    add_machine_options(p)
+
+
+def cmd_jog(args, argv=None) -> int:
+    from vplotter.commands import jog
+
+    cfg = load_config(args)
+    pos = position(cfg, args, args.dry_run)
+    if args.dx is not None or args.dy is not None:
+        if args.left is not None or args.right is not None:
+            raise ConfigError("error: jog takes --dx/--dy or --left/--right, not both")
+        xy = _pen_xy(cfg, pos)
+        target = (float(xy[0]) + (args.dx or 0.0), float(xy[1]) + (args.dy or 0.0))
+        check_on_page(cfg, *target, "jog target")
+        return run_records(args, cfg, command_line(argv), pos, moves_to(cfg, pos, target))
+    if args.left is not None or args.right is not None:
+        with session(args, cfg, command_line(argv), pos) as s:
+            s.play([jog.cord_rows(cfg, pos, s.counts, args.left or 0.0, args.right or 0.0)])
+        return 0
+    return jog.interactive(args, cfg, pos, session(args, cfg, command_line(argv), pos))
+
+
+def add_goto(p) -> None:
+    p.add_argument("x", type=float)
+    p.add_argument("y", type=float)
+    add_machine_options(p)
+
+
+def cmd_goto(args, argv=None) -> int:
+    cfg = load_config(args)
+    check_on_page(cfg, args.x, args.y, "goto target")
+    pos = position(cfg, args, args.dry_run)
+    return run_records(args, cfg, command_line(argv), pos, moves_to(cfg, pos, (args.x, args.y)))
+
+
+def cmd_home(args, argv=None) -> int:
+    cfg = load_config(args)
+    pos = position(cfg, args, args.dry_run)
+    home = pos.extra.get("home", (0.0, 0.0))
+    return run_records(args, cfg, command_line(argv), pos, moves_to(cfg, pos, tuple(home)))
+
