@@ -19,7 +19,10 @@ Conventions used throughout
 * G-code frame: ``(X, Y)`` with Y up; machine ``x = origin.x_mm + X``,
   ``y = origin.y_mm - Y``.  All positions returned by this module are in
   G-code coordinates (mm) unless stated otherwise.
-* Cords: ``left = hypot(x, y)``, ``right = hypot(D - x, y)``.
+* Cords: ``left = hypot(x, y)``, ``right = hypot(D - x, y)`` with the default models;
+  ``[gondola]`` (cord spacing, pen below) and ``[cords] stretch`` change them (see
+  :func:`inverse_kinematics`), ``[motors] left_/right_spool_circumference_mm`` the steps per
+  mm of each motor.
 * Motors are named ``"left"`` and ``"right"``.
 * Step directions in :class:`Decoded` are CORD directions: ``+1`` = the step
   lengthened that motor's cord, ``-1`` = shortened it (the ``*_reverse``
@@ -50,7 +53,7 @@ from scipy.spatial import cKDTree
 __all__ = [
     "DEFAULT_CONFIG", "SEQUENCES", "HEADER", "TraceFormatError", "GCodeError",
     "Trace", "MotorSteps", "Decoded",
-    "load_config", "merge_config", "steps_per_mm",
+    "load_config", "merge_config", "steps_per_mm", "steps_per_mm_pair",
     "inverse_kinematics", "forward_kinematics",
     "read_trace", "format_problems", "decode",
     "illegal_transitions", "min_step_interval", "check_step_rate",
@@ -151,30 +154,88 @@ def steps_per_mm(cfg: dict) -> float:
     return float(m["steps_per_rev"]) / float(m["spool_circumference_mm"])
 
 
+def steps_per_mm_pair(cfg: dict) -> tuple[float, float]:
+    """Steps per mm of the left and right cords: ``[motors] left_/right_spool_circumference_mm``
+    where given, else ``spool_circumference_mm``."""
+    m = merge_config(cfg)["motors"]
+    return tuple(float(m["steps_per_rev"]) / float(m.get(f"{side}_spool_circumference_mm")
+                                                    or m["spool_circumference_mm"])
+                 for side in MOTORS)
+
+
+def _models(c: dict) -> tuple[float, float, float, float]:
+    """(anchor distance, gondola cord spacing, pen below the cords' line, cord stretch)."""
+    return (float(c["machine"]["anchor_distance_mm"]),
+            float(c.get("gondola", {}).get("cord_spacing_mm", 0.0)),
+            float(c.get("gondola", {}).get("pen_below_mm", 0.0)),
+            float(c.get("cords", {}).get("stretch", 0.0)))
+
+
+def _machine_cords(c: dict, x, y):
+    """What the motors pay out for a pen at machine (x, y).
+
+    The cords hold a gondola (that does not tilt) at two points ``cord_spacing_mm`` apart, the
+    pen midway between them and ``pen_below_mm`` below them.  Each cord stretches by
+    ``stretch * tension / weight`` (tensions from the balance of the weight: the horizontal
+    pulls cancel, the vertical ones carry the weight), so the motor pays out
+    ``length / (1 + stretch * tension / weight)``.
+    """
+    D, s, h, k = _models(c)
+    ay = y - h
+    lx = x - s / 2.0
+    rx = D - (x + s / 2.0)
+    geo_l, geo_r = np.hypot(lx, ay), np.hypot(rx, ay)
+    if k == 0.0:
+        return geo_l, geo_r
+    alpha = np.arctan2(ay, lx)          # left cord above the horizontal
+    beta = np.arctan2(ay, rx)
+    both = np.sin(alpha + beta)
+    return geo_l / (1.0 + k * np.cos(beta) / both), geo_r / (1.0 + k * np.cos(alpha) / both)
+
+
 def inverse_kinematics(cfg: dict, X, Y):
-    """Exact cord lengths (left, right) in mm for G-code point(s) ``(X, Y)``."""
+    """Cord lengths paid out (left, right) in mm for G-code point(s) ``(X, Y)``."""
     c = merge_config(cfg)
-    D = float(c["machine"]["anchor_distance_mm"])
     x = c["origin"]["x_mm"] + np.asarray(X, dtype=float)
     y = c["origin"]["y_mm"] - np.asarray(Y, dtype=float)
-    return np.hypot(x, y), np.hypot(D - x, y)
+    return _machine_cords(c, x, y)
 
 
 def forward_kinematics(cfg: dict, left, right):
-    """G-code point(s) ``(X, Y)`` from cord lengths (triangulation).
+    """G-code point(s) ``(X, Y)`` from the cord lengths paid out.
 
-    ``x = (a^2 - b^2 + D^2) / 2D``, ``y = sqrt(a^2 - x^2)`` (the pen hangs
-    below the anchors, y >= 0 in the machine frame).  Cord pairs that do not
-    form a triangle with the anchor line give NaN.
+    Triangulation ``x = (a^2 - b^2 + D^2) / 2D``, ``y = sqrt(a^2 - x^2)`` (the pen hangs
+    below the anchors, y >= 0 in the machine frame) between the anchors moved in by the
+    gondola; with stretch, Newton steps on the inverse (finite-difference Jacobian) from
+    there.  Cord pairs that do not form a triangle with the anchor line give NaN.
     """
     c = merge_config(cfg)
-    D = float(c["machine"]["anchor_distance_mm"])
+    D, s, h, k = _models(c)
     a = np.asarray(left, dtype=float)
     b = np.asarray(right, dtype=float)
-    x = (a * a - b * b + D * D) / (2.0 * D)
+    d = D - s
+    x = (a * a - b * b + d * d) / (2.0 * d)
     y2 = a * a - x * x
     with np.errstate(invalid="ignore"):
         y = np.where(y2 >= 0.0, np.sqrt(np.maximum(y2, 0.0)), np.nan)
+    x = x + s / 2.0
+    y = y + h
+    if k != 0.0:
+        eps = 1e-5
+        for _ in range(50):
+            fl, fr = _machine_cords(c, x, y)
+            ul, ur = _machine_cords(c, x + eps, y)
+            vl, vr = _machine_cords(c, x, y + eps)
+            j11, j12 = (ul - fl) / eps, (vl - fl) / eps
+            j21, j22 = (ur - fr) / eps, (vr - fr) / eps
+            el, er = fl - a, fr - b
+            det = j11 * j22 - j12 * j21
+            dx = (el * j22 - j12 * er) / det
+            dy = (j11 * er - j21 * el) / det
+            x, y = x - dx, y - dy
+            with np.errstate(invalid="ignore"):
+                if not np.nanmax(np.abs(np.concatenate([np.ravel(dx), np.ravel(dy), [0.0]]))) > 1e-10:
+                    break
     return x - c["origin"]["x_mm"], c["origin"]["y_mm"] - y
 
 
@@ -434,7 +495,7 @@ def decode(trace, cfg: dict | None = None, start_xy=(0.0, 0.0)) -> Decoded:
       transition); an initial pattern not in the table is illegal.
     * Forward steps lengthen the cord unless ``<side>_reverse`` is true.
     * Start cords are the exact inverse kinematics of ``start_xy`` (G-code
-      coordinates); cord = start + net_steps / steps_per_mm.
+      coordinates); cord = start + net_steps / steps per mm of that motor.
     * Pen: DOWN from an instant whose pen rows include ``down_us`` until an
       instant whose rows include ``up_us`` (the last such row of an instant
       wins); other values (0 = pulses off, or any other width) leave the pen
@@ -445,7 +506,7 @@ def decode(trace, cfg: dict | None = None, start_xy=(0.0, 0.0)) -> Decoded:
     """
     tr = _as_trace(trace)
     c = merge_config(cfg)
-    spm = steps_per_mm(c)
+    spm_l, spm_r = steps_per_mm_pair(c)
     L0, R0 = (float(v) for v in inverse_kinematics(c, start_xy[0], start_xy[1]))
     dec = Decoded(cfg=c, start_xy=(float(start_xy[0]), float(start_xy[1])),
                   start_cords=(L0, R0))
@@ -548,8 +609,8 @@ def decode(trace, cfg: dict | None = None, start_xy=(0.0, 0.0)) -> Decoded:
     changed[1:] = (nl[1:] != nl[:-1]) | (nr[1:] != nr[:-1]) | (pen_state[1:] != pen_state[:-1])
     sel = np.flatnonzero(changed)
     dec.t = g_t[sel]
-    dec.left_mm = L0 + nl[sel] / spm
-    dec.right_mm = R0 + nr[sel] / spm
+    dec.left_mm = L0 + nl[sel] / spm_l
+    dec.right_mm = R0 + nr[sel] / spm_r
     dec.x, dec.y = forward_kinematics(c, dec.left_mm, dec.right_mm)
     dec.pen_down = pen_state[sel].astype(bool)
     nan = np.isnan(dec.y)

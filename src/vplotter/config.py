@@ -47,12 +47,20 @@ class Motors:
     right_pins: tuple[int, int, int, int]
     left_reverse: bool
     right_reverse: bool
+    left_spool_circumference_mm: float | None = None    # None: spool_circumference_mm
+    right_spool_circumference_mm: float | None = None
+
+    @property
+    def circumferences_mm(self) -> tuple[float, float]:
+        """Cord wound per spool turn, left and right."""
+        return (self.left_spool_circumference_mm or self.spool_circumference_mm,
+                self.right_spool_circumference_mm or self.spool_circumference_mm)
 
     @property
     def steps_per_unit(self) -> tuple[float, float]:
         """Steps per unit of each motor's coordinate (per mm of cord, left and right)."""
-        spm = self.steps_per_rev / self.spool_circumference_mm
-        return (spm, spm)
+        left, right = self.circumferences_mm
+        return (self.steps_per_rev / left, self.steps_per_rev / right)
 
 
 @dataclass(frozen=True)
@@ -77,6 +85,17 @@ class Gpio:
 
 
 @dataclass(frozen=True)
+class Gondola:
+    cord_spacing_mm: float     # between the points where the two cords hold the gondola
+    pen_below_mm: float        # the pen below the line through those points (midway)
+
+
+@dataclass(frozen=True)
+class Cords:
+    stretch: float             # strain of a cord that alone carries the gondola's weight
+
+
+@dataclass(frozen=True)
 class Config:
     machine: Machine
     origin: Origin
@@ -85,11 +104,14 @@ class Config:
     pen: Pen
     motion: Motion
     gpio: Gpio
+    gondola: Gondola = Gondola(0.0, 0.0)
+    cords: Cords = Cords(0.0)
     path: str = "config.toml"
 
 
 # section -> key -> (kind, default or None if required, low, high); bounds are inclusive
-# unless the kind ends in '+' (strictly above low).
+# unless the kind ends in '+' (strictly above low). UNSET: optional, None when missing.
+UNSET = "unset"
 SCHEMA: dict[str, dict[str, tuple]] = {
     "machine": {"anchor_distance_mm": ("float+", None, 0.0, 1e5)},
     "origin": {"x_mm": ("float", None, -1e5, 1e5), "y_mm": ("float+", None, 0.0, 1e5)},
@@ -109,6 +131,8 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "right_pins": ("pins", None, 0, 63),
         "left_reverse": ("bool", False, None, None),
         "right_reverse": ("bool", False, None, None),
+        "left_spool_circumference_mm": ("float+", UNSET, 0.0, 1e4),
+        "right_spool_circumference_mm": ("float+", UNSET, 0.0, 1e4),
     },
     "pen": {
         "pin": ("int", None, 0, 63),
@@ -125,10 +149,15 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "backend": ("str", "lgpio", ("lgpio", "gpiozero", "fake"), None),
         "chip": ("int", 0, 0, 64),
     },
+    "gondola": {
+        "cord_spacing_mm": ("float", 0.0, 0.0, 1e4),
+        "pen_below_mm": ("float", 0.0, -1e4, 1e4),
+    },
+    "cords": {"stretch": ("float", 0.0, 0.0, 0.5)},
 }
-OPTIONAL_SECTIONS = {"gpio", "motion"}
+OPTIONAL_SECTIONS = {"gpio", "motion", "gondola", "cords"}
 SECTION_CLASSES = {"machine": Machine, "origin": Origin, "page": Page, "motors": Motors,
-                   "pen": Pen, "motion": Motion, "gpio": Gpio}
+                   "pen": Pen, "motion": Motion, "gpio": Gpio, "gondola": Gondola, "cords": Cords}
 
 
 def _fmt(v: Any) -> str:
@@ -199,7 +228,7 @@ def from_dict(data: dict, path: str = "config.toml") -> Config:
             if key not in table:
                 if default is None:
                     raise ConfigError(f"{where} is missing")
-                values[key] = default
+                values[key] = None if default is UNSET else default
                 continue
             values[key] = _value(where, kind, table[key], lo, hi)
         sections[section] = SECTION_CLASSES[section](**values)
@@ -227,8 +256,13 @@ def _check_geometry(cfg: Config) -> None:
                           f"(got {pg.y_min_mm:g} and {pg.y_max_mm:g})")
     if cfg.pen.up_us == cfg.pen.down_us:
         raise ConfigError(f"{path}: [pen] up_us and down_us must differ (both {cfg.pen.up_us})")
-    # The whole page must hang below the anchor line.
-    top = cfg.origin.y_mm - pg.y_max_mm
+    spacing = cfg.gondola.cord_spacing_mm
+    if spacing >= cfg.machine.anchor_distance_mm:
+        raise ConfigError(f"{path}: [gondola] cord_spacing_mm must be below [machine] "
+                          f"anchor_distance_mm (got {spacing:g} and "
+                          f"{cfg.machine.anchor_distance_mm:g})")
+    # The whole page must hang below the anchor line (the cords' ends: pen_below_mm above it).
+    top = cfg.origin.y_mm - pg.y_max_mm - cfg.gondola.pen_below_mm
     if top <= 0:
         raise ConfigError(
             f"{path}: [page] y_max_mm = {pg.y_max_mm:g} puts the page top {-top:g} mm above "

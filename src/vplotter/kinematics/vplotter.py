@@ -1,22 +1,44 @@
 """The two-cord hanging plotter (V-plotter).
 
 Machine frame: origin at the LEFT anchor (where the cord leaves the left spool), +x right,
-+y DOWN; the right anchor is at (anchor_distance_mm, 0). Motor coordinates are the two cord
-lengths in mm: left = hypot(x, y), right = hypot(D - x, y).
++y DOWN; the right anchor is at (anchor_distance_mm, 0). Motor coordinates are the cord
+lengths in mm that the motors have paid out.
+
+Models (each one off by default, and then the formulas are exactly the plain ones):
+- gondola: the cords hold the gondola `cord_spacing_mm` apart, the pen midway between them and
+  `pen_below_mm` below the line through them; the gondola does not tilt. A cord's geometric
+  length is then the distance from the pen to a shifted anchor E (the anchor moved by
+  (+-spacing/2, pen_below)): left = |p - E_left|, right = |p - E_right|.
+- stretch: the cords stretch in proportion to their tension. From the static balance of the
+  gondola's weight W (two cords, weight straight down) a cord of geometric length g carries
+  t = T / W (t_left = -x_R g_L / C, t_right = x_L g_R / C with r = p - E and C = r_L x r_R);
+  the motor pays out q = g / (1 + stretch * t) of unstretched cord.
+With stretch the step solver, the extrema and forward kinematics iterate (bracketed Newton);
+slopes and bends are exact derivatives along the line (second-order Taylor arithmetic).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+NEWTON_STEPS = 40          # at most; they stop when every row is within TOL_MM
+TOL_MM = 1e-10
+
 
 class TwoCord:
     motors = ("left", "right")
 
-    def __init__(self, anchor_distance_mm: float, origin_x_mm: float, origin_y_mm: float):
+    def __init__(self, anchor_distance_mm: float, origin_x_mm: float, origin_y_mm: float,
+                 cord_spacing_mm: float = 0.0, pen_below_mm: float = 0.0, stretch: float = 0.0):
         self.d_mm = float(anchor_distance_mm)
         self.origin = np.array([origin_x_mm, origin_y_mm], dtype=float)
-        self.anchors = np.array([[0.0, 0.0], [self.d_mm, 0.0]])
+        self.spacing_mm = float(cord_spacing_mm)
+        self.pen_below_mm = float(pen_below_mm)
+        self.stretch = float(stretch)
+        half = self.spacing_mm / 2.0
+        # the points the pen would hang from if the cords met at the pen (shifted anchors)
+        self.anchors = np.array([[half, self.pen_below_mm],
+                                 [self.d_mm - half, self.pen_below_mm]])
 
     def to_machine(self, xy_gcode: np.ndarray) -> np.ndarray:
         g = np.asarray(xy_gcode, dtype=float)
@@ -26,41 +48,203 @@ class TwoCord:
         m = np.asarray(xy, dtype=float)
         return np.stack((m[..., 0] - self.origin[0], self.origin[1] - m[..., 1]), axis=-1)
 
-    def inverse(self, xy: np.ndarray) -> np.ndarray:
+    # ------------------------------------------------------------------ geometry
+    def _geometric(self, xy: np.ndarray) -> np.ndarray:
         m = np.asarray(xy, dtype=float)
-        return np.stack((np.hypot(m[..., 0], m[..., 1]),
-                         np.hypot(self.d_mm - m[..., 0], m[..., 1])), axis=-1)
+        a = self.anchors
+        return np.stack((np.hypot(m[..., 0] - a[0, 0], m[..., 1] - a[0, 1]),
+                         np.hypot(a[1, 0] - m[..., 0], m[..., 1] - a[1, 1])), axis=-1)
+
+    def _triangulate(self, g: np.ndarray) -> np.ndarray:
+        """Pen position from geometric cord lengths (no stretch)."""
+        left, right = g[..., 0], g[..., 1]
+        d = self.d_mm - self.spacing_mm
+        x = (d ** 2 + left ** 2 - right ** 2) / (2.0 * d)
+        y = np.sqrt(np.maximum(left ** 2 - x ** 2, 0.0))
+        return np.stack((x + self.anchors[0, 0], y + self.anchors[0, 1]), axis=-1)
+
+    def inverse(self, xy: np.ndarray) -> np.ndarray:
+        if self.stretch == 0.0:
+            return self._geometric(xy)
+        m = np.asarray(xy, dtype=float)
+        flat = m.reshape(-1, 2)
+        q, _, _ = self._jets(flat, np.zeros_like(flat))
+        return q.reshape(m.shape)
 
     def forward(self, cords: np.ndarray) -> np.ndarray:
         c = np.asarray(cords, dtype=float)
-        left, right = c[..., 0], c[..., 1]
-        x = (self.d_mm ** 2 + left ** 2 - right ** 2) / (2.0 * self.d_mm)
-        y = np.sqrt(np.maximum(left ** 2 - x ** 2, 0.0))
-        return np.stack((x, y), axis=-1)
+        p = self._triangulate(c)
+        if self.stretch == 0.0:
+            return p
+        # Newton on q(p) = c; the Jacobian rows are the slopes along x and y
+        flat_c = c.reshape(-1, 2)
+        p = p.reshape(-1, 2).copy()
+        ex = np.broadcast_to([1.0, 0.0], p.shape)
+        ey = np.broadcast_to([0.0, 1.0], p.shape)
+        for _ in range(NEWTON_STEPS):
+            q, jx, _ = self._jets(p, ex)
+            _, jy, _ = self._jets(p, ey)
+            f = q - flat_c
+            det = jx[:, 0] * jy[:, 1] - jy[:, 0] * jx[:, 1]
+            dx = (f[:, 0] * jy[:, 1] - jy[:, 0] * f[:, 1]) / det
+            dy = (jx[:, 0] * f[:, 1] - f[:, 0] * jx[:, 1]) / det
+            p[:, 0] -= dx
+            p[:, 1] -= dy
+            if not np.abs(np.concatenate((dx, dy))).max(initial=0.0) > TOL_MM:
+                break
+        return p.reshape(c.shape)
 
     def _rel(self, xy: np.ndarray) -> np.ndarray:
-        """(N, 2 motors, 2) vectors from each anchor to the points."""
+        """(N, 2 motors, 2) vectors from each (shifted) anchor to the points."""
         return np.asarray(xy, dtype=float)[:, None, :] - self.anchors[None, :, :]
 
+    # ------------------------------------------------------------------ stretch
+    def _jets(self, xy: np.ndarray, e: np.ndarray):
+        """Motor coordinates (N, 2) at xy with their first and second derivatives along the
+        unit direction e, by Taylor arithmetic: every quantity is (value, d/ds, d2/ds2)."""
+        xy = np.asarray(xy, dtype=float)
+        e = np.asarray(e, dtype=float)
+        zero = np.zeros(len(xy))
+        xl = (xy[:, 0] - self.anchors[0, 0], e[:, 0], zero)
+        yl = (xy[:, 1] - self.anchors[0, 1], e[:, 1], zero)
+        xr = (xy[:, 0] - self.anchors[1, 0], e[:, 0], zero)
+        yr = yl
+        gl = _sqrt(_add(_mul(xl, xl), _mul(yl, yl)))
+        gr = _sqrt(_add(_mul(xr, xr), _mul(yr, yr)))
+        cross = _sub(_mul(xl, yr), _mul(yl, xr))
+        k = self.stretch
+        # q = g / (1 + k t) = g C / (C + k t C), t_left C = -x_R g_L, t_right C = x_L g_R
+        ql = _div(_mul(gl, cross), _sub(cross, _scale(_mul(xr, gl), k)))
+        qr = _div(_mul(gr, cross), _add(cross, _scale(_mul(xl, gr), k)))
+        return tuple(np.stack((a, b), axis=-1) for a, b in zip(ql, qr))
+
+    def tension(self, xy: np.ndarray) -> np.ndarray:
+        """(N, 2) cord tensions in units of the gondola's weight."""
+        rel = self._rel(xy)
+        g = np.linalg.norm(rel, axis=2)
+        cross = rel[:, 0, 0] * rel[:, 1, 1] - rel[:, 0, 1] * rel[:, 1, 0]
+        return np.stack((-rel[:, 1, 0] * g[:, 0], rel[:, 0, 0] * g[:, 1]), axis=-1) / cross[:, None]
+
+    # ------------------------------------------------------------------ along a line
     def slope(self, xy: np.ndarray, e: np.ndarray) -> np.ndarray:
+        if self.stretch != 0.0:
+            return self._jets(xy, e)[1]
         rel = self._rel(xy)
         return np.einsum("nmk,nk->nm", rel, e) / np.linalg.norm(rel, axis=2)
 
     def bend(self, xy: np.ndarray, e: np.ndarray) -> np.ndarray:
+        if self.stretch != 0.0:
+            return self._jets(xy, e)[2]
         k = self.slope(xy, e)
         return (1.0 - k * k) / np.linalg.norm(self._rel(xy), axis=2)
 
     def extrema(self, p0: np.ndarray, e: np.ndarray, d: np.ndarray) -> np.ndarray:
         # the cord is shortest where the pen passes the foot of the perpendicular from the anchor
         s = -np.einsum("nmk,nk->nm", self._rel(p0), e)
+        if self.stretch != 0.0:
+            s = self._slope_zero(p0, e, d)
         inside = (s > 1e-9) & (s < d[:, None] - 1e-9)
         return np.where(inside, s, np.nan)
 
+    def _slope_zero(self, p0, e, d) -> np.ndarray:
+        """Where the slope changes sign inside the piece (NaN where it does not): bracketed
+        Newton on the slope, the bend being its derivative."""
+        n = len(p0)
+        out = np.full((n, 2), np.nan)
+        k0 = self.slope(p0, e)
+        k1 = self.slope(p0 + e * d[:, None], e)
+        for m in (0, 1):
+            rows = np.flatnonzero(k0[:, m] * k1[:, m] < 0)
+            if not len(rows):
+                continue
+            sign = np.where(k1[rows, m] > 0, 1.0, -1.0)      # sign * slope rises through zero
+
+            def f(s, rows=rows, m=m, sign=sign):
+                _, k, b = self._jets(p0[rows] + e[rows] * s[:, None], e[rows])
+                return sign * k[:, m], sign * b[:, m]
+
+            out[rows, m] = _bracketed(f, np.zeros(len(rows)), d[rows].astype(float), TOL_MM)
+        return out
+
     def crossing(self, p0: np.ndarray, e: np.ndarray, motor: np.ndarray, q: np.ndarray,
                  rising: np.ndarray) -> np.ndarray:
-        """Distance s along p0 + s e at which cord `motor` has length q (rows broadcast)."""
+        """Distance s along p0 + s e at which motor coordinate `motor` reaches q (rows
+        broadcast). The piece starts on the near side of q and the motor runs one way."""
         rel = p0 - self.anchors[motor]
         b = np.einsum("nk,nk->n", rel, e)
         c = np.einsum("nk,nk->n", rel, rel)
+        if self.stretch != 0.0:
+            # stretch: first guess where the cord, stretched as at the piece start, reaches q
+            t0 = self.tension(p0)[np.arange(len(p0)), motor]
+            q = q * (1.0 + self.stretch * t0)
         root = np.sqrt(np.maximum(b * b - c + q * q, 0.0))
-        return np.where(rising, -b + root, -b - root)
+        s = np.where(rising, -b + root, -b - root)
+        if self.stretch == 0.0:
+            return s
+        # then Newton on sign * (q(s) - target), which rises through zero on the piece from
+        # its start (bracketed: where it stops rising, the piece has ended before)
+        target = q / (1.0 + self.stretch * t0)
+        n = len(p0)
+        rows = np.arange(n)
+        sign = np.where(rising, 1.0, -1.0)
+
+        def f(s_):
+            v, k, _ = self._jets(p0 + e * s_[:, None], e)
+            return sign * (v[rows, motor] - target), sign * k[rows, motor]
+
+        return _bracketed(f, np.zeros(n), None, TOL_MM, np.maximum(s, 0.0))
+
+
+def _bracketed(f, lo, hi, tol, s=None):
+    """First root of f after lo, where f rises through zero (f(lo) <= 0), by Newton steps kept
+    inside the bracket [lo, hi]; hi None: unknown yet. A point where f is >= 0, or where it
+    falls (past the stretch where it rises), becomes hi. f returns the value and the
+    derivative. Vectorised; stops when every step is below tol."""
+    lo = lo.copy()
+    hi = np.full(len(lo), np.inf) if hi is None else hi.copy()
+    s = (lo + np.where(np.isfinite(hi), hi, lo)) / 2.0 if s is None else s.copy()
+    for _ in range(NEWTON_STEPS):
+        v, k = f(s)
+        beyond = (v >= 0) | (k < -1e-9)
+        lo = np.where(beyond, lo, s)
+        hi = np.where(beyond, s, hi)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            nxt = s - v / k
+        mid = np.where(np.isfinite(hi), (lo + hi) / 2.0, lo + 2.0 * (s - lo) + 1.0)
+        bad = ~((nxt > lo) & (nxt < hi)) | ~(k > 0)
+        nxt = np.where(bad, mid, nxt)
+        nxt = np.where(v == 0, s, nxt)
+        step = np.abs(nxt - s)
+        s = nxt
+        if not step.max(initial=0.0) > tol:
+            break
+    return s
+
+
+# second-order Taylor arithmetic on (value, first, second derivative) triples
+def _add(a, b):
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
+
+
+def _sub(a, b):
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+def _scale(a, k):
+    return (a[0] * k, a[1] * k, a[2] * k)
+
+
+def _mul(a, b):
+    return (a[0] * b[0], a[1] * b[0] + a[0] * b[1], a[2] * b[0] + 2.0 * a[1] * b[1] + a[0] * b[2])
+
+
+def _div(a, b):
+    q = a[0] / b[0]
+    q1 = (a[1] - q * b[1]) / b[0]
+    return (q, q1, (a[2] - 2.0 * q1 * b[1] - q * b[2]) / b[0])
+
+
+def _sqrt(a):
+    r = np.sqrt(a[0])
+    r1 = a[1] / (2.0 * r)
+    return (r, r1, (a[2] - 2.0 * r1 * r1) / (2.0 * r))
