@@ -1,5 +1,10 @@
-"""`vplotter calibrate steps`: measure a cord before and after a known number of steps and
-write the corrected spool_circumference_mm into config.toml, keeping its comments and layout.
+"""Calibration commands that measure the machine.
+
+- `calibrate steps`: measure a cord before and after a known number of steps and write the
+  corrected spool_circumference_mm into config.toml, keeping its comments and layout.
+- `calibrate pattern`: draw numbered marks over the page and write pattern.csv (pattern.py).
+- `calibrate fit`: fit the machine to the distances measured between the marks (fit.py),
+  write the new values into config.toml and keep the stored position where the pen really is.
 """
 
 from __future__ import annotations
@@ -82,3 +87,227 @@ def calibrate_steps(args, cfg, command: str) -> int:
           f"(was {cfg.motors.spool_circumference_mm:g}; {args.steps} steps moved the cord "
           f"{measured:.2f} mm)")
     return 0
+
+
+# ---------------------------------------------------------------- calibrate pattern / fit
+PATTERN_NAME = "calibration pattern"
+
+
+def calibrate_pattern(args, cfg, command: str) -> int:
+    """Draw numbered marks over the page and write pattern.csv with the pairs to measure."""
+    import numpy as np
+
+    from vplotter import pattern, pipeline
+    from vplotter.commands.common import position, session, stream_rows
+    from vplotter.inputs.strokes import to_records
+
+    for name, v in (("--rows", args.rows), ("--cols", args.cols)):
+        if not 2 <= v <= 10:
+            raise ConfigError(f"error: {name} must be 2..10 (got {v})")
+    pg = cfg.page
+    room = max(pattern.CIRCLE_MM + 1.5 + 2 * 0.9 * pattern.DIGIT_MM, 2 * pattern.CIRCLE_MM)
+    if not room <= args.margin < min(pg.x_max_mm - pg.x_min_mm, pg.y_max_mm - pg.y_min_mm) / 2:
+        raise ConfigError(f"error: --margin must leave room for the marks: {room:g} mm or more, "
+                          f"and less than half the page (got {args.margin:g})")
+    pos = position(cfg, args, args.dry_run)
+    marks = pattern.grid(pg, args.rows, args.cols, args.margin)
+    records = list(to_records(s for m in marks for s in pattern.mark_strokes(m)))
+    summary = pipeline.validate(cfg, records, pos.counts, pos.ref_mm, PATTERN_NAME)
+    print(f"{PATTERN_NAME}: {summary.text()}")
+    dots: dict[int, tuple[int, int]] = {}
+
+    def watch(chunks):
+        # the first pen-down of each mark (rows carry the mark id as their line) is its dot
+        for rows in chunks:
+            for i in np.flatnonzero(rows.pen_us == cfg.pen.down_us):
+                dots.setdefault(int(rows.line[i]), (int(rows.steps[i, 0]), int(rows.steps[i, 1])))
+            yield rows
+
+    with session(args, cfg, command, pos) as s:
+        s.play(watch(stream_rows(cfg, records, pos, PATTERN_NAME)))
+    for m in marks:
+        m.steps = dots[m.id]
+    spu = pos.steps_per_unit
+    ref = pos.ref_mm
+    pat = pattern.Pattern({m.id: m for m in marks}, pattern.choose_pairs(args.rows, args.cols),
+                          {"left_mm": ref[0], "right_mm": ref[1],
+                           "left_steps_per_mm": spu[0], "right_steps_per_mm": spu[1]})
+    pattern.write(args.output, pat)
+    pairs = ", ".join(f"{p.a}-{p.b}" for p in pat.pairs)
+    print(f"{args.output}: {len(marks)} marks, {len(pat.pairs)} pairs to measure\n"
+          f"Now, with a tape measure or a long ruler, measure the distance between the centres "
+          f"of the dots (inside the small circles, next to their numbers) of each of these pairs "
+          f"of marks, in mm, to a few tenths of a mm if you can:\n  {pairs}\n"
+          f"Write each distance into the distance_mm column of that pair's row in "
+          f"{args.output} (any spreadsheet or text editor; rows left empty are skipped), "
+          f"do not move the pen or the cords meanwhile, then run:\n"
+          f"  vplotter calibrate fit {args.output}")
+    return 0
+
+
+def _machine_from(cfg, reference):
+    from vplotter import fit
+
+    m = cfg.motors
+    left, right = m.circumferences_mm
+    return fit.Machine(cfg.machine.anchor_distance_mm, reference[0], reference[1], left, right,
+                       cfg.cords.stretch, cfg.gondola.cord_spacing_mm, cfg.gondola.pen_below_mm,
+                       m.steps_per_rev)
+
+
+UNITS = {"anchor_distance_mm": ("mm", 3), "cord_spacing_mm": ("mm", 3), "ref_left_mm": ("mm", 3),
+         "ref_right_mm": ("mm", 3), "left_circumference_mm": ("mm", 4),
+         "right_circumference_mm": ("mm", 4), "stretch": ("", 5)}
+
+
+def calibrate_fit(args, cfg, command: str) -> int:
+    """Fit the machine to the measured distances; write config.toml and the stored position."""
+    import dataclasses
+    import tomllib
+
+    import numpy as np
+
+    from vplotter import config, fit, kinematics, lock, pattern
+
+    if not args.file:
+        raise ConfigError("error: calibrate fit needs the pattern file: vplotter calibrate fit pattern.csv")
+    pat = pattern.read(args.file)
+    measured = [p for p in pat.pairs if p.distance_mm is not None]
+    keys = fit.names(args.fit_spacing)
+    need = fit.min_pairs(len(keys))
+    if len(measured) < need:
+        raise InputError(f"{args.file}: error: {len(measured)} pairs measured; fitting {len(keys)} "
+                         f"parameters needs at least {need}: measure {need - len(measured)} more "
+                         f"(the pair rows of the file have room for them)")
+    stored = state.load()
+    ref = pat.reference
+    if {"left_mm", "right_mm"} <= ref.keys():
+        reference = (ref["left_mm"], ref["right_mm"])
+    elif stored is not None:
+        reference = stored.ref_mm
+    else:
+        raise InputError(f"{args.file}: error: no reference line and no stored position: "
+                         f"draw the pattern again")
+    ids = sorted(pat.marks)
+    index = {k: i for i, k in enumerate(ids)}
+    steps = np.array([pat.marks[k].steps for k in ids], dtype=float)
+    a = np.array([index[p.a] for p in measured])
+    b = np.array([index[p.b] for p in measured])
+    dist = np.array([p.distance_mm for p in measured])
+    old = _machine_from(cfg, reference)
+    res, outliers = fit.fit(old, steps, a, b, dist, args.fit_spacing)
+    for k in outliers:
+        p = measured[k]
+        r = res.residual_mm[k]
+        print(f"{p.where}: pair {p.a}-{p.b}: measured {p.distance_mm:.2f} mm, the fit says "
+              f"{p.distance_mm + r:.2f} mm ({r:+.2f} mm): an outlier, left out (a typo, or two "
+              f"rows swapped?)")
+    good = int(res.used.sum())
+    if good < need:
+        raise InputError(f"{args.file}: error: only {good} of {len(measured)} measured pairs fit "
+                         f"together; the fit needs at least {need}: check the outliers above "
+                         f"and measure them again")
+    if not res.rms_mm <= fit.RMS_MAX_MM:
+        raise InputError(f"{args.file}: error: the {good} measured pairs left do not fit together "
+                         f"(they are {res.rms_mm:.1f} mm off on average, a tape measure does better "
+                         f"than {fit.RMS_MAX_MM:g} mm): check the measurements and the mark numbers")
+    # the values as they will be written, and everything else computed from them
+    new = dataclasses.replace(res.machine, **{
+        k: round(getattr(res.machine, k), 5 if k == "stretch" else 4) for k in keys})
+    if new.stretch < 0:
+        new = dataclasses.replace(new, stretch=0.0)
+    kin_old = kinematics.from_config(cfg)
+    home = kin_old.to_gcode(kin_old.forward(np.array([reference])))[0]
+    here = new.kin().forward(np.array([[new.ref_left_mm, new.ref_right_mm]]))[0]
+    origin = (round(float(here[0] - home[0]), 4), round(float(here[1] + home[1]), 4))
+
+    print(f"{'parameter':<24}{'old':>12}{'new':>12}{'uncertainty':>14}")
+    for k, sig in zip(keys, res.sigma):
+        unit, dec = UNITS[k]
+        print(f"{k:<24}{getattr(old, k):>12.{dec}f}{getattr(new, k):>12.{dec}f}"
+              f"{'±':>6}{sig:.{dec}f} {unit}")
+    print(f"{'origin (x_mm, y_mm)':<24}{cfg.origin.x_mm:>6.2f},{cfg.origin.y_mm:.2f}"
+          f"{origin[0]:>6.2f},{origin[1]:.2f}  (keeps the calibrated point at "
+          f"X{home[0]:.3f} Y{home[1]:.3f})")
+    print(f"residuals (fit - measured), rms {res.rms_mm:.2f} mm over {good} pairs:")
+    for p, r, used in zip(measured, res.residual_mm, res.used):
+        print(f"  {p.a:>3}-{p.b:<3} {p.distance_mm:9.2f} mm  {r:+7.2f}{'' if used else '  (left out)'}")
+    pg = cfg.page
+    cx, cy = (pg.x_min_mm + pg.x_max_mm) / 2, (pg.y_min_mm + pg.y_max_mm) / 2
+    spread = _spread(new, res)
+    for label, a_g, b_g in (("horizontal", (cx - 150, cy), (cx + 150, cy)),
+                            ("vertical", (cx, cy - 150), (cx, cy + 150))):
+        before = fit.line_bend_mm(old, new, (cfg.origin.x_mm, cfg.origin.y_mm), a_g, b_g)
+        after = max(fit.line_bend_mm(new, t, origin, a_g, b_g) for t in spread)
+        print(f"a 300 mm {label} line through the page centre bends {before:.2f} mm with the old "
+              f"values, {after:.2f} mm with the new (within the fit's uncertainty)")
+    if args.fit_spacing:
+        print("note: the drawing depends only on anchor_distance_mm - cord_spacing_mm; "
+              "anchor_distance_mm was kept")
+
+    import tomlkit
+    from pathlib import Path
+
+    path = Path(args.config)
+    doc = tomlkit.parse(path.read_text(encoding="utf-8"))
+    if args.fit_spacing:
+        doc.setdefault("gondola", tomlkit.table())["cord_spacing_mm"] = new.cord_spacing_mm
+    else:
+        doc["machine"]["anchor_distance_mm"] = new.anchor_distance_mm
+    doc["origin"]["x_mm"], doc["origin"]["y_mm"] = origin
+    doc["motors"]["left_spool_circumference_mm"] = new.left_circumference_mm
+    doc["motors"]["right_spool_circumference_mm"] = new.right_circumference_mm
+    doc.setdefault("cords", tomlkit.table())["stretch"] = new.stretch
+    text = tomlkit.dumps(doc)
+    config.from_dict(tomllib.loads(text), str(path))     # refuse a config that would not load
+    if args.dry_run:
+        print(f"dry run: {path} and the stored position not changed")
+        return 0
+    held = lock.acquire(command)
+    try:
+        state.atomic_write(path, text)
+        print(f"{path}: written (comments and layout kept)")
+        if stored is None or not stored.clean or not _same_reference(stored, pat.reference):
+            print("the stored position is not the one the pattern was drawn from: put the pen on "
+                  "a known point and run `vplotter calibrate --at X Y`")
+            return 0
+        cords = new.cords(np.array(stored.counts, dtype=float))
+        pos = state.Position.at_cords(cords[0], cords[1], new.steps_per_unit())
+        pos.pen = stored.pen
+        pos.extra["home"] = [float(home[0]), float(home[1])]
+        state.save(pos)
+        state.clear_journal()
+    finally:
+        held.release()
+    xy = new.kin(origin).to_gcode(new.kin(origin).forward(cords[None, :]))[0]
+    print(f"stored position updated: the pen is at X{xy[0]:.3f} Y{xy[1]:.3f} "
+          f"(cords {cords[0]:.3f} and {cords[1]:.3f} mm); the next draw starts from there")
+    return 0
+
+
+def _same_reference(pos, reference: dict) -> bool:
+    if not reference:
+        return True
+    want = (reference.get("left_mm"), reference.get("right_mm"),
+            reference.get("left_steps_per_mm"), reference.get("right_steps_per_mm"))
+    have = (*pos.ref_mm, *pos.steps_per_unit)
+    return all(w is None or abs(w - h) <= 1e-5 * max(1.0, abs(h)) for w, h in zip(want, have))
+
+
+def _spread(m, res):
+    """The fitted machine moved one standard deviation along each principal axis of the
+    fit's covariance (both ways): what the fit cannot tell apart from it."""
+    import dataclasses
+
+    import numpy as np
+
+    out = [m]
+    if not np.all(np.isfinite(res.cov)):
+        return out
+    w, v = np.linalg.eigh(res.cov)
+    for val, vec in zip(w, v.T):
+        for sgn in (1, -1):
+            step = sgn * np.sqrt(max(val, 0.0)) * vec
+            out.append(dataclasses.replace(m, **{k: getattr(m, k) + d
+                                                 for k, d in zip(res.names, step)}))
+    return out

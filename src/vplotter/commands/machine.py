@@ -8,8 +8,10 @@ from vplotter.errors import ConfigError, MachineError
 
 
 def add_calibrate(p) -> None:
-    p.add_argument("what", nargs="?", choices=("steps",),
-                   help="`steps`: measure steps per mm by moving one motor")
+    p.add_argument("what", nargs="?", choices=("steps", "pattern", "fit"),
+                   help="`steps`: measure steps per mm by moving one motor; `pattern`: draw "
+                        "numbered marks to measure; `fit`: fit the machine to the measurements")
+    p.add_argument("file", nargs="?", help="with `fit`: the pattern file with the distances")
     g = p.add_mutually_exclusive_group()
     g.add_argument("--at", nargs=2, type=float, metavar=("X", "Y"),
                    help="the pen is now at this G-code point")
@@ -17,6 +19,14 @@ def add_calibrate(p) -> None:
                    help="measured cord lengths in mm (anchor to pen)")
     p.add_argument("--motor", choices=("left", "right"), help="with `steps`: the motor to move")
     p.add_argument("--steps", type=int, default=2000, help="with `steps`: how many (default 2000)")
+    p.add_argument("--rows", type=int, default=4, help="with `pattern`: rows of marks (default 4)")
+    p.add_argument("--cols", type=int, default=4, help="with `pattern`: columns (default 4)")
+    p.add_argument("--margin", type=float, default=25.0, metavar="MM",
+                   help="with `pattern`: marks this far inside the page (default 25)")
+    p.add_argument("-o", "--output", default="pattern.csv",
+                   help="with `pattern`: the file to write (default pattern.csv)")
+    p.add_argument("--fit-spacing", action="store_true",
+                   help="with `fit`: fit [gondola] cord_spacing_mm instead of the anchor distance")
     add_machine_options(p)
 
 
@@ -32,6 +42,11 @@ def cmd_calibrate(args, argv=None) -> int:
         from vplotter.commands.calibrate import calibrate_steps
 
         return calibrate_steps(args, cfg, command_line(argv))
+    if args.what in ("pattern", "fit"):
+        from vplotter.commands import calibrate
+
+        run = calibrate.calibrate_pattern if args.what == "pattern" else calibrate.calibrate_fit
+        return run(args, cfg, command_line(argv))
     if args.at is None and args.cords is None:
         raise ConfigError("error: say where the pen is: --at X Y or --cords LEFT RIGHT "
                           "(or `calibrate steps --motor left`)")
