@@ -147,33 +147,36 @@ def _lm(m0: Machine, keys, steps, a, b, dist):
 def fit(m0: Machine, steps: np.ndarray, a: np.ndarray, b: np.ndarray, dist: np.ndarray,
         fit_spacing: bool = False) -> tuple[Result, list[int]]:
     """Fit the parameters to the measured distances. Returns the result and the indices of
-    the pairs left out as outliers (worst first as they were found)."""
+    the pairs left out as outliers (worst first)."""
     keys = names(fit_spacing)
-    used = np.ones(len(dist), dtype=bool)
-    outliers: list[int] = []
-    # gross errors (a typo 1234 for 123.4, swapped rows): far off what the config predicts
+    # gross errors (a typo 1234 for 123.4, swapped rows): far off what the config predicts;
+    # they may come back once the fit shows that they agree with it
     nominal = predicted(m0, steps, a, b)
-    gross = np.abs(nominal - dist) > GROSS_MM + GROSS_SHARE * dist
-    for k in np.flatnonzero(gross)[np.argsort(-np.abs(nominal - dist)[gross])]:
-        used[k] = False
-        outliers.append(int(k))
-    while True:
+    maybe = np.abs(nominal - dist) > GROSS_MM + GROSS_SHARE * dist
+    used = ~maybe
+    x, J = _vector(m0, keys), None
+    for _ in range(2 * len(dist) + 2):
         if used.sum() < len(keys) + 2:
-            x, r_used, J = _vector(m0, keys), nominal[used] - dist[used], None
             break
-        x, r_used, J = _lm(m0, keys, steps, a[used], b[used], dist[used])
-        m = _with(m0, keys, x)
-        r_all = predicted(m, steps, a, b) - dist
+        x, _, J = _lm(m0, keys, steps, a[used], b[used], dist[used])
+        r_all = predicted(_with(m0, keys, x), steps, a, b) - dist
+        r_used = r_all[used]
         scale = max(1.4826 * float(np.median(np.abs(r_used))) * np.sqrt(
             len(r_used) / max(len(r_used) - len(keys), 1)), 0.1)
+        limit = max(OUTLIER_SIGMAS * scale, OUTLIER_MIN_MM)
+        back = maybe & ~used & (np.abs(r_all) <= limit)
+        if back.any():
+            used |= back
+            maybe &= ~back
+            continue
         worst = int(np.argmax(np.where(used, np.abs(r_all), -1.0)))
-        if abs(r_all[worst]) > max(OUTLIER_SIGMAS * scale, OUTLIER_MIN_MM):
+        if abs(r_all[worst]) > limit:
             used[worst] = False
-            outliers.append(worst)
             continue
         break
     m = _with(m0, keys, x)
     r_all = predicted(m, steps, a, b) - dist
+    outliers = [int(k) for k in np.flatnonzero(~used)[np.argsort(-np.abs(r_all[~used]))]]
     dof = max(int(used.sum()) - len(keys), 1)
     s2 = float(r_all[used] @ r_all[used]) / dof
     if J is not None:

@@ -29,14 +29,20 @@ def _ask(prompt: str) -> float:
     return value
 
 
-def write_circumference(path: str | Path, value: float) -> None:
-    """Set [motors] spool_circumference_mm in the TOML file, comments and layout kept."""
+def write_circumference(path: str | Path, value: float, motor: str | None = None) -> str:
+    """Set [motors] spool_circumference_mm in the TOML file, comments and layout kept; the
+    motor's own left_/right_spool_circumference_mm instead where the file has it. Returns
+    the key written."""
     import tomlkit
 
     p = Path(path)
     doc = tomlkit.parse(p.read_text(encoding="utf-8"))
-    doc["motors"]["spool_circumference_mm"] = round(value, 5)
+    key = f"{motor}_spool_circumference_mm"
+    if motor is None or key not in doc["motors"]:
+        key = "spool_circumference_mm"
+    doc["motors"][key] = round(value, 5)
     state.atomic_write(p, tomlkit.dumps(doc))
+    return key
 
 
 def calibrate_steps(args, cfg, command: str) -> int:
@@ -70,21 +76,23 @@ def calibrate_steps(args, cfg, command: str) -> int:
     if not 0.5 * expected <= measured <= 2.0 * expected:
         raise InputError(f"error: the cord changed by {measured:.2f} mm, expected about "
                          f"{expected:.2f} mm; check the measurements (and the motor wiring)")
-    circ = cfg.motors.spool_circumference_mm * measured / expected
+    circ = cfg.motors.circumferences_mm[m] * measured / expected
     if args.dry_run:
         print(f"dry run: spool_circumference_mm would be {circ:.4f} (config not changed)")
         return 0
-    write_circumference(args.config, circ)
+    key = write_circumference(args.config, circ, args.motor)
     # the measured cord is now known exactly; count the position with the new steps/mm
-    new_spm = cfg.motors.steps_per_rev / circ
+    from vplotter import config
+
+    new_spm = config.load(args.config).motors.steps_per_unit
     here = pos.moved_to(moved)
     cords = [here.left_mm, here.right_mm]
     cords[m] = after
     fresh = state.Position.at_cords(cords[0], cords[1], new_spm)
     fresh.extra = {k: v for k, v in here.extra.items() if k == "home"}
     state.save(fresh)
-    print(f"{args.config}: [motors] spool_circumference_mm = {circ:.4f} "
-          f"(was {cfg.motors.spool_circumference_mm:g}; {args.steps} steps moved the cord "
+    print(f"{args.config}: [motors] {key} = {circ:.4f} "
+          f"(was {cfg.motors.circumferences_mm[m]:g}; {args.steps} steps moved the cord "
           f"{measured:.2f} mm)")
     return 0
 
@@ -268,8 +276,9 @@ def calibrate_fit(args, cfg, command: str) -> int:
         state.atomic_write(path, text)
         print(f"{path}: written (comments and layout kept)")
         if stored is None or not stored.clean or not _same_reference(stored, pat.reference):
-            print("the stored position is not the one the pattern was drawn from: put the pen on "
-                  "a known point and run `vplotter calibrate --at X Y`")
+            print("the stored position was not kept (no position, an unclean stop, or calibrated "
+                  "again since the pattern was drawn): put the pen on a known point and run "
+                  "`vplotter calibrate --at X Y`")
             return 0
         cords = new.cords(np.array(stored.counts, dtype=float))
         pos = state.Position.at_cords(cords[0], cords[1], new.steps_per_unit())

@@ -1,0 +1,57 @@
+"""Planning speed of car.ngc under each machine model (the full dry-run pipeline: parse,
+segment, plan, step schedule, coil words; no trace writing).
+
+The plain machine and the gondola model solve each step in closed form; stretch solves it
+by bracketed Newton steps. Run: python bench/models_speed.py
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import time
+
+import numpy as np
+
+from vplotter import config, kinematics, pipeline
+from vplotter.inputs import gcode
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def main() -> None:
+    base = config.load(os.path.join(ROOT, "config.toml"))
+    models = {
+        "plain": base,
+        "gondola 40 mm, pen 15 mm below": dataclasses.replace(
+            base, gondola=config.Gondola(40.0, 15.0)),
+        "per-motor spools": dataclasses.replace(base, motors=dataclasses.replace(
+            base.motors, left_spool_circumference_mm=25.3, right_spool_circumference_mm=24.7)),
+        "stretch 0.004": dataclasses.replace(base, cords=config.Cords(0.004)),
+        "all of them": dataclasses.replace(
+            base, gondola=config.Gondola(40.0, 15.0), cords=config.Cords(0.004),
+            motors=dataclasses.replace(base.motors, left_spool_circumference_mm=25.3,
+                                       right_spool_circumference_mm=24.7)),
+    }
+    path = os.path.join(ROOT, "gcode_samples", "car.ngc")
+    print("| model | steps | planning CPU | steps / CPU s | plot time |")
+    print("| --- | --- | --- | --- | --- |")
+    for name, cfg in models.items():
+        kin = kinematics.from_config(cfg)
+        cords = kin.inverse(kin.to_machine(np.zeros((1, 2))))[0]
+        best = None
+        for _ in range(3):
+            summary = pipeline.Summary()
+            t0 = time.process_time()
+            for _rows in pipeline.stream(cfg, gcode.read(path, warn=lambda m: None), (0, 0),
+                                         cords, path, summary=summary):
+                pass
+            cpu = time.process_time() - t0
+            best = cpu if best is None else min(best, cpu)
+        steps = int(summary.steps.sum())
+        print(f"| {name} | {steps:,} | {best:.2f} s | {steps / best / 1e6:.1f} M | "
+              f"{summary.time_s:.1f} s |")
+
+
+if __name__ == "__main__":
+    main()
