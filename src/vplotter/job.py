@@ -215,10 +215,14 @@ class Session:
         if n <= 0:
             return
         done = part[:n]
-        if self._writer is not None:
-            self._writer.trace(done)
-        elif self.tracer is not None:
-            self.tracer.write(done)
+        if self.tracer is not None:
+            written = self.backend.written_us()
+            shown = done if written is None or len(written) < n else \
+                Rows(written[:n], done.coils, done.pen_us, done.line, done.steps)
+            if self._writer is not None:
+                self._writer.trace(shown)
+            else:
+                self.tracer.write(shown)
         self.counts = (int(done.steps[-1, 0]), int(done.steps[-1, 1]))
         self.t_us = int(done.t_us[-1])
         self.line = int(done.line[-1])

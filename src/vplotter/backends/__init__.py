@@ -48,6 +48,13 @@ class Backend:
         change times; None when timing is simulated."""
         return None
 
+    def written_us(self):
+        """Real-time backends: when each row of the last play() call was actually written
+        (microseconds on the trace's clock), so that a trace shows what happened; None when
+        timing is simulated (the rows' own times are what happened)."""
+        player = getattr(self, "_player", None)
+        return None if player is None else player.written_us
+
     def __enter__(self):
         self.open()
         return self
