@@ -55,6 +55,12 @@ class Backend:
         player = getattr(self, "_player", None)
         return None if player is None else player.written_us
 
+    def shifts(self) -> tuple[int, int]:
+        """Real-time backends: how often lateness moved the timeline (by more than 0.1 ms) and
+        the total time it moved (ns); (0, 0) when timing is simulated."""
+        player = getattr(self, "_player", None)
+        return (0, 0) if player is None else (player.shifts, player.lost_ns)
+
     def __enter__(self):
         self.open()
         return self
