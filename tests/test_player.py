@@ -181,7 +181,7 @@ def test_a_stall_moves_the_rest_of_the_timeline_instead_of_being_made_up():
     gaps = np.diff(times) / 1000
     assert gaps.min() >= 1500 - 1                       # never faster than planned
     assert gaps.max() > 20_000                          # the stall itself
-    assert p.shifts == 1 and 20.0 <= p.lost_ns / 1e6 < 20.0 + 0.01 * len(rows)
+    assert p.shifts == 1 and 20.0 - 1.5 <= p.lost_ns / 1e6 < 20.0 + 0.01 * len(rows)
     stats = p.lateness.stats()
     assert stats["shifts"] == 1 and stats["lost_ms"] == pytest.approx(p.lost_ns / 1e6)
     # the rows after the stall are on the moved timeline, one interval apart again
@@ -215,7 +215,7 @@ def test_the_trace_of_a_real_time_play_is_when_rows_were_written(parts):
     w, t = np.concatenate(written), concat(parts).t_us
     assert np.all(np.diff(w) >= 0) and len(w) == len(t)
     late = w - t
-    assert late[:10].max() < 100 and late[-10:].min() >= 50_000     # the stall moved the rest
+    assert late[:10].max() < 100 and late[-10:].min() >= 50_000 - 2_000   # the stall moved the rest
     assert create("fake", CFG).written_us() is None
 
 

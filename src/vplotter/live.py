@@ -94,9 +94,7 @@ def read(holder: dict | None = None, now: float | None = None) -> dict | None:
         if info.get("pid") != holder.get("pid"):
             return None
         now = time.time() if now is None else now
-        total, done = float(info["total_s"]), float(info["done_s"])
-        # the motors went on since the last update (at the planned pace at best)
-        done = min(total, done + max(0.0, now - float(info["updated"])))
+        total, done = float(info["total_s"]), min(float(info["done_s"]), float(info["total_s"]))
         remaining = max(0.0, total - done)
         return {"pid": int(info["pid"]), "command": str(info.get("command", "")),
                 "file": str(info.get("file", "")), "line": int(info["line"]),

@@ -10,10 +10,10 @@ load. Whatever the load, it guarantees:
   the timeline keeps its planned intervals from the row as it actually happened (the plot takes
   longer; the motors never race). `shifts` counts the moves of more than SHIFT_NS, `lost_ns` is
   the total (the plot took that much longer than planned);
-- no two changes of one motor's coils closer than planned, nor than `min_step_us` (1 /
-  max_step_rate), measured from the END of the earlier write to the START of the later one, so
-  that the pins themselves can never show a shorter interval, even when the process is stopped in
-  the middle of a write;
+- no two changes of one motor's coils closer than planned (start to start), nor than
+  `min_step_us` (1 / max_step_rate) measured from the END of the earlier write to the START of
+  the later one, so that the pins themselves can never show a shorter interval, even when the
+  process is stopped in the middle of a write;
 - a pen change never sooner than planned after the change before it, and the change after a pen
   change never sooner than planned after it (the settle time is kept whole).
 
@@ -124,7 +124,8 @@ class Player:
         self.origin_ns = 0                   # the first anchor: time 0 of written_us
         self.coils = 0
         self.pen_us = 0
-        # per motor: when its last coil write ended, and the schedule time of that row
+        # per motor: when its last coil write started and ended, and the schedule time of that row
+        self.motor_start_ns = [-(1 << 62), -(1 << 62)]
         self.motor_end_ns = [-(1 << 62), -(1 << 62)]
         self.motor_t_us = [0, 0]
         self.last_end_ns = 0                 # the last row written: end of its writes, its time
@@ -166,7 +167,7 @@ class Player:
         if self.anchor_ns is None:
             self.anchor_ns = self.origin_ns = clock() - ts[0] * 1000
             self.last_t_us, self.last_end_ns = ts[0], self.anchor_ns + ts[0] * 1000
-        motor_end, motor_t = self.motor_end_ns, self.motor_t_us
+        motor_start, motor_end, motor_t = self.motor_start_ns, self.motor_end_ns, self.motor_t_us
         for i in range(n):
             if stop():
                 return i
@@ -180,7 +181,8 @@ class Player:
             due = plan
             for m in (0, 1):
                 if changed >> (4 * m) & 15:
-                    due = max(due, motor_end[m] + max((t - motor_t[m]) * 1000, min_step))
+                    due = max(due, motor_start[m] + (t - motor_t[m]) * 1000,
+                              motor_end[m] + min_step)
             if pen_changed or self.last_pen:
                 due = max(due, self.last_end_ns + (t - self.last_t_us) * 1000)
             now = clock()
@@ -211,7 +213,7 @@ class Player:
                 if changed >> (4 * m) & 15:
                     motor_t[m] = t
                     if not self.pin_at_a_time:
-                        motor_end[m] = self.last_end_ns
+                        motor_start[m], motor_end[m] = start, self.last_end_ns
         return n
 
     def _write(self, word: int, changed: int, clock) -> None:
@@ -224,6 +226,7 @@ class Player:
             if not changed >> shift & 15:
                 continue
             old, cur = self.coils >> shift & 15, self.coils
+            self.motor_start_ns[m] = clock()
             for pattern in ORDER[old][word >> shift & 15]:
                 nxt = cur & ~(15 << shift) | pattern << shift
                 self.write_coils(nxt, nxt ^ cur)

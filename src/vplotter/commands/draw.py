@@ -77,13 +77,14 @@ def cmd_draw(args, argv=None) -> int:
         records = gcode.read(args.file, strict=args.strict)
         summary = pipeline.validate(cfg, records, pos.counts, pos.ref_mm, args.file, begin,
                                     lambda: s.stop_pending)
+        if summary is not None and not s.dry_run and not args.detach:
+            # published before the summary is printed: whoever sees the summary finds it
+            s.live = live.Publisher(command_line(argv), os.path.abspath(args.file), summary.time_s)
+            s.live.update(0.0, 0, force=True)
         if summary is not None:
             say(f"{args.file}: {summary.text()}")
         if args.detach and summary is not None:
             return _detach(args, argv, s)
-        if summary is not None and not s.dry_run:
-            s.live = live.Publisher(command_line(argv), os.path.abspath(args.file), summary.time_s)
-            s.live.update(0.0, 0, force=True)
         quiet = gcode.read(args.file, strict=args.strict, warn=lambda m: None)
         if s.tracer is not None:
             s.tracer.comment(f"file {os.path.abspath(args.file)}")

@@ -71,7 +71,7 @@ def _print_json(cfg, pos, holder, drawing) -> None:
         "clean": None if running else pos.clean,
         "last_stop": "running" if running else ("clean" if pos.clean else "unclean"),
         "uncertainty_mm": round(job.uncertainty_mm(cfg, pos), 4),
-        "resume": pos.extra.get("resume") or None, "state_file": str(state.state_path()),
+        "resume": None if running else pos.extra.get("resume") or None, "state_file": str(state.state_path()),
         "busy": _busy(holder), "drawing": drawing}))
 
 
