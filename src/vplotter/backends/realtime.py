@@ -105,13 +105,16 @@ class Player:
 
     min_step_us: the shortest time between two coil changes of one motor (0: only the planned
     intervals are kept); pin_at_a_time: write one coil bit per write_coils call, in a legal order.
+    catchup and stall_us (the old rules for making up lateness) are accepted and ignored:
+    lateness is never made up.
     """
 
     def __init__(self, write_coils: Callable[[int, int], None], write_pen: Callable[[int], None],
                  clock: Callable[[], int] | None = None,
                  sleep: Callable[[float], None] | None = None,
                  spin_us: int = 2000, poll_us: int = 2000, min_step_us: float = 0,
-                 pin_at_a_time: bool = False):
+                 pin_at_a_time: bool = False, catchup: float | None = None,
+                 stall_us: int | None = None):
         self.write_coils = write_coils
         self.write_pen = write_pen
         self.clock = clock or time.perf_counter_ns
