@@ -229,7 +229,7 @@ def test_second_process_is_refused_with_exit_3(config_path, capsys):
         assert err.startswith(f"plotter busy: pid {holder.pid} (vplotter draw car.ngc) since ")
         assert (state.state_dir() / "state.json").read_text() == before
         for argv in (["pen", "up"], ["jog", "--dx", "1"], ["goto", "1", "1"], ["home"],
-                     ["calibrate", "--at", "1", "1"]):
+                     ["calibrate", "--at", "1", "1"], ["calibrate", "steps", "--motor", "left"]):
             assert run(config_path, *argv, "--backend", "fake") == 3
             assert "plotter busy" in capsys.readouterr().err
         assert (state.state_dir() / "state.json").read_text() == before
