@@ -175,7 +175,7 @@ class Session:
         the trace are written on another, so that the thread driving the outputs does nothing
         else while the motors run.
         """
-        ahead = _Ahead(chunks)
+        ahead = _Ahead(chunks, split=self.saves_state)
         self._writer = _Writer(self.tracer)
         switch = sys.getswitchinterval()
         sys.setswitchinterval(0.0005)     # hand the interpreter back to the player quickly
@@ -299,7 +299,10 @@ class _Failure:
 class _Ahead:
     """Computes the schedule's parts on a helper thread, a bounded number ahead."""
 
-    def __init__(self, chunks: Iterable[Rows], depth: int = 8):
+    def __init__(self, chunks: Iterable[Rows], depth: int = 8, split: bool = True):
+        """split: cut the rows into journal stretches (only a run that stores the position
+        journals; a dry run plays whole chunks)."""
+        self.split = split
         self.q: queue.Queue = queue.Queue(maxsize=depth)
         self.stopped = threading.Event()
         self.thread = threading.Thread(target=self._run, args=(chunks,), daemon=True,
@@ -318,7 +321,7 @@ class _Ahead:
     def _run(self, chunks) -> None:
         try:
             for rows in chunks:
-                for part in _split(rows):
+                for part in (_split(rows) if self.split else (rows,)):
                     if not self._put(part):
                         return
             self._put(_END)
