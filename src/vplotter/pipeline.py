@@ -56,7 +56,7 @@ class StartAt:
     xy: tuple[float, float] | None = None
 
 
-PLAN_LIMIT = 400_000   # pieces: a validated plan up to this size is kept for the draw
+PLAN_LIMIT = 100_000   # pieces (about 11 MB): a validated plan up to this size is kept for the draw
 
 
 def stream(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str = "<input>",

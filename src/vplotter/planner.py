@@ -6,21 +6,31 @@ acceleration (a trapezoid in path distance), such that for each motor
 
 - the step rate never exceeds `max_step_rate` (x RATE_MARGIN): the motor's cord speed is
   |slope| x pen speed, slope = d(cord)/d(path) from the kinematics;
-- the cord acceleration stays within `max_accel`: (1 - BEND_SHARE) of it is spent on speeding
-  up and slowing down along the path (|slope| x path acceleration), BEND_SHARE on the bending
-  of the path (d2 cord/ds2 x v^2 along a straight piece, and the jump of slope at a corner).
+- the cord acceleration stays within `max_accel` (x ACCEL_MARGIN). It is q'' v^2 + q' a along a
+  piece (q' = slope, q'' = bend, a = path acceleration), plus the jumps of q' v at corners.
+  Each piece is bounded with its own bend (largest of its ends and middle) at its speed cap
+  (at most BEND_SHARE of the budget, which lowers the cap on a tightly bending piece), and
+  with what the corners at its two ends take; its ramps get the rest: no fixed reserve.
 
 Junction rule (our "deviation" rule, in cord space): at a vertex the cord speeds change at
 once by v x |slope change|. A change that lands inside one measurement window TAU counts as an
-acceleration of jump / min(TAU, dt) where dt is the time to the next corner; the vertex speed
-is the largest v for which that stays within BEND_SHARE x max_accel for both motors. On a
-smooth curve cut into short chords this becomes the centripetal limit v^2 x curvature, on a
-sharp corner it is a near stop, and where a cord turns round (passes through zero speed) it
-costs nothing because the slope changes continuously there.
+acceleration of jump / min(TAU, dt) where dt is the time to the next corner. A corner takes
+what that is at the highest speed its pieces allow, but at most CORNER_SHARE of the budget on
+a curve (the next corner comes within TAU: the pen goes round at that speed, hardly speeding
+up or slowing down) and SHARP_SHARE at a lone sharp corner (passed slowly anyway, so the
+pieces around it keep most of the budget to brake and speed up); the vertex speed is the
+largest v within that for both motors. After the passes the corners give back what they do
+not use at the speeds planned (those speeds become limits) and the ramps are planned again
+with it. On a smooth curve cut into short chords this is the centripetal limit
+v^2 x curvature, on a sharp corner a near stop, and where a cord turns round (passes through
+zero speed) it costs nothing because the slope changes continuously there.
 
 Look-ahead: pieces are buffered (at most 2 x WINDOW); the buffer is planned with a stop at its
-end (backward pass, then forward pass, both vectorised), and the first half is committed. So
-memory stays flat however long the file is, and the machine can always stop in what it knows.
+end (backward pass, then forward pass, both vectorised), and the first half is committed. Pen
+changes and dwells are stops inside the buffer (`mark_stop`: speed 0 there, the events ride on
+the piece that ends there), so a drawing of many short strokes is planned a window at a time,
+not stroke by stroke. Memory stays flat however long the file is, and the machine can always
+stop in what it knows.
 """
 
 from __future__ import annotations
@@ -31,8 +41,9 @@ from typing import Iterator
 import numpy as np
 
 RATE_MARGIN = 0.998    # of max_step_rate: step times are rounded to microseconds
-ACCEL_MARGIN = 0.97    # of max_accel
-CORNER_SHARE = 0.75    # most of the acceleration budget a corner may take
+ACCEL_MARGIN = 0.96    # of max_accel
+CORNER_SHARE = 0.75    # most of the acceleration budget a corner on a curve may take
+SHARP_SHARE = 0.25     # most of it a lone sharp corner may take
 BEND_SHARE = 0.4       # most of it the bending along a piece may take at the speed cap
 MIN_SLOPE = 0.25       # path acceleration is at most budget / MIN_SLOPE
 
@@ -285,13 +296,23 @@ class Planner:
             vc = np.minimum(vcap[1:], vcap[:-1])
             # what the corner takes passed at the highest speed its pieces allow
             use = jump * vc[:, None] * np.maximum(1.0 / TAU_S, vc[:, None] / ds)
-            corner[1:n] = np.minimum(use, CORNER_SHARE * acc)
+
+            def corner_speed(budget):
+                # jump * v * max(1/TAU, v/ds) <= budget  <=>  both limits, for every motor
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    v_tau = np.where(jump > 0, budget * TAU_S / jump, np.inf).min(axis=1)
+                    v_ds = np.where(jump > 0, np.sqrt(budget * ds / jump), np.inf).min(axis=1)
+                return np.minimum(np.minimum(v_tau, v_ds), vc)
+
+            # A corner on a curve (the next one follows within TAU) may take much of the
+            # budget: the pen goes round at that speed without speeding up or slowing down.
+            # A lone sharp corner is passed slowly anyway; the pieces around it get more.
+            v_hi = corner_speed(CORNER_SHARE * acc)
+            curve = v_hi * TAU_S >= ds[:, 0]
+            share = np.where(curve, CORNER_SHARE, SHARP_SHARE)[:, None] * acc
+            corner[1:n] = np.minimum(use, share)
             corner[1:n][stop[:-1]] = 0.0                         # passed standing still
-            # jump * v * max(1/TAU, v/ds) <= corner  <=>  both limits below, for every motor
-            with np.errstate(divide="ignore", invalid="ignore"):
-                v_tau = np.where(jump > 0, corner[1:n] * TAU_S / jump, np.inf).min(axis=1)
-                v_ds = np.where(jump > 0, np.sqrt(corner[1:n] * ds / jump), np.inf).min(axis=1)
-            u_lim[1:n] = np.minimum(np.minimum(v_tau, v_ds), vc) ** 2
+            u_lim[1:n] = corner_speed(corner[1:n]) ** 2
         # speeding up and slowing down gets what bending and the corners at its ends leave
         bent = bend * (vcap ** 2)[:, None]
         a = ((acc - np.maximum(corner[:-1], corner[1:]) - bent) / np.maximum(kmax, MIN_SLOPE)).min(axis=1)
