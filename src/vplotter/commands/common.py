@@ -129,8 +129,9 @@ def run_records(args, cfg, command: str, pos, records) -> int:
     """Validate, then play records on the machine (used by jog, goto and home)."""
     from vplotter import pipeline
 
-    pipeline.validate(cfg, records, pos.counts, pos.ref_mm, command)
+    summary = pipeline.validate(cfg, records, pos.counts, pos.ref_mm, command)
     with session(args, cfg, command, pos) as s:
-        s.play(stream_rows(cfg, records, pos, command))
+        s.play(pipeline.replay(cfg, summary.plan, pos.counts, pos.ref_mm) if summary.plan is not None
+               else stream_rows(cfg, records, pos, command))
     return 0
 

@@ -85,13 +85,17 @@ def cmd_draw(args, argv=None) -> int:
             say(f"{args.file}: {summary.text()}")
         if args.detach and summary is not None:
             return _detach(args, argv, s)
-        quiet = gcode.read(args.file, strict=args.strict, warn=lambda m: None)
+        if summary is not None and summary.plan is not None:     # planned once, drawn as planned
+            rows = pipeline.replay(cfg, summary.plan, pos.counts, pos.ref_mm)
+        else:
+            quiet = gcode.read(args.file, strict=args.strict, warn=lambda m: None)
+            rows = stream_rows(cfg, quiet, pos, args.file, start_at=begin)
         if s.tracer is not None:
             s.tracer.comment(f"file {os.path.abspath(args.file)}")
         progress = (_Progress(summary.time_s) if summary and sys.stderr.isatty() and not s.dry_run
                     else None)
         try:
-            s.play(stream_rows(cfg, quiet, pos, args.file, start_at=begin), progress)
+            s.play(rows, progress)
         except Interrupted:
             kin = kinematics.from_config(cfg)
             cords = np.asarray(pos.ref_mm) + np.asarray(s.counts) / np.asarray(cfg.motors.steps_per_unit)
