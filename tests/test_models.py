@@ -94,7 +94,7 @@ def test_crossing_and_extrema(name, x, y, a, d, frac):
             if abs(q1 - q0) < 1e-6:
                 continue
             target = q0 + frac * (q1 - q0)
-            s = kin.crossing(a0, e, np.array([m]), np.array([target]), np.array([q1 > q0]))[0]
+            s = kin.crossing(a0, e, m, np.array([0]), np.array([target]), np.array([q1 > q0]))[0]
             assert -1e-9 <= s <= s1 - s0 + 1e-9
             assert kin.inverse(a0 + e * s)[0, m] == pytest.approx(target, abs=1e-9)
 
@@ -109,13 +109,14 @@ def test_crossing_many_rows_at_once():
     d = np.full(n, 5.0)
     ok = np.isnan(kin.extrema(p0, e, d)).all(axis=1)
     p0, e = p0[ok], e[ok]
-    motor = rng.integers(0, 2, len(p0))
-    q0 = kin.inverse(p0)[np.arange(len(p0)), motor]
-    q1 = kin.inverse(p0 + 5.0 * e)[np.arange(len(p0)), motor]
-    target = q0 + rng.uniform(0, 1, len(p0)) * (q1 - q0)
-    s = kin.crossing(p0, e, motor, target, q1 > q0)
-    got = kin.inverse(p0 + e * s[:, None])[np.arange(len(p0)), motor]
-    assert np.abs(got - target).max() < 1e-9
+    for motor in (0, 1):
+        piece = np.repeat(np.arange(len(p0)), 3)          # three steps on every piece
+        q0 = kin.inverse(p0)[piece, motor]
+        q1 = kin.inverse(p0 + 5.0 * e)[piece, motor]
+        target = q0 + rng.uniform(0, 1, len(piece)) * (q1 - q0)
+        s = kin.crossing(p0, e, motor, piece, target, q1 > q0)
+        got = kin.inverse(p0[piece] + e[piece] * s[:, None])[:, motor]
+        assert np.abs(got - target).max() < 1e-9
 
 
 def test_config_keys_and_per_motor_spools(config_path):

@@ -166,33 +166,31 @@ class TwoCord:
             out[rows, m] = _bracketed(f, np.zeros(len(rows)), d[rows].astype(float), TOL_MM)
         return out
 
-    def crossing(self, p0: np.ndarray, e: np.ndarray, motor: np.ndarray, q: np.ndarray,
-                 rising: np.ndarray) -> np.ndarray:
-        """Distance s along p0 + s e at which motor coordinate `motor` reaches q (rows
-        broadcast). The piece starts on the near side of q and the motor runs one way."""
+    def crossing(self, p0: np.ndarray, e: np.ndarray, motor: int, piece: np.ndarray,
+                 q: np.ndarray, rising: np.ndarray) -> np.ndarray:
+        """Distance s along p0[piece] + s e[piece] at which motor coordinate `motor` reaches q.
+        Each piece starts on the near side of its steps' q and the motor runs one way on it."""
         rel = p0 - self.anchors[motor]
-        b = np.einsum("nk,nk->n", rel, e)
-        c = np.einsum("nk,nk->n", rel, rel)
-        if self.stretch != 0.0:
-            # stretch: first guess where the cord, stretched as at the piece start, reaches q
-            t0 = self.tension(p0)[np.arange(len(p0)), motor]
-            q = q * (1.0 + self.stretch * t0)
-        root = np.sqrt(np.maximum(b * b - c + q * q, 0.0))
-        s = np.where(rising, -b + root, -b - root)
+        b = rel[:, 0] * e[:, 0] + rel[:, 1] * e[:, 1]           # per piece
+        c = b * b - (rel[:, 0] ** 2 + rel[:, 1] ** 2)
+        b, c = b[piece], c[piece]                                # per step
         if self.stretch == 0.0:
-            return s
-        # then Newton on sign * (q(s) - target), which rises through zero on the piece from
+            root = np.sqrt(np.maximum(c + q * q, 0.0))
+            return np.where(rising, root - b, -b - root)
+        # stretch: first guess where the cord, stretched as at the piece start, reaches q ...
+        g = q * (1.0 + self.stretch * self.tension(p0)[:, motor])[piece]
+        root = np.sqrt(np.maximum(c + g * g, 0.0))
+        s = np.where(rising, root - b, -b - root)
+        # ... then Newton on sign * (q(s) - target), which rises through zero on the piece from
         # its start (bracketed: where it stops rising, the piece has ended before)
-        target = q / (1.0 + self.stretch * t0)
-        n = len(p0)
-        rows = np.arange(n)
+        start, dirn = p0[piece], e[piece]
         sign = np.where(rising, 1.0, -1.0)
 
         def f(s_):
-            v, k, _ = self._jets(p0 + e * s_[:, None], e)
-            return sign * (v[rows, motor] - target), sign * k[rows, motor]
+            v, k, _ = self._jets(start + dirn * s_[:, None], dirn)
+            return sign * (v[:, motor] - q), sign * k[:, motor]
 
-        return _bracketed(f, np.zeros(n), None, TOL_MM, np.maximum(s, 0.0))
+        return _bracketed(f, np.zeros(len(q)), None, TOL_MM, np.maximum(s, 0.0))
 
 
 def _bracketed(f, lo, hi, tol, s=None):
