@@ -103,55 +103,98 @@ def measure(csv_path, positions: dict[int, np.ndarray], seed: int, typo: int | N
 
 def rigid_error(dec, gfile) -> float:
     """Worst distance, both ways, between the drawing and the ideal path after the best rigid
-    move (rotation and translation, no scale) of the drawing onto it (ICP with Kabsch)."""
+    move (rotation and translation, no scale) of the drawing onto it (ICP with Kabsch on a
+    sample of the drawn points; the distances on all of them)."""
     ideal = tc.reference_path(gfile, spacing=0.05)
     ref_pts = np.vstack(ideal)
     tree = cKDTree(ref_pts)
     down = np.column_stack((dec.x, dec.y))[np.asarray(dec.pen_down)]
-    rot, shift = np.eye(2), ref_pts.mean(axis=0) - down.mean(axis=0)
-    for _ in range(60):
-        moved = down @ rot.T + shift
+    sample = down[::max(1, len(down) // 5000)]
+    rot, shift = np.eye(2), ref_pts.mean(axis=0) - sample.mean(axis=0)
+    for _ in range(40):
+        moved = sample @ rot.T + shift
         target = ref_pts[tree.query(moved)[1]]
-        pc, tc_ = down.mean(axis=0), target.mean(axis=0)
-        u, _, vt = np.linalg.svd((down - pc).T @ (target - tc_))
+        pc, tc_ = sample.mean(axis=0), target.mean(axis=0)
+        u, _, vt = np.linalg.svd((sample - pc).T @ (target - tc_))
         sign = np.sign(np.linalg.det(vt.T @ u.T))
-        rot = vt.T @ np.diag([1.0, sign]) @ u.T
-        shift = tc_ - pc @ rot.T
+        new_rot = vt.T @ np.diag([1.0, sign]) @ u.T
+        new_shift = tc_ - pc @ new_rot.T
+        done = np.abs(new_rot - rot).max() < 1e-12 and np.abs(new_shift - shift).max() < 1e-9
+        rot, shift = new_rot, new_shift
+        if done:
+            break
     drawn = [p @ rot.T + shift for p in tc.drawn_polylines(dec)]
     there = tc.distances_to_polylines(down @ rot.T + shift, ideal).max()
     back = tc.distances_to_polylines(ref_pts, drawn).max()
     return float(max(there, back))
 
 
-@pytest.fixture
-def wall(tmp_path, config_path):
-    """config.toml copied, `calibrate --at 0 0`, the pattern drawn on the fake machine and its
-    dots decoded through the true geometry."""
-    cfg_path = tmp_path / "config.toml"
-    cfg_path.write_text(config_path.read_text())
-    csv_path = tmp_path / "pattern.csv"
-    trace = tmp_path / "pattern_trace.csv"
-    assert run(cfg_path, "calibrate", "--at", 0, 0) == 0
-    assert run(cfg_path, "calibrate", "pattern", "--backend", "fake", "--trace", trace,
-               "-o", csv_path) == 0
+@pytest.fixture(scope="module")
+def drawn_pattern(tmp_path_factory):
+    """`calibrate --at 0 0` and the pattern drawn on the fake machine (once for this file):
+    the files, the stored position, and the dots decoded through the true geometry."""
+    import os
+
+    tmp = tmp_path_factory.mktemp("pattern")
+    saved = os.environ.get("XDG_STATE_HOME")
+    os.environ["XDG_STATE_HOME"] = str(tmp / "state")
+    try:
+        cfg_path = tmp / "config.toml"
+        cfg_path.write_text((REPO / "config.toml").read_text())
+        csv_path = tmp / "pattern.csv"
+        trace = tmp / "pattern_trace.csv"
+        assert run(cfg_path, "calibrate", "--at", 0, 0) == 0
+        assert run(cfg_path, "calibrate", "pattern", "--backend", "fake", "--trace", trace,
+                   "-o", csv_path) == 0
+        stored = state.state_path().read_text()
+        counts = state.load().counts
+    finally:
+        if saved is None:
+            del os.environ["XDG_STATE_HOME"]
+        else:
+            os.environ["XDG_STATE_HOME"] = saved
     true_cfg = true_config()
     dec = tc.decode(tc.read_trace(trace), true_cfg, (0.0, 0.0))
     pts, idx = dots(dec)
+    return {"csv": csv_path.read_text(), "state": stored, "dec": dec, "pts": pts, "idx": idx,
+            "start": true_start(true_cfg, counts), "true": true_cfg}
+
+
+@pytest.fixture
+def wall(tmp_path, drawn_pattern):
+    """A fresh copy of config.toml, pattern.csv and the stored position for each test."""
+    cfg_path = tmp_path / "config.toml"
+    cfg_path.write_text((REPO / "config.toml").read_text())
+    csv_path = tmp_path / "pattern.csv"
+    csv_path.write_text(drawn_pattern["csv"])
+    state.state_path().parent.mkdir(parents=True, exist_ok=True)
+    state.state_path().write_text(drawn_pattern["state"])
+    gfile = tmp_path / "test.ngc"
+    gfile.write_text(TEST_DRAWING)
     pat = pattern.read(csv_path)
-    assert len(pts) == len(pat.marks) == 16 and 20 <= len(pat.pairs) <= 30
-    # the step counts written for each mark are those at which its dot was made
+    return {"cfg": cfg_path, "csv": csv_path, "true": drawn_pattern["true"], "tmp": tmp_path,
+            "gfile": gfile, "dots": dict(zip(sorted(pat.marks), drawn_pattern["pts"])),
+            "start": drawn_pattern["start"]}
+
+
+def test_the_pattern_and_its_file(drawn_pattern, tmp_path):
+    f = tmp_path / "p.csv"
+    f.write_text(drawn_pattern["csv"])
+    pat = pattern.read(f)
+    dec, idx = drawn_pattern["dec"], drawn_pattern["idx"]
+    assert len(idx) == len(pat.marks) == 16 and 20 <= len(pat.pairs) <= 30
+    assert drawn_pattern["csv"].startswith(pattern.HEADER + "\n")
+    assert "kind,a,b,x_mm,y_mm,left_steps,right_steps,distance_mm\n" in drawn_pattern["csv"]
+    # every mark's dot is made at the step counts written for it (relative to the reference)
+    true_cfg = drawn_pattern["true"]
     spm = tc.steps_per_mm_pair(true_cfg)
     l0, r0 = tc.inverse_kinematics(true_cfg, 0.0, 0.0)
     for k, i in zip(sorted(pat.marks), idx):
         ls, rs = pat.marks[k].steps
         assert dec.left_mm[i] == pytest.approx(l0 + ls / spm[0], abs=1e-9)
         assert dec.right_mm[i] == pytest.approx(r0 + rs / spm[1], abs=1e-9)
-    gfile = tmp_path / "test.ngc"
-    gfile.write_text(TEST_DRAWING)
-    stored = state.load()
-    start = true_start(true_cfg, stored.counts)
-    return {"cfg": cfg_path, "csv": csv_path, "true": true_cfg, "tmp": tmp_path, "gfile": gfile,
-            "dots": dict(zip(sorted(pat.marks), pts)), "start": start}
+        # its pen-down lasts without a step: the next point is the pen going up, same cords
+        assert not dec.pen_down[i + 1] and dec.left_mm[i + 1] == dec.left_mm[i]
 
 
 def draw_and_check(w, name: str) -> float:

@@ -1,0 +1,80 @@
+"""The wall fit on simulated walls: how far a 300 mm test drawing is off before and after
+`calibrate fit`, for several true machines (tests/test_fit.py's procedure).
+
+For each wall: `calibrate --at 0 0`, `calibrate pattern --backend fake`, the dots decoded
+through the TRUE geometry by tests/tracecheck.py, the pairs "measured" with 0.3 mm noise
+(and once more with one of them mistyped, x10), `calibrate fit`, the test drawing drawn from
+the stored position and decoded through the true geometry, matched to the ideal by a rigid
+move only (ICP, Kabsch without scale): the worst distance both ways.
+
+Run: python bench/wall_fit.py
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "tests"))
+
+import test_fit as tf  # noqa: E402
+
+WALLS = [  # anchor distance +mm, gondola spacing, pen below, circumferences x, stretch, ref off
+    dict(d=6.0, sp=40.0, pb=12.0, circ=(1.015, 0.988), k=0.003, off=(5.0, -4.0)),
+    dict(d=-8.0, sp=60.0, pb=20.0, circ=(0.98, 1.02), k=0.005, off=(-6.0, 7.0)),
+    dict(d=4.0, sp=30.0, pb=5.0, circ=(1.02, 1.01), k=0.002, off=(3.0, 3.0)),
+    dict(d=10.0, sp=50.0, pb=15.0, circ=(0.99, 0.985), k=0.004, off=(-8.0, -5.0)),
+    dict(d=-3.0, sp=25.0, pb=0.0, circ=(1.01, 0.99), k=0.006, off=(0.0, 8.0)),
+]
+
+
+def one(wall: dict, seed: int, typo: int | None):
+    tf.TRUE_ANCHOR_MM = 422.5 + wall["d"]
+    tf.TRUE_SPACING_MM, tf.TRUE_PEN_BELOW_MM = wall["sp"], wall["pb"]
+    tf.TRUE_CIRC_MM = (25.0 * wall["circ"][0], 25.0 * wall["circ"][1])
+    tf.TRUE_STRETCH, tf.REF_OFF_MM = wall["k"], wall["off"]
+    tmp = Path(tempfile.mkdtemp(prefix="wall"))
+    os.environ["XDG_STATE_HOME"] = str(tmp / "state")
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(io.StringIO()):
+        pat = tf.drawn_pattern.__wrapped__(_Factory(tmp))
+        os.environ["XDG_STATE_HOME"] = str(tmp / "state2")
+        w = tf.wall.__wrapped__(tmp, pat)
+        before = tf.draw_and_check(w, "before")
+        tf.measure(w["csv"], w["dots"], seed=seed, typo=typo)
+        rc = tf.run(w["cfg"], "calibrate", "fit", w["csv"])
+        after = tf.draw_and_check(w, "after") if rc == 0 else float("nan")
+    named = sum("outlier" in line for line in out.getvalue().splitlines())
+    return before, after, rc, named
+
+
+class _Factory:
+    def __init__(self, tmp: Path):
+        self.tmp = tmp
+
+    def mktemp(self, name: str) -> Path:
+        p = self.tmp / name
+        p.mkdir()
+        return p
+
+
+def main() -> None:
+    print("| wall | anchor | spacing / pen below | circumferences | stretch | reference off | "
+          "before | after | after, one typo (named) |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    for i, w in enumerate(WALLS):
+        before, after, _, _ = one(w, 100 + i, None)
+        _, after_typo, _, named = one(w, 100 + i, 4)
+        print(f"| {i + 1} | {w['d']:+g} mm | {w['sp']:g} / {w['pb']:g} mm | "
+              f"{(w['circ'][0] - 1) * 100:+.1f} % / {(w['circ'][1] - 1) * 100:+.1f} % | "
+              f"{w['k']:g} | ({w['off'][0]:+g}, {w['off'][1]:+g}) mm | {before:.2f} mm | "
+              f"{after:.3f} mm | {after_typo:.3f} mm ({named}) |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
