@@ -57,11 +57,14 @@ class StartAt:
 
 def stream(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str = "<input>",
            emit: bool = True, summary: Summary | None = None,
-           start_at: StartAt | None = None, pen_down: bool | None = None) -> Iterator[Rows]:
+           start_at: StartAt | None = None, pen_down: bool | None = None,
+           scheduler=Scheduler) -> Iterator[Rows]:
     """Rows for drawing `records` starting from the given step counts (cords = ref + counts/spm).
 
     With `start_at`, records before that line are skipped (their pen changes still count), the
     pen travels up to the resume point and goes down again if the file has it down there.
+    `scheduler` makes what is played from the planned blocks (Rows for GPIO; the serial
+    backend's line scheduler makes G-code lines); its `chord_share` cuts arcs.
     """
     kin = kinematics.from_config(cfg)
     spm = cfg.motors.steps_per_mm
@@ -69,9 +72,9 @@ def stream(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: s
     cords = np.asarray(ref_mm, dtype=float) + np.asarray(counts, dtype=float) / spm
     start = kin.forward(cords[None, :])[0]
     planner = Planner(kin, cfg.motors.max_step_rate, cfg.motors.max_accel, spm, start)
-    sched = Scheduler(cfg, kin, counts, ref_mm)
+    sched = scheduler(cfg, kin, counts, ref_mm)
     page = cfg.page
-    tol = cfg.motion.tolerance_mm * CHORD_SHARE
+    tol = cfg.motion.tolerance_mm * getattr(sched, "chord_share", CHORD_SHARE)
     mo = cfg.motion
     file_xy = (0.0, 0.0)
 
@@ -176,11 +179,13 @@ def stream(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: s
 
 
 def validate(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str = "<input>",
-             start_at: StartAt | None = None, stop=lambda: False) -> Summary | None:
+             start_at: StartAt | None = None, stop=lambda: False,
+             scheduler=Scheduler) -> Summary | None:
     """The validation pass: every record checked, planned and timed, no step computed.
     Returns the summary, or None if stop() turned true first."""
     summary = Summary()
-    for _ in stream(cfg, records, counts, ref_mm, name, False, summary, start_at):
+    for _ in stream(cfg, records, counts, ref_mm, name, False, summary, start_at,
+                    scheduler=scheduler):
         if stop():
             return None
     return summary
