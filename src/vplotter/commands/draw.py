@@ -21,6 +21,8 @@ def add_draw(p: argparse.ArgumentParser) -> None:
                    help="go on from where the last interrupted draw of FILE stopped")
     g.add_argument("--from-line", type=int, metavar="N", help="start at line N of FILE")
     p.add_argument("--force", action="store_true", help="--resume even if FILE changed since")
+    p.add_argument("--save-stream", metavar="OUT.gcode",
+                   help="with --backend serial: write the G-code lines streamed to the controller")
 
 
 def start_at(args, pos):
@@ -59,6 +61,10 @@ def cmd_draw(args, argv=None) -> int:
     cfg = load_config(args)
     pos = position(cfg, args, args.dry_run)
     begin = start_at(args, pos)
+    if args.backend == "serial" or args.save_stream:
+        from vplotter.commands import serial
+
+        return serial.draw(args, argv, cfg, pos, begin)
     sess = session(args, cfg, command_line(argv), pos)
     sess.drawing = {"file": os.path.abspath(args.file), "sha256": file_hash(args.file)}
     # the session (lock, pins, signal handlers) is open first, so that a signal at any moment
