@@ -53,12 +53,13 @@ class GrblStandin:
         self.reply_delay = reply_delay
         self.disconnect_after = disconnect_after
         self.silent = silent
-        self.settings = dict(SETTINGS, **(settings or {}))
+        self.settings = {**SETTINGS, **(settings or {})}
         self.overflow = 0
         self.max_rx = 0
         self.received: list[str] = []
         self.segments: list[tuple[tuple, tuple, bool]] = []
         self.resets = 0
+        self.answered = 0                 # ok and error:N answers to lines
         self.realtime: list[bytes] = []
         self._stop = threading.Event()
         self._lock = threading.Lock()
@@ -81,6 +82,7 @@ class GrblStandin:
             self.turn = 0
         self.rx = bytearray()
         self.planner: list[dict] = []
+        self.wco_lost = list(getattr(self, "wco", [0.0, 0.0]))   # G92 does not survive a reset
         self.wco = [0.0, 0.0]
         self.wco_counter = 0
         self.feed = 0.0
@@ -93,6 +95,7 @@ class GrblStandin:
         return (self.mpos[0] - self.wco[0], self.mpos[1] - self.wco[1])
 
     def _reply(self, data: bytes) -> None:
+        self.answered += data.count(b"ok\r\n") + data.count(b"error:")
         if not self.silent:
             self._out.append((self.turn + self.reply_delay, data))
 
