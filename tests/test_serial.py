@@ -130,6 +130,25 @@ def test_lines_for_car_are_few_and_the_stream_is_what_a_dry_run_saves(tmp_path, 
     assert run(REPO / "config.toml", "estimate", str(CAR)) == 0
     pieces = int(capsys.readouterr().out.split(" pieces")[0].split()[-1])
     assert len(lines) <= 3 * pieces, (len(lines), pieces)
+    # the feeds keep the pen within its speed caps: pen speed = F / |d cords / d path|
+    cfg = tc.load_config(str(REPO / "config.toml"))
+    here, feed, down, fast = np.array([479.089, 479.089]), None, False, 0.0
+    for ln in lines[2:]:
+        if ln.startswith("M3"):
+            down = True
+        elif ln.startswith("M5"):
+            down = False
+        elif ln.startswith("G1"):
+            body, _, f = ln[3:].partition("F")
+            feed = float(f) if f else feed
+            new = np.array([float(v) for v in body.split("Y")])
+            xy = np.column_stack(tc.forward_kinematics(cfg, [here[0], new[0]], [here[1], new[1]]))
+            wall, cord = np.linalg.norm(xy[1] - xy[0]), np.linalg.norm(new - here)
+            speed = feed / 60.0 * wall / cord
+            assert speed <= (4.0 if down else 8.0) * 1.001, ln
+            fast = max(fast, speed / (4.0 if down else 8.0))
+            here = new
+    assert fast > 0.97                            # and not needlessly slower
 
 
 def test_xy_axes_send_gcode_coordinates(tmp_path):

@@ -30,6 +30,7 @@ CHORD_SHARE = 0.5       # of tolerance_mm for the chords of arcs (as on the GPIO
 CUT_SHARE = 0.45        # for the motor-space cut; the rest covers rounding to DECIMALS
 DECIMALS = 3
 FEED_MARGIN = 0.99
+FEED_GRID = 1.01        # feeds are sent on a geometric grid of 1 % steps
 
 
 @dataclass
@@ -117,6 +118,8 @@ class LineScheduler(Scheduler):
         feed = block.cap[piece] * 60.0 * self.ser.feed_scale
         if self.motors:
             feed = feed * motorcut.cord_speed_ratio(self.kin, prev, pts) * FEED_MARGIN
+            # down to a 1 % grid, so that F changes only every few lines (fewer bytes to send)
+            feed = FEED_GRID ** np.floor(np.log(feed) / np.log(FEED_GRID) + 1e-9)
         feed = np.floor(feed * 10.0) / 10.0
         q = self._q(pts)
         keep = np.any(q != np.vstack((self.q[None, :], q[:-1])), axis=1)
