@@ -16,7 +16,7 @@ thread on the master side:
 - status reports `<Run|MPos:...|Bf:..,..|FS:..,0>`, with WCO only now and then (as grbl);
 - faults on request: `error_on` (a substring: that line is answered error:20), `reply_delay`
   (answers held back by that many turns), `disconnect_after` (the port vanishes after that many
-  lines), `silent` (never answers).
+  lines), `silent` (never answers), `alarm_after` (ALARM:2 on that line, as a soft limit).
 
 It records what it executed: `segments` (work-coordinate start, end, pen down) and `received`
 (every line, in order).
@@ -42,7 +42,8 @@ TIOCPKT_FLUSHREAD = getattr(termios, "TIOCPKT_FLUSHREAD", 1)
 class GrblStandin:
     def __init__(self, rx_buffer: int = 128, blocks: int = 15, tick_s: float = 0.05,
                  error_on: str | None = None, reply_delay: int = 0,
-                 disconnect_after: int | None = None, silent: bool = False, settings=None):
+                 disconnect_after: int | None = None, silent: bool = False, settings=None,
+                 alarm_after: int | None = None):
         self.master, self.slave = os.openpty()
         fcntl.ioctl(self.master, termios.TIOCPKT, struct.pack("i", 1))
         self.port = os.ttyname(self.slave)
@@ -53,6 +54,7 @@ class GrblStandin:
         self.reply_delay = reply_delay
         self.disconnect_after = disconnect_after
         self.silent = silent
+        self.alarm_after = alarm_after
         self.settings = {**SETTINGS, **(settings or {})}
         self.overflow = 0
         self.max_rx = 0
@@ -219,6 +221,14 @@ class GrblStandin:
             self.received.append(text)
             if self.disconnect_after is not None and len(self.received) >= self.disconnect_after:
                 self.close_port()
+                return
+            if self.alarm_after is not None and len(self.received) == self.alarm_after:
+                # a soft limit: grbl stops at once, kills the spindle and locks out
+                self.planner.clear()
+                self.rx.clear()
+                self.pen_down = False
+                self.state = "Alarm"
+                self._reply(b"ALARM:2\r\n[MSG:Reset to continue]\r\n")
                 return
             if self.state == "Alarm" and not text.startswith("$"):
                 self._reply(b"error:9\r\n")

@@ -279,9 +279,27 @@ def test_pulled_cable_saves_the_place_and_exits_1(tmp_path, standins, capsys):
     assert not pos.clean                      # nobody knows what the motors did since
     rec = state.last_journal_record()
     assert rec is not None and rec["line"] > 0
-    # --resume --trust-position goes on from the start of the journal's line
     assert run(cfg_path, "status") == 0
-    assert "not clean" in capsys.readouterr().out or True
+    assert "UNCLEAN" in capsys.readouterr().out
+    # a new controller on the same port: --resume --trust-position completes the drawing
+    g2 = standins(tick_s=0.5)
+    cfg_path = serial_config(tmp_path, g2.port)
+    assert run(cfg_path, "draw", str(SQUARE), "--backend", "serial") == 2    # refused: unclean
+    assert run(cfg_path, "draw", str(SQUARE), "--backend", "serial", "--resume",
+               "--trust-position") == 0
+    check_path(cfg_path, SQUARE, g.segments + g2.segments)   # both in cords (after G92)
+    assert state.load().clean
+
+
+def test_alarm_stops_with_the_alarm_named_and_an_unclean_position(tmp_path, standins, capsys):
+    g = standins(tick_s=0.5, alarm_after=30)
+    cfg_path = serial_config(tmp_path, g.port)
+    calibrated(cfg_path)
+    assert run(cfg_path, "draw", str(SQUARE), "--backend", "serial") == 1
+    err = capsys.readouterr().err
+    assert "ALARM:2" in err and "soft limit" in err and "Traceback" not in err
+    assert not g.pen_down
+    assert not state.load().clean
 
 
 def test_a_controller_that_never_answers_is_an_error_not_a_hang(tmp_path, standins, capsys):
