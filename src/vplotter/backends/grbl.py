@@ -25,6 +25,7 @@ from vplotter.errors import BackendError
 
 BANNER = re.compile(r"^Grbl(HAL)? \S+ \[.*help")
 READ_TIMEOUT_S = 0.02          # the port's read timeout: how long one read() may block
+NOT_YET = object()             # a chunk source with nothing ready yet (still planning)
 
 ERRORS = {
     1: "G-code words need a command letter and a value", 2: "bad number",
@@ -357,6 +358,8 @@ class Streamer:
                 chunk = next(it, None)
                 if chunk is None:
                     exhausted = True
+                elif chunk is NOT_YET:
+                    break
                 else:
                     self._add(chunk)
             out = bytearray()

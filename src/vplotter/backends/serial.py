@@ -19,8 +19,8 @@ import numpy as np
 
 from vplotter import kinematics
 from vplotter.backends import Backend
-from vplotter.backends.grbl import (READ_TIMEOUT_S, AlarmError, ControllerError, Link,
-                                    LinkError, Streamer)
+from vplotter.backends.grbl import (NOT_YET, READ_TIMEOUT_S, AlarmError, ControllerError,
+                                    Link, LinkError, Streamer)
 from vplotter.errors import BackendError, Interrupted
 from vplotter.job import SIGNALS, Session, Stop
 
@@ -166,6 +166,7 @@ class SerialSession(Session):
         link = self.backend.link
         s = self._streamer = Streamer(link, self.cfg.serial.rx_buffer)
         self._moved = True
+        ahead = _Prefetch(chunks)       # planning runs on a helper thread, ahead of the stream
 
         def on_status(st: Streamer) -> None:
             if st.pos is None:
@@ -180,7 +181,7 @@ class SerialSession(Session):
                 progress(t_us, line)
 
         try:
-            done = s.run(chunks, first.q[0], lambda: bool(self._signum), on_status, self._cover)
+            done = s.run(ahead, first.q[0], lambda: bool(self._signum), on_status, self._cover)
         except ControllerError as e:
             text, _, (line, _, _) = s.line_at(e.index)
             self._halt()
@@ -193,6 +194,8 @@ class SerialSession(Session):
         except LinkError:
             self._clean = False
             raise
+        finally:
+            ahead.close()
         if not done:
             self._halt()
             signum = self._signum
@@ -261,3 +264,63 @@ class SerialSession(Session):
                 self._halt()
             except BackendError:
                 pass
+
+
+class _Prefetch:
+    """Iterates `chunks` on a helper thread, a bounded number ahead, so that planning the next
+    lines never holds up the stream (a Pi Zero plans a round of pieces in about a second).
+    Errors raised while planning are raised to the consumer."""
+
+    _END = object()
+
+    def __init__(self, chunks, depth: int = 16):
+        import queue
+        import threading
+
+        self.q = queue.Queue(maxsize=depth)
+        self.stopped = threading.Event()
+        self.thread = threading.Thread(target=self._run, args=(chunks,), daemon=True,
+                                       name="vplotter-lines")
+        self.thread.start()
+
+    def _put(self, item) -> bool:
+        import queue
+
+        while not self.stopped.is_set():
+            try:
+                self.q.put(item, timeout=0.05)
+                return True
+            except queue.Full:
+                continue
+        return False
+
+    def _run(self, chunks) -> None:
+        try:
+            for ch in chunks:
+                if not self._put(ch):
+                    return
+            self._put(self._END)
+        except BaseException as e:  # noqa: BLE001 - handed to the consumer
+            self._put(e)
+
+    def __iter__(self):
+        return self
+
+    def __next__(self):
+        import queue
+
+        try:
+            item = self.q.get(timeout=0.005)
+        except queue.Empty:
+            return NOT_YET              # still planning: the stream goes on meanwhile
+        if item is self._END:
+            self.q.put(item)
+            raise StopIteration
+        if isinstance(item, BaseException):
+            self.q.put(item)
+            raise item
+        return item
+
+    def close(self) -> None:
+        self.stopped.set()
+        self.thread.join(timeout=5)
