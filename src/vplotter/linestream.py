@@ -63,7 +63,7 @@ class LineScheduler(Scheduler):
         self.ser = cfg.serial
         self.motors = self.ser.axes == "motors"
         self.tol_cut = cfg.motion.tolerance_mm * CUT_SHARE
-        cords = self.ref + self.counts / self.spm
+        cords = self.ref + self.counts / self.spu
         self.xy_m = kin.forward(cords[None, :])[0]          # machine frame
         self.q = self._q(self.xy_m[None, :])[0]
         self.feed = None

@@ -96,7 +96,7 @@ class SerialSession(Session):
         self.kin = kinematics.from_config(cfg)
         self.motors = cfg.serial.axes == "motors"
         self.ref = np.asarray(position.ref_mm, dtype=float)
-        self.spm = cfg.motors.steps_per_mm
+        self.spu = np.asarray(cfg.motors.steps_per_unit, dtype=float)
         self.stop_xy: tuple[float, float] | None = None    # G-code point where it stopped
         self.lines_sent = 0
         self._clean = True
@@ -143,7 +143,7 @@ class SerialSession(Session):
         return q if self.motors else self.kin.inverse(self.kin.to_machine(q))
 
     def _counts(self, q) -> np.ndarray:
-        return np.rint((self._cords(q) - self.ref) * self.spm).astype(np.int64)
+        return np.rint((self._cords(q) - self.ref) * self.spu).astype(np.int64)
 
     def _here(self, q) -> None:
         self.counts = tuple(int(c) for c in self._counts(q)[0])

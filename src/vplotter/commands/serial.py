@@ -92,12 +92,12 @@ def expected_settings(cfg) -> dict[int, tuple[float, str]]:
     """grbl $-settings that config.toml implies for the X and Y axes: {number: (value, what)}."""
     m = cfg.motors
     if cfg.serial.axes == "motors":
-        spm = m.steps_per_mm                          # controller mm = cord mm
-        rate = m.max_step_rate / spm * 60.0           # mm/min of cord
-        accel = m.max_accel / spm                     # mm/s^2 of cord
-        return {100: (spm, "steps/mm"), 101: (spm, "steps/mm"), 110: (rate, "max rate mm/min"),
-                111: (rate, "max rate mm/min"), 120: (accel, "acceleration mm/s^2"),
-                121: (accel, "acceleration mm/s^2")}
+        out = {}
+        for axis, spu in enumerate(m.steps_per_unit):   # controller mm = cord mm
+            out[100 + axis] = (spu, "steps/mm")
+            out[110 + axis] = (m.max_step_rate / spu * 60.0, "max rate mm/min")
+            out[120 + axis] = (m.max_accel / spu, "acceleration mm/s^2")
+        return out
     fastest = max(cfg.motion.draw_speed_mm_s, cfg.motion.travel_speed_mm_s) * 60.0
     return {110: (fastest, "max rate mm/min (at least the travel speed)"),
             111: (fastest, "max rate mm/min (at least the travel speed)")}
