@@ -185,11 +185,11 @@ def test_car_streams_every_line_without_overflow_and_draws_the_path(tmp_path, st
 
 
 def test_slow_replies_and_a_tiny_buffer_still_never_overflow(tmp_path, standins):
-    g = standins(tick_s=0.5, reply_delay=4, rx_buffer=48)
-    cfg_path = serial_config(tmp_path, g.port, rx_buffer=48)
+    g = standins(tick_s=0.5, reply_delay=4, rx_buffer=64)
+    cfg_path = serial_config(tmp_path, g.port, rx_buffer=64)
     calibrated(cfg_path)
     assert run(cfg_path, "draw", str(SQUARE), "--backend", "serial") == 0
-    assert g.overflow == 0 and g.max_rx <= 47
+    assert g.overflow == 0 and g.max_rx <= 63
     check_path(cfg_path, SQUARE, g.segments)
 
 
@@ -351,7 +351,7 @@ def test_console_sends_lines_and_realtime_commands(tmp_path, standins):
 @pytest.mark.parametrize("key,value,words", [
     ("axes", "polar", "[serial] axes must be one of motors | xy"),
     ("pen_up", "M5\nM3", "[serial] pen_up must be one line"),
-    ("rx_buffer", 4, "[serial] rx_buffer must be between 16"),
+    ("rx_buffer", 4, "[serial] rx_buffer must be between 64"),
     ("feed_scale", 0, "[serial] feed_scale must be above 0"),
 ])
 def test_bad_serial_config_names_the_key(tmp_path, capsys, key, value, words):

@@ -141,7 +141,7 @@ SCHEMA: dict[str, dict[str, tuple]] = {
     "serial": {     # a grbl-style controller on a serial port (--backend serial)
         "port": ("text", "/dev/ttyUSB0", None, None),
         "baud": ("int+", 115200, 0, 10**7),
-        "rx_buffer": ("int", 128, 16, 1 << 20),
+        "rx_buffer": ("int", 128, 64, 1 << 20),
         "pen_down": ("text", "M3 S1000", None, None),
         "pen_up": ("text", "M5", None, None),
         "axes": ("str", "motors", ("motors", "xy"), None),

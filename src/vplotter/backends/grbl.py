@@ -368,6 +368,9 @@ class Streamer:
                     self.cover_end = min(self.pulled, self.sent + self.ahead)
                     need_cover(self.current, self.cover_end - 1)
                 data = self.text[self.sent - self.base].encode("ascii") + b"\n"
+                if len(data) > self.capacity:
+                    raise BackendError(f"a line of {len(data)} bytes does not fit the controller's "
+                                       f"receive buffer ([serial] rx_buffer = {self.capacity + 1})")
                 if self._used + len(data) > self.capacity:
                     break
                 out += data
