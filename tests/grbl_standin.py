@@ -58,6 +58,7 @@ class GrblStandin:
         self.settings = {**SETTINGS, **(settings or {})}
         self.overflow = 0
         self.max_rx = 0
+        self.max_planned = 0
         self.received: list[str] = []
         self.segments: list[tuple[tuple, tuple, bool]] = []
         self.resets = 0
@@ -290,6 +291,7 @@ class GrblStandin:
                    w["Y"][0] + self.wco[1] if "Y" in w else last[1])
             if end != tuple(last):
                 self.planner.append({"end": end, "feed": self.feed, "text": text})
+                self.max_planned = max(self.max_planned, len(self.planner))
                 if self.state == "Idle":
                     self.state = "Run"
             self._reply(b"ok\r\n")

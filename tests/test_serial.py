@@ -165,13 +165,15 @@ def test_xy_axes_send_gcode_coordinates(tmp_path):
 
 # ---------------------------------------------------------------- streaming
 def test_car_streams_every_line_without_overflow_and_draws_the_path(tmp_path, standins, capsys):
-    g = standins(tick_s=0.5)
+    g = standins(tick_s=2.0)
     cfg_path = serial_config(tmp_path, g.port)
     calibrated(cfg_path)
     sent = tmp_path / "sent.gcode"
     assert run(cfg_path, "draw", str(CAR), "--backend", "serial", "--save-stream", str(sent)) == 0
     lines = sent.read_text().splitlines()
     assert g.overflow == 0 and g.max_rx <= 127
+    # character counting, not send-and-wait: the buffer was kept nearly full behind a full planner
+    assert g.max_rx > 100 and g.max_planned == 15
     assert g.received == [ln.replace(" ", "").upper() for ln in lines]   # all, in order
     assert g.answered == len(lines)
     assert g.state == "Idle" and not g.pen_down
@@ -311,6 +313,21 @@ def test_a_controller_that_never_answers_is_an_error_not_a_hang(tmp_path, standi
     assert "no answer from a grbl controller" in err and "Traceback" not in err
     assert b"\x18" in g.realtime              # it tried a soft reset half-way
     assert state.load().clean                 # nothing moved
+
+
+def test_a_second_vplotter_is_refused_before_the_port_is_opened(tmp_path, standins, capsys):
+    from vplotter import lock
+
+    g = standins()
+    cfg_path = serial_config(tmp_path, g.port)
+    calibrated(cfg_path)
+    held = lock.acquire("vplotter draw car.ngc")
+    try:
+        assert run(cfg_path, "draw", str(SQUARE), "--backend", "serial") == 3
+    finally:
+        held.release()
+    assert "plotter busy" in capsys.readouterr().err
+    assert g.resets == 0 and g.received == []      # the controller was never touched
 
 
 def test_missing_port_is_a_clear_error(tmp_path, capsys):
