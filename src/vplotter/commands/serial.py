@@ -106,7 +106,7 @@ def expected_settings(cfg) -> dict[int, tuple[float, str]]:
 def compare_settings(cfg, settings: dict[int, float]) -> list[str]:
     """Warnings where the controller's settings contradict config.toml."""
     out = []
-    for num, (want, what) in expected_settings(cfg).items():
+    for num, (want, what) in sorted(expected_settings(cfg).items()):
         have = settings.get(num)
         if have is None:
             continue
