@@ -397,3 +397,28 @@ def test_help_does_not_import_pyserial():
 def test_fmt_never_writes_minus_zero():
     assert linestream.fmt(-0.0001) == "0" and linestream.fmt(12.5) == "12.5"
     assert linestream.fmt(-3.0) == "-3"
+
+
+def test_a_position_on_a_closed_shape_names_the_earlier_line():
+    """At the point where a loop starts and ends, the line being drawn is the loop's first."""
+
+    class Chunk:
+        def __init__(self, q, lines):
+            self.text = [f"G1X{x}Y{y}" for x, y in q]
+            self.q = np.array(q, dtype=float)
+            self.line = np.array(lines)
+            self.down = np.ones(len(q), dtype=bool)
+            self.t_us = np.arange(len(q))
+
+        def __len__(self):
+            return len(self.text)
+
+    s = grbl.Streamer(link=None, rx_buffer=128)
+    s.start_q = (0.0, 0.0)
+    s._add(Chunk([(10, 0), (10, 10), (0, 10), (0, 0), (-5, 0)], [1, 2, 3, 4, 5]))
+    s.acked = 5
+    assert s.locate((0.004, -0.003)) == 0            # at the start, not the end of the loop
+    assert s.locate((10, 5)) == 1
+    s.current = 1
+    assert s.locate((0.0, 0.003)) == 3               # later on, the loop's end
+    assert s.locate((-2.0, 0.0)) == 4

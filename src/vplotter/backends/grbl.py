@@ -26,6 +26,7 @@ from vplotter.errors import BackendError
 BANNER = re.compile(r"^Grbl(HAL)? \S+ \[.*help")
 READ_TIMEOUT_S = 0.02          # the port's read timeout: how long one read() may block
 NOT_YET = object()             # a chunk source with nothing ready yet (still planning)
+SAME_MM = 0.02                 # reported positions this close to two moves: the earlier one
 
 ERRORS = {
     1: "G-code words need a command letter and a value", 2: "bad number",
@@ -281,8 +282,10 @@ class Streamer:
 
     def locate(self, pos) -> int:
         """The line whose move (in stream coordinates) passes nearest to pos, among those
-        that may be running: the earliest of equals (a pen change after a move is not begun
-        until the move ends)."""
+        that may be running. Of the moves within SAME_MM of the nearest, the earliest: a
+        reported position is rounded and quantised to steps, and a closed shape ends where it
+        began, so the earlier reading is the safe one (a resume then redraws a little rather
+        than skipping a loop); a pen change after a move is not begun until the move ends."""
         import numpy as np
 
         lo, hi = self.current, max(self.current, self.acked - 1)
@@ -295,7 +298,7 @@ class Streamer:
         p = np.asarray(pos, dtype=float)
         t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.where(len2 > 0, len2, 1.0), 0, 1)
         d = np.hypot(*(a + ab * t[:, None] - p).T)
-        return lo + int(np.flatnonzero(d <= d.min() + 1e-6)[0])
+        return lo + int(np.flatnonzero(d <= d.min() + SAME_MM)[0])
 
     # -- streaming
     def _answer(self, ln: str) -> None:
