@@ -316,16 +316,20 @@ def test_a_controller_that_never_answers_is_an_error_not_a_hang(tmp_path, standi
 
 
 def test_a_second_vplotter_is_refused_before_the_port_is_opened(tmp_path, standins, capsys):
-    from vplotter import lock
-
     g = standins()
     cfg_path = serial_config(tmp_path, g.port)
     calibrated(cfg_path)
-    held = lock.acquire("vplotter draw car.ngc")
+    holder = subprocess.Popen(
+        [sys.executable, "-c", "import sys; from vplotter import lock; lock.acquire('vplotter "
+         "draw car.ngc'); print('held', flush=True); sys.stdin.read()"],
+        stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
+        env={**os.environ, "PYTHONPATH": str(REPO / "src")})
     try:
+        assert holder.stdout.readline() == "held\n"
         assert run(cfg_path, "draw", str(SQUARE), "--backend", "serial") == 3
     finally:
-        held.release()
+        holder.stdin.close()
+        holder.wait()
     assert "plotter busy" in capsys.readouterr().err
     assert g.resets == 0 and g.received == []      # the controller was never touched
 

@@ -177,6 +177,8 @@ class SerialSession(Session):
             self.line = line
             self.pen_down = st.line_at(k - 1)[2][1] if k > st.base else self.pen_down
             self.lines_sent = st.sent
+            if self.live is not None:
+                self.live.update(t_us / 1e6, line)
             if progress is not None:
                 progress(t_us, line)
 

@@ -14,7 +14,7 @@ def draw(args, argv, cfg, pos, begin) -> int:
     """cmd_draw hands the serial case here: validate, then stream the lines to the controller."""
     import numpy as np
 
-    from vplotter import pipeline
+    from vplotter import live, pipeline
     from vplotter.backends.serial import SerialSession
     from vplotter.commands.draw import _Progress
     from vplotter.inputs import gcode
@@ -22,14 +22,17 @@ def draw(args, argv, cfg, pos, begin) -> int:
 
     if args.backend != "serial":
         raise ConfigError("error: --save-stream goes with --backend serial")
+    if getattr(args, "detach", False) or getattr(args, "detached", False):
+        raise ConfigError("error: --detach does not work with --backend serial yet")
     if args.trace or args.realtime:
         raise ConfigError("error: --trace and --realtime are for the GPIO backends "
                           "(--save-stream writes what is sent to the controller)")
     made: list[LineScheduler] = []
 
-    def scheduler(*a):
-        made.append(LineScheduler(*a))
-        return made[-1]
+    class Counted(LineScheduler):            # the validation pass counts the lines
+        def __init__(self, *a):
+            super().__init__(*a)
+            made.append(self)
 
     sess = SerialSession(cfg, command_line(argv), args.dry_run, pos, args.save_stream)
     sess.drawing = {"file": os.path.abspath(args.file), "sha256": file_hash(args.file)}
@@ -37,7 +40,10 @@ def draw(args, argv, cfg, pos, begin) -> int:
     with sess as s:
         records = gcode.read(args.file, strict=args.strict)
         summary = pipeline.validate(cfg, records, pos.counts, pos.ref_mm, args.file, begin,
-                                    lambda: s.stop_pending, scheduler)
+                                    lambda: s.stop_pending, Counted)
+        if summary is not None and not s.dry_run:     # for `vplotter status`
+            s.live = live.Publisher(command_line(argv), os.path.abspath(args.file), summary.time_s)
+            s.live.update(0.0, 0, force=True)
         if summary is not None:
             say(f"{args.file}: {summary.text()}")
             say(f"{args.file}: {made[-1].lines_total} lines to stream "
