@@ -426,3 +426,17 @@ def test_a_position_on_a_closed_shape_names_the_earlier_line():
     s.current = 1
     assert s.locate((0.0, 0.003)) == 3               # later on, the loop's end
     assert s.locate((-2.0, 0.0)) == 4
+
+
+@given(st.text(max_size=80))
+def test_parse_status_never_raises(text):
+    s = grbl.parse_status(text)
+    assert s is None or (text.startswith("<") and text.endswith(">"))
+
+
+@given(st.lists(st.tuples(st.sampled_from(["Idle", "Run", "Hold:0", "Hold:1", "Alarm"]),
+                          st.floats(-1e4, 1e4), st.floats(-1e4, 1e4)), min_size=1, max_size=5))
+def test_parse_status_reads_what_grbl_prints(reports):
+    for state_, x, y in reports:
+        s = grbl.parse_status(f"<{state_}|MPos:{x:.3f},{y:.3f},0.000|FS:0,0|Pn:XYZ>")
+        assert s.state == state_ and s.mpos[:2] == (float(f"{x:.3f}"), float(f"{y:.3f}"))
