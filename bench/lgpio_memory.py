@@ -39,7 +39,8 @@ def rss_kb(pid: int) -> int | None:
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--file", default=str(REPO / "gcode_samples" / "car.ngc"))
+    ap.add_argument("--file", default=str(REPO / "gcode_samples" / "car.ngc"),
+                    help="G-code file, or `zigzag`: 400 pen-up moves across 150 mm (an hour)")
     ap.add_argument("--backend", default="lgpio")
     ap.add_argument("--seconds", type=float, default=90.0)
     ap.add_argument("--every", type=float, default=2.0)
@@ -49,6 +50,11 @@ def main() -> int:
     env = dict(os.environ, PYTHONPATH=str(REPO / "src"))
     with tempfile.TemporaryDirectory() as state:
         env["XDG_STATE_HOME"] = state
+        if args.file == "zigzag":
+            args.file = os.path.join(state, "zigzag.ngc")
+            with open(args.file, "w") as f:
+                f.write("G21 G90\n" + "".join(f"G0 X{75 if k % 2 else -75} Y{k % 40 - 20}\n"
+                                              for k in range(400)) + "M2\n")
         cmd = [sys.executable, "-m", "vplotter", "--config", str(REPO / "config.toml")]
         subprocess.run(cmd + ["calibrate", "--at", "0", "0"], env=env, check=True,
                        stdout=subprocess.DEVNULL)
@@ -58,7 +64,7 @@ def main() -> int:
         t0, samples = time.monotonic(), []
         while time.monotonic() - t0 < args.seconds and proc.poll() is None:
             kb = rss_kb(proc.pid)
-            if kb is not None:
+            if kb:
                 samples.append((time.monotonic() - t0, kb))
             time.sleep(args.every)
         proc.send_signal(signal.SIGINT)
@@ -73,10 +79,14 @@ def main() -> int:
         print(f"  t={ts:6.1f} s  RSS {k / 1024:7.1f} MB")
     minute = kb[t <= 60]
     print(f"first minute: {minute[0] / 1024:.1f} -> {minute[-1] / 1024:.1f} MB")
-    late = t >= args.warmup
-    slope = np.polyfit(t[late], kb[late], 1)[0] if late.sum() >= 3 else float("nan")
-    print(f"after {args.warmup:.0f} s: {slope:+.2f} kB/s -> {slope * 6 * 3600 / 1024:+.1f} MB "
-          f"per 6 h (extrapolated)")
+    jumps = np.diff(kb)
+    k = int(np.argmax(jumps))
+    print(f"largest step between two samples: {jumps[k] / 1024:+.1f} MB at t={t[k + 1]:.0f} s")
+    for name, sel in ((f"after {args.warmup:.0f} s", t >= args.warmup),
+                      ("second half", t >= t[-1] / 2)):
+        slope = np.polyfit(t[sel], kb[sel], 1)[0] if sel.sum() >= 3 else float("nan")
+        print(f"{name}: {slope:+.3f} kB/s -> {slope * 6 * 3600 / 1024:+.1f} MB per 6 h "
+              f"(least squares, extrapolated)")
     return 0
 
 

@@ -23,7 +23,7 @@ import numpy as np
 
 from vplotter.backends import Backend
 from vplotter.backends.lgpio_pen import PenTrains
-from vplotter.backends.lgpio_setup import chip_error, load_lgpio, tight_timers
+from vplotter.backends.lgpio_setup import chip_error, lean_malloc, load_lgpio, tight_timers
 from vplotter.backends.realtime import Player
 from vplotter.errors import BackendError
 from vplotter.schedule import Rows
@@ -58,6 +58,7 @@ class LgpioBackend(Backend):
                                    f"([pen] up_us/down_us)")
         lg = self.lg = self.lg or load_lgpio()
         tight_timers()                       # before lgpio starts its tx thread
+        lean_malloc()
         try:
             h = lg.gpiochip_open(self.chip)
         except lg.error as e:

@@ -1,4 +1,5 @@
-"""Starting lgpio safely: the import, the process's timers, and errors people can act on.
+"""Starting lgpio safely: the import, the process's timers and memory, and errors people can
+act on.
 
 `import lgpio` makes a notify FIFO (`.lgd-nfy<N>`) in the process's working directory, and
 fails with a bare FileNotFoundError when that directory is not writable. Setting LG_WD instead
@@ -107,6 +108,20 @@ def tight_timers() -> None:
         import ctypes
 
         ctypes.CDLL(None, use_errno=True).prctl(29, ctypes.c_ulong(1), 0, 0, 0)  # PR_SET_TIMERSLACK
+    except (OSError, AttributeError):
+        pass
+
+
+def lean_malloc() -> None:
+    """Large blocks (numpy arrays of a planned stretch) from their own mappings, given back
+    when freed: glibc otherwise raises that threshold after the first large free and keeps
+    such blocks in the heap, so the resident size stays at the largest stretch ever planned."""
+    if not sys.platform.startswith("linux"):
+        return
+    try:
+        import ctypes
+
+        ctypes.CDLL(None).mallopt(-3, 128 * 1024)   # M_MMAP_THRESHOLD (fixed: no raising)
     except (OSError, AttributeError):
         pass
 
