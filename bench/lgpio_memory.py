@@ -72,6 +72,8 @@ def main() -> int:
     if len(samples) < 3:
         print("too few samples; the draw said:", err.strip()[-500:])
         return 1
+    full = np.median([s[1] for s in samples]) / 2          # the interpreter has started
+    samples = [s for s in samples if s[1] >= full]
     t = np.array([s[0] for s in samples])
     kb = np.array([s[1] for s in samples], dtype=float)
     print(f"{args.backend} {Path(args.file).name}: {len(samples)} RSS samples over {t[-1]:.0f} s")
@@ -79,6 +81,7 @@ def main() -> int:
         print(f"  t={ts:6.1f} s  RSS {k / 1024:7.1f} MB")
     minute = kb[t <= 60]
     print(f"first minute: {minute[0] / 1024:.1f} -> {minute[-1] / 1024:.1f} MB")
+    print("RSS kB:", " ".join(f"{ts:.0f}:{k:.0f}" for ts, k in zip(t, kb)))
     jumps = np.diff(kb)
     k = int(np.argmax(jumps))
     print(f"largest step between two samples: {jumps[k] / 1024:+.1f} MB at t={t[k + 1]:.0f} s")
