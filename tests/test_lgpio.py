@@ -223,7 +223,7 @@ def test_a_hang_leaves_the_position_uncertain(cfg, parts, monkeypatch):
 
     monkeypatch.setattr(FakeLgpio, "tx_servo", hang)
     monkeypatch.setattr("vplotter.backends.create", lambda *a, **k: b)
-    pos = state.Position.at_cords(480.0, 480.0, cfg.motors.steps_per_mm)
+    pos = state.Position.at_cords(480.0, 480.0, cfg.motors.steps_per_unit)
     state.save(pos)
     with pytest.raises(BackendError):
         with Session(cfg, "draw", "lgpio", dry_run=False, position=pos) as s:
