@@ -19,7 +19,8 @@ from vplotter.errors import BackendError
 
 MISSING = ("error: the lgpio backend needs the lgpio module: on Raspberry Pi OS `sudo apt install "
            "python3-lgpio` (in a venv made with --system-site-packages), or `pip install "
-           "'vplotter[pi]'` where lgpio has a wheel; or use --dry-run to simulate")
+           "'.[pi]'` in vplotter's directory where lgpio has a wheel (Python <= 3.12); or use "
+           "--dry-run to simulate")
 
 
 def load_lgpio(importer=None):
