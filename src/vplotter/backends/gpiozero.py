@@ -13,6 +13,7 @@ are the pen's up/down widths (value -1/+1, None stops the pulses); it needs a fa
 
 from __future__ import annotations
 
+import contextlib
 import os
 import sys
 import time
@@ -69,9 +70,9 @@ class GpiozeroBackend(Backend):
         except ImportError:
             raise BackendError(f"error: the gpiozero backend needs the gpiozero package; {HINT}") \
                 from None
-        self._prepare_lgpio()
+        prepared = self._prepare_lgpio()
         try:
-            with warnings.catch_warnings():
+            with warnings.catch_warnings(), prepared:
                 warnings.simplefilter("ignore")  # gpiozero warns about each factory it skips
                 for pin in self.coil_pins:
                     self._coils.append(DigitalOutputDevice(pin, initial_value=False,
@@ -93,19 +94,22 @@ class GpiozeroBackend(Backend):
                                f"({type(e).__name__}: {e}); use a pin factory with PWM "
                                f"(lgpio, pigpio, RPi.GPIO) or --dry-run") from None
 
-    def _prepare_lgpio(self) -> None:
+    def _prepare_lgpio(self):
         """When gpiozero may pick its lgpio factory: import lgpio safely first (its notify
-        FIFO in the state directory, not in the working directory), and tight timers before
-        lgpio starts its tx thread. Without lgpio gpiozero picks another factory."""
+        FIFO in the state directory, not in the working directory), tight timers, and the
+        context in which lgpio starts its tx thread (the first device opens the chip).
+        Without lgpio gpiozero picks another factory."""
         wanted = os.environ.get("GPIOZERO_PIN_FACTORY", "").lower()
         if self.pin_factory is None and wanted in ("", "lgpio"):
-            from vplotter.backends.lgpio_setup import load_lgpio, tight_timers
+            from vplotter.backends.lgpio_setup import load_lgpio, tight_timers, tx_thread_priority
 
             try:
                 load_lgpio()
             except BackendError:
-                return
+                return contextlib.nullcontext()
             tight_timers()
+            return tx_thread_priority()
+        return contextlib.nullcontext()
 
     def _lgpio_pen(self, factory) -> None:
         from gpiozero import DigitalOutputDevice

@@ -23,7 +23,8 @@ import numpy as np
 
 from vplotter.backends import Backend
 from vplotter.backends.lgpio_pen import PenTrains
-from vplotter.backends.lgpio_setup import chip_error, lean_malloc, load_lgpio, tight_timers
+from vplotter.backends.lgpio_setup import (chip_error, lean_malloc, load_lgpio, tight_timers,
+                                           tx_thread_priority)
 from vplotter.backends.realtime import Player
 from vplotter.errors import BackendError
 from vplotter.schedule import Rows
@@ -60,7 +61,8 @@ class LgpioBackend(Backend):
         tight_timers()                       # before lgpio starts its tx thread
         lean_malloc()
         try:
-            h = lg.gpiochip_open(self.chip)
+            with tx_thread_priority():
+                h = lg.gpiochip_open(self.chip)
         except lg.error as e:
             raise chip_error(self.chip, str(e)) from None
         if h < 0:

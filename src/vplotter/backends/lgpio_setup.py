@@ -113,6 +113,37 @@ def tight_timers() -> None:
         pass
 
 
+TX_PRIORITY = 10   # SCHED_FIFO priority for lgpio's tx thread: above every normal thread, below
+                   # the kernel's interrupt threads (50)
+
+
+def tx_thread_priority():
+    """A context for the call that makes lgpio start its tx thread (the first gpiochip_open):
+    the calling thread runs at real-time priority meanwhile, so the tx thread inherits it (its
+    servo pulses then keep their width on a busy machine), and goes back to normal after. Only
+    where allowed (root, or an rtprio limit); elsewhere nothing changes. The tx thread only
+    ever holds vplotter's one pen train, so it sleeps nearly all the time."""
+    import contextlib
+
+    @contextlib.contextmanager
+    def ctx():
+        before = None
+        try:
+            before = (os.sched_getscheduler(0), os.sched_getparam(0))
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(TX_PRIORITY))
+        except (OSError, AttributeError):
+            before = None
+        try:
+            yield
+        finally:
+            if before is not None:
+                try:
+                    os.sched_setscheduler(0, before[0], before[1])
+                except OSError:
+                    pass
+    return ctx()
+
+
 def lean_malloc() -> None:
     """Large blocks (numpy arrays of a planned stretch) from their own mappings, given back
     when freed: glibc otherwise raises that threshold after the first large free and keeps
