@@ -394,3 +394,13 @@ def test_gpiozero_on_its_lgpio_factory_makes_exact_pulses(cfg, parts, lgpio_fact
     assert widths and set(widths) == {cfg.pen.up_us, cfg.pen.down_us}
     assert not [c for c in lg.calls if c[0] == "tx_pwm"]
     assert lg.truncated == 0 and lg.levels[cfg.pen.pin] == 0 and not lg.hung
+
+
+def test_only_the_tx_thread_keeps_real_time_priority():
+    """The caller runs at real-time priority only while lgpio starts its tx thread (where
+    that is allowed at all), and is back to what it was after."""
+    before = (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority)
+    with lgpio_setup.tx_thread_priority():
+        inside = os.sched_getscheduler(0)
+    assert (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority) == before
+    assert inside in (before[0], os.SCHED_FIFO)
