@@ -17,6 +17,7 @@ directory, working directory unchanged); every failure is one line that says wha
 
 from __future__ import annotations
 
+import inspect
 import time
 
 import numpy as np
@@ -47,6 +48,8 @@ class LgpioBackend(Backend):
         self.sleep = sleep or time.sleep
         self.handle: int | None = None
         self.pen: PenTrains | None = None
+        if "min_step_us" in inspect.signature(Player).parameters:   # the player's own floor
+            timing = {"min_step_us": 1e6 / cfg.motors.max_step_rate, **timing}
         self._player = Player(self._write_coils, self._write_pen, self.clock, self.sleep,
                               **timing)
         self._late = Folded()
@@ -101,7 +104,11 @@ class LgpioBackend(Backend):
 
     def lateness(self) -> dict | None:
         self._fold()
-        return self._late.stats()
+        stats = self._late.stats()
+        lat = self._player.lateness
+        if stats is not None and hasattr(lat, "shifts"):     # the player's timeline shifts
+            stats.update(shifts=lat.shifts, lost_ms=getattr(lat, "lost_ns", 0) / 1e6)
+        return stats
 
     # ------------------------------------------------------------ play
     def play(self, rows: Rows) -> int:
