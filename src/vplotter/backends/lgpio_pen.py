@@ -26,7 +26,7 @@ from vplotter.schedule import Rows
 SERVO_HZ = 50
 FRAME_US = 1_000_000 // SERVO_HZ
 TRAIN_SLACK_NS = 60_000_000     # lgpio starts a train on its 20 ms grid: up to 40 ms late
-HANG_NS = 250_000_000           # still running this long past its end (twice): a hang
+HANG_NS = 1_000_000_000         # still running this long past its end (twice): a hang
 HANG = ("error: lgpio's pulse thread stopped (an lgpio 0.2 fault): the pen was lifted and the "
         "coils released; the stored position is marked uncertain: check the pen, then `vplotter "
         "calibrate --at X Y` (or --trust-position)")

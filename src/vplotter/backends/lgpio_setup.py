@@ -121,14 +121,18 @@ def tx_thread_priority():
     """A context for the call that makes lgpio start its tx thread (the first gpiochip_open):
     the calling thread runs at real-time priority meanwhile, so the tx thread inherits it (its
     servo pulses then keep their width on a busy machine), and goes back to normal after. Only
-    where allowed (root, or an rtprio limit); elsewhere nothing changes. The tx thread only
-    ever holds vplotter's one pen train, so it sleeps nearly all the time."""
+    where allowed (root, or an rtprio limit), and only with two or more CPUs: should lgpio's
+    thread ever spin (the lgpio 0.2 fault), a single CPU would be its alone and no signal
+    would get through. The tx thread only ever holds vplotter's one pen train, so it sleeps
+    nearly all the time."""
     import contextlib
 
     @contextlib.contextmanager
     def ctx():
         before = None
         try:
+            if (os.cpu_count() or 1) < 2:
+                raise OSError("one CPU")
             before = (os.sched_getscheduler(0), os.sched_getparam(0))
             os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(TX_PRIORITY))
         except (OSError, AttributeError):
