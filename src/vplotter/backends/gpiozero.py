@@ -116,6 +116,10 @@ class GpiozeroBackend(Backend):
 
         from vplotter.backends.lgpio_pen import PenTrains
 
+        for w in (self.cfg.pen.up_us, self.cfg.pen.down_us):
+            if not 500 <= w <= 2500:
+                raise ValueError(f"lgpio makes servo pulses of 500..2500 us, not {w} ([pen] "
+                                 f"up_us/down_us)")
         self._pen_dev = DigitalOutputDevice(self.pen_pin, initial_value=False,
                                             pin_factory=factory)
         self.pen = PenTrains(_lgpio_of(factory), factory._handle, self.pen_pin,
@@ -143,7 +147,10 @@ class GpiozeroBackend(Backend):
         if pen.hung:
             return 0                         # after a hang the pen is up and the coils off
         pen.plan(rows, self._player.pen_us)
-        n = self._player.play(rows, lambda: self.stop_requested or pen.check())
+        try:
+            n = self._player.play(rows, lambda: self.stop_requested or pen.check())
+        except pen.lg.error as e:
+            raise BackendError(f"error: lgpio failed while drawing: {e}") from None
         if pen.hung:
             self._hang()
         return n
