@@ -5,7 +5,7 @@ Coils are DigitalOutputDevices (written through their `pin.state`, the fastest p
 The pen: on gpiozero's lgpio factory (what gpiozero uses on a Pi) lgpio's servo trains
 (`lgpio_pen.PenTrains`: the configured width to the microsecond, ended by a pulse count, with
 the watchdog), because gpiozero sets PWM through a duty cycle in whole percent (gpiozero issue
-1209: 500 us became 380 us). Other factories get a gpiozero Servo whose min/max pulse widths
+1209: 500 us is sent as 400 us). Other factories get a gpiozero Servo whose min/max pulse widths
 are the pen's up/down widths (value -1/+1, None stops the pulses); it needs a factory with PWM
 (software PWM is fine); gpiozero's mock factory gets a PWM-capable mock pen pin
 (GPIOZERO_PIN_FACTORY=mock simulates the whole machine).
