@@ -242,8 +242,9 @@ def test_lateness_is_kept_in_fixed_memory(cfg, parts):
     size = b._late.counts.nbytes
     b.close()
     stats = b.lateness()
-    assert stats["n"] == len(lg.coil_changes()) - 1 + len(
-        [c for c in lg.calls if c[0] == "tx_servo"]) or stats["n"] > 100
+    coil_writes = len([c for c in lg.calls if c[0] == "group_write"]) - 1    # - the one at close
+    assert stats["n"] >= coil_writes > 100                  # every change measured, none lost
+    assert stats["max_ms"] >= stats["p99_ms"] >= stats["p50_ms"]
     assert b._late.counts.nbytes == size
 
 
