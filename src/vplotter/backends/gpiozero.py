@@ -33,8 +33,10 @@ class GpiozeroBackend(Backend):
     def __init__(self, cfg, pin_factory=None, realtime: bool = True, clock=None, sleep=None,
                  **timing):
         """pin_factory: a gpiozero pin factory (default: gpiozero's own choice, or
-        GPIOZERO_PIN_FACTORY); clock, sleep and timing options (spin_us, poll_us, catchup) go to
-        `realtime.Player`; realtime is accepted and ignored (always real time)."""
+        GPIOZERO_PIN_FACTORY); clock, sleep and timing options (spin_us, poll_us, ...) go to
+        `realtime.Player`; realtime is accepted and ignored (always real time). The player
+        writes one pin at a time in a legal order and keeps 1 / max_step_rate between two
+        coil changes of one motor."""
         super().__init__(cfg)
         self.pin_factory = pin_factory
         self._coils = []
@@ -44,6 +46,7 @@ class GpiozeroBackend(Backend):
         lo, hi = sorted((cfg.pen.up_us, cfg.pen.down_us))
         self._pen_range = (lo, hi)
         self._clock, self._sleep = clock or time.perf_counter_ns, sleep or time.sleep
+        timing = {"min_step_us": 1e6 / cfg.motors.max_step_rate, "pin_at_a_time": True, **timing}
         self._player = Player(self._write_coils, self._write_pen, self._clock, self._sleep,
                               **timing)
 
