@@ -94,6 +94,7 @@ class Session:
         self.resume_info: dict | None = None
         self._writer: _Writer | None = None
         self.drawing: dict | None = None     # {"file", "sha256"} while a draw runs
+        self.on_pause = None    # on_pause(pause): a Pause came up (pen up, coils released)
 
     @property
     def saves_state(self) -> bool:
@@ -182,11 +183,17 @@ class Session:
         try:
             cur, k = ahead.get(), 0
             while cur is not None and not self._signum:
+                if not isinstance(cur, Rows):        # a pause: wait once all is played
+                    self.backend.drain()
+                    if self.on_pause is not None:
+                        self.on_pause(cur)
+                    cur = ahead.get()
+                    continue
                 nxt = ahead.get()
                 if self.saves_state:
                     self._begin_motion()
                     # until the next record lands the motors are in this part or the next
-                    span = cur if nxt is None else Rows.concat([cur, nxt])
+                    span = cur if not isinstance(nxt, Rows) else Rows.concat([cur, nxt])
                     dev = np.abs(span.steps - np.asarray(self.counts)).max(axis=0)
                     down = self.pen_down or bool((cur.pen_us == self.cfg.pen.down_us).any())
                     self._writer.wait_journal(k - 1)
@@ -318,7 +325,7 @@ class _Ahead:
     def _run(self, chunks) -> None:
         try:
             for rows in chunks:
-                for part in _split(rows):
+                for part in (_split(rows) if isinstance(rows, Rows) else (rows,)):
                     if not self._put(part):
                         return
             self._put(_END)

@@ -17,6 +17,7 @@ from vplotter.inputs import gcode
 from vplotter.config import Config
 from vplotter.errors import InputError
 from vplotter.planner import Block, Planner
+from vplotter.prepare import Pause
 from vplotter.schedule import Rows, Scheduler
 
 
@@ -40,7 +41,7 @@ class Summary:
         m, s = divmod(int(round(self.time_s)), 60)
         h, m = divmod(m, 60)
         hms = f"{h}:{m:02d}:{s:02d}" if h else f"{m}:{s:02d}"
-        return (f"{self.moves} moves, {self.pieces} pieces, {self.pen_downs} strokes, "
+        return (f"{self.moves} moves, {self.pieces} pieces, {self.pen_downs} pen lifts, "
                 f"steps left {self.steps[0]} right {self.steps[1]}, "
                 f"drawn {self.drawn_mm / 1000:.2f} m, travel {self.travel_mm / 1000:.2f} m, "
                 f"plot time {hms} ({self.time_s:.1f} s)")
@@ -57,12 +58,16 @@ class StartAt:
 
 def stream(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str = "<input>",
            emit: bool = True, summary: Summary | None = None,
-           start_at: StartAt | None = None, pen_down: bool | None = None) -> Iterator[Rows]:
+           start_at: StartAt | None = None, pen_down: bool | None = None,
+           where=None) -> Iterator[Rows | Pause]:
     """Rows for drawing `records` starting from the given step counts (cords = ref + counts/spm).
 
     With `start_at`, records before that line are skipped (their pen changes still count), the
     pen travels up to the resume point and goes down again if the file has it down there.
+    A Pause record (pen up, coils released) is passed on as it is, for the player to wait.
+    where(line, col) names the file place of a line in errors (default: name:line:col).
     """
+    where = where or (lambda line, col: f"{name}:{line}:{col}")
     kin = kinematics.from_config(cfg)
     spm = cfg.motors.steps_per_mm
     summary = summary if summary is not None else Summary()
@@ -98,7 +103,7 @@ def stream(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: s
                 move = int(np.searchsorted(np.cumsum(n), bad, side="right"))
                 x, y = pts[bad]
                 raise InputError(
-                    f"{name}:{line[move]}:{col[move]}: error: point X{x:.3f} Y{y:.3f} is outside "
+                    f"{where(int(line[move]), int(col[move]))}: error: point X{x:.3f} Y{y:.3f} is outside "
                     f"the page (X {page.x_min_mm:g}..{page.x_max_mm:g}, "
                     f"Y {page.y_min_mm:g}..{page.y_max_mm:g})")
             batch.clear()
@@ -165,6 +170,13 @@ def stream(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: s
             rows = sched.dwell(rec.seconds, rec.line)
             if rows is not None and emit:
                 yield rows
+        elif isinstance(rec, Pause):
+            yield from flush(True)
+            rows = sched.release()
+            if emit:
+                if rows is not None:
+                    yield rows
+                yield rec
     if start_at is not None:
         raise InputError(f"{name}: error: line {start_at.line} is past the last move of the file")
     yield from flush(True)
@@ -176,11 +188,11 @@ def stream(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: s
 
 
 def validate(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str = "<input>",
-             start_at: StartAt | None = None, stop=lambda: False) -> Summary | None:
+             start_at: StartAt | None = None, stop=lambda: False, where=None) -> Summary | None:
     """The validation pass: every record checked, planned and timed, no step computed.
     Returns the summary, or None if stop() turned true first."""
     summary = Summary()
-    for _ in stream(cfg, records, counts, ref_mm, name, False, summary, start_at):
+    for _ in stream(cfg, records, counts, ref_mm, name, False, summary, start_at, where=where):
         if stop():
             return None
     return summary

@@ -1,0 +1,394 @@
+"""Pen-up travel optimisation: the order, direction and seam of strokes.
+
+Never changes what is drawn (the set of segments): a stroke may be drawn backwards, a closed
+stroke may start at any of its vertices (its seam), and strokes keep their points. Layers keep
+their order (each layer is ordered on its own, starting where the previous one ended), because
+a layer may be another pen. Deterministic: no clocks, no random numbers.
+
+- `keep`: file order.
+- `greedy`: nearest neighbour from the pen's position (either end of an open stroke, a few
+  candidate seams of a closed one), found with a uniform grid that is rebuilt coarser as it
+  empties.
+- `best`: greedy, then the tour improved by 2-opt (reversing a run of strokes, each drawn the
+  other way) and or-opt (moving a run of up to three strokes, either way round) within a window
+  of nearby tour positions, vectorised per position; seams of closed strokes are chosen to
+  minimise the travel in and out. Never longer than the file order.
+
+Joining (`joined`): a stroke that starts within join_mm of where the previous one ended is
+drawn without lifting the pen.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+
+from vplotter.inputs.strokes import Stroke
+
+METHODS = ("keep", "greedy", "best")
+SEAM_SAMPLES = 16     # candidate seams per closed stroke in the greedy pass
+WINDOW = 40           # tour positions looked at by 2-opt and or-opt
+PASSES = 3            # improvement rounds at most
+
+
+def travel_mm(strokes: list[Stroke], start_xy=(0.0, 0.0), join_mm: float = 0.0) -> float:
+    """Pen-up travel drawing `strokes` in this order from start_xy (the ends are the strokes'
+    first and last points; no return at the end). Gaps within join_mm are drawn, not travel."""
+    if not strokes:
+        return 0.0
+    ends = np.array([s.pts[-1] for s in strokes[:-1]]).reshape(-1, 2)
+    prev = np.vstack([np.asarray(start_xy, dtype=float)[None, :], ends])
+    starts = np.array([s.pts[0] for s in strokes])
+    d = np.hypot(*(starts - prev).T)
+    return float(d[d > join_mm].sum()) if join_mm > 0 else float(d.sum())
+
+
+def joined(strokes: list[Stroke], join_mm: float) -> np.ndarray:
+    """(N,) bool: stroke k starts within join_mm of the end of stroke k-1 and is drawn on from
+    it without lifting the pen (same layer; dots are never joined)."""
+    out = np.zeros(len(strokes), dtype=bool)
+    if join_mm <= 0:
+        return out
+    for k in range(1, len(strokes)):
+        a, b = strokes[k - 1], strokes[k]
+        if (a.layer == b.layer and len(a.pts) > 1 and len(b.pts) > 1
+                and math.dist(a.pts[-1], b.pts[0]) <= join_mm):
+            out[k] = True
+    return out
+
+
+def order(strokes: list[Stroke], method: str = "best", start_xy=(0.0, 0.0)) -> list[Stroke]:
+    """Strokes in drawing order (new Stroke objects where direction or seam changed)."""
+    if method not in METHODS:
+        raise ValueError(method)
+    if method == "keep" or len(strokes) < 2 and not any(s.closed for s in strokes):
+        return list(strokes)
+    out: list[Stroke] = []
+    at = np.asarray(start_xy, dtype=float)
+    for group in _layers(strokes):
+        done = _order_group(group, method, at)
+        out += done
+        if done:
+            at = done[-1].pts[-1]
+    return out
+
+
+def _layers(strokes: list[Stroke]) -> list[list[Stroke]]:
+    groups: dict = {}
+    for s in strokes:
+        groups.setdefault(s.layer, []).append(s)
+    return list(groups.values())
+
+
+class _Tour:
+    """A tour as arrays: stroke index, reversed flag and seam (closed strokes) per position."""
+
+    def __init__(self, strokes: list[Stroke], start: np.ndarray):
+        self.strokes = strokes
+        self.start = start
+        self.closed = np.array([s.closed for s in strokes])
+        self.first = np.array([s.pts[0] for s in strokes], dtype=float)
+        self.last = np.array([s.pts[-1] for s in strokes], dtype=float)
+        self.perm = np.arange(len(strokes))
+        self.rev = np.zeros(len(strokes), dtype=bool)
+        self.seam = np.zeros(len(strokes), dtype=np.int64)       # by stroke index
+
+    def ends(self, lo: int = 0, hi: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Entry and exit point of each tour position (of positions lo..hi-1)."""
+        p, r = self.perm[lo:hi], self.rev[lo:hi]
+        a, b = self.first[p], self.last[p]
+        entry = np.where(r[:, None], b, a)
+        exit_ = np.where(r[:, None], a, b)
+        return entry, exit_
+
+    def length(self) -> float:
+        entry, exit_ = self.ends()
+        prev = np.vstack([self.start[None, :], exit_[:-1]])
+        return float(np.hypot(*(entry - prev).T).sum())
+
+    def set_seam(self, i: int, v: int) -> None:
+        """Closed stroke i enters and leaves at its vertex v."""
+        self.seam[i] = v
+        self.first[i] = self.last[i] = self.strokes[i].pts[v]
+
+    def result(self) -> list[Stroke]:
+        out = []
+        for i, r in zip(self.perm.tolist(), self.rev.tolist()):
+            s = self.strokes[i]
+            if self.closed[i]:
+                v = int(self.seam[i])
+                if v:
+                    q = s.pts[:-1]
+                    s = replace(s, pts=np.concatenate([q[v:], q[:v], q[v:v + 1]]))
+            elif r:
+                s = replace(s, pts=s.pts[::-1].copy())
+            out.append(s)
+        return out
+
+
+def _order_group(strokes: list[Stroke], method: str, start: np.ndarray) -> list[Stroke]:
+    tour = _Tour(strokes, start)
+    keep_len = tour.length()
+    _greedy(tour)
+    if method == "best":
+        _seams(tour)
+        for _ in range(PASSES):
+            gain = _two_opt(tour) + _or_opt(tour)
+            gain += _seams(tour)
+            if gain <= 1e-9 * max(1.0, keep_len):
+                break
+        if tour.length() > keep_len:        # never longer than the file order
+            return list(strokes)
+    return tour.result()
+
+
+# ------------------------------------------------------------------ greedy nearest neighbour
+def _greedy(tour: _Tour) -> None:
+    n = len(tour.strokes)
+    owner: list[int] = []
+    which: list[int] = []     # 0 first point, 1 last point, >= 2: closed vertex index + 2
+    pts: list[np.ndarray] = []
+    for i, s in enumerate(tour.strokes):
+        if tour.closed[i]:
+            k = len(s.pts) - 1
+            vs = np.unique(np.linspace(0, k - 1, min(k, SEAM_SAMPLES)).round().astype(int))
+            pts.append(s.pts[vs])
+            owner += [i] * len(vs)
+            which += (vs + 2).tolist()
+        else:
+            pts.append(np.array([s.pts[0], s.pts[-1]]))
+            owner += [i, i]
+            which += [0, 1]
+    xy = np.concatenate(pts)
+    px, py = xy[:, 0].tolist(), xy[:, 1].tolist()
+    alive = [True] * n
+    count = np.bincount(owner, minlength=n).tolist()
+    alive_pts = len(px)
+    grid = _Grid(px, py, owner, alive, range(len(px)))
+    x, y = float(tour.start[0]), float(tour.start[1])
+    perm, rev = [], []
+    for left in range(n, 0, -1):
+        p = grid.nearest(x, y)
+        i, w = owner[p], which[p]
+        alive[i] = False
+        alive_pts -= count[i]
+        perm.append(i)
+        if w >= 2:
+            tour.set_seam(i, w - 2)
+            rev.append(False)
+        else:
+            rev.append(w == 1)
+        ex = tour.first[i] if w == 1 else tour.last[i]
+        x, y = float(ex[0]), float(ex[1])
+        if left > 1 and alive_pts * 2 < grid.built_with:
+            grid = _Grid(px, py, owner, alive, grid.points())
+    tour.perm = np.array(perm, dtype=np.int64)
+    tour.rev = np.array(rev, dtype=bool)
+
+
+class _Grid:
+    """Points in square cells (about two per cell); nearest() searches rings of cells outwards
+    and drops the points of finished strokes on the way."""
+
+    def __init__(self, px, py, owner, alive, ids):
+        self.px, self.py, self.owner, self.alive = px, py, owner, alive
+        ids = [p for p in ids if alive[owner[p]]]
+        self.built_with = len(ids)
+        xs = [px[p] for p in ids] or [0.0]
+        ys = [py[p] for p in ids] or [0.0]
+        self.x0, self.y0 = min(xs), min(ys)
+        w, h = max(xs) - self.x0, max(ys) - self.y0
+        cell = math.sqrt(max(w * h, 1e-12) / max(len(ids), 1) * 2.0)
+        cell = max(cell, max(w, h) / 2048, 1e-9)
+        self.cell = cell
+        self.nx, self.ny = int(w / cell) + 1, int(h / cell) + 1
+        self.cells: dict[int, list[int]] = {}
+        for p in ids:
+            key = int((px[p] - self.x0) / cell) * self.ny + int((py[p] - self.y0) / cell)
+            self.cells.setdefault(key, []).append(p)
+
+    def points(self) -> list[int]:
+        return [p for lst in self.cells.values() for p in lst]
+
+    def nearest(self, x: float, y: float) -> int:
+        cell, nx, ny = self.cell, self.nx, self.ny
+        cx = min(max(int((x - self.x0) // cell), 0), nx - 1)
+        cy = min(max(int((y - self.y0) // cell), 0), ny - 1)
+        px, py, owner, alive, cells = self.px, self.py, self.owner, self.alive, self.cells
+        best, bp = math.inf, -1
+        r = 0
+        while True:
+            if r == 0:
+                ring = [(cx, cy)]
+            else:
+                ring = []
+                x_lo, x_hi = max(cx - r, 0), min(cx + r, nx - 1)
+                for j in (cy - r, cy + r):
+                    if 0 <= j < ny:
+                        ring += [(i, j) for i in range(x_lo, x_hi + 1)]
+                for i in (cx - r, cx + r):
+                    if 0 <= i < nx:
+                        ring += [(i, j) for j in range(max(cy - r + 1, 0), min(cy + r - 1, ny - 1) + 1)]
+            for i, j in ring:
+                lst = cells.get(i * ny + j)
+                if not lst:
+                    continue
+                dead = False
+                for p in lst:
+                    if alive[owner[p]]:
+                        d = (px[p] - x) ** 2 + (py[p] - y) ** 2
+                        if d < best or (d == best and p < bp):
+                            best, bp = d, p
+                    else:
+                        dead = True
+                if dead:
+                    lst[:] = [p for p in lst if alive[owner[p]]]
+            if bp >= 0 and (r * cell) ** 2 >= best:
+                return bp
+            r += 1
+            if r > nx + ny:
+                if bp < 0:
+                    raise RuntimeError("nearest() on an empty grid")
+                return bp
+
+
+# ------------------------------------------------------------------ tour improvement
+def _d(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.hypot(a[..., 0] - b[..., 0], a[..., 1] - b[..., 1])
+
+
+def _context(tour: _Tour):
+    """entry, exit (n, 2); P (n+1, 2): the point before position k (start, then exits);
+    N (n, 2): the entry after position k (NaN after the last)."""
+    entry, exit_ = tour.ends()
+    P = np.vstack([tour.start[None, :], exit_])
+    N = np.vstack([entry[1:], np.full((1, 2), np.nan)])
+    return entry, exit_, P, N
+
+
+def _nd(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Distance, 0 where b is NaN (no next stroke)."""
+    return np.nan_to_num(_d(a, b), nan=0.0)
+
+
+def _pick(gain: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> list[int]:
+    """Candidates with positive gain, best first, whose position ranges lo..hi do not
+    overlap (such moves are independent and can all be made at once)."""
+    cand = np.flatnonzero(gain > 1e-9)
+    if len(cand) == 0:
+        return []
+    cand = cand[np.lexsort((cand, -gain[cand]))]
+    used = np.zeros(int(hi.max()) + 2, dtype=bool)
+    out = []
+    for c in cand.tolist():
+        a, b = int(lo[c]), int(hi[c]) + 1
+        if not used[a:b].any():
+            used[a:b] = True
+            out.append(c)
+    return out
+
+
+def _two_opt(tour: _Tour) -> float:
+    """Reverse runs perm[i..j] (each stroke then drawn the other way) where that shortens the
+    travel, j - i < WINDOW; all non-overlapping improving moves of a round at once."""
+    n = len(tour.perm)
+    saved = 0.0
+    off = np.arange(WINDOW)
+    rows = np.arange(n)
+    while len(rows):
+        entry, exit_, P, N = _context(tour)
+        i = rows[:, None]
+        j = i + off[None, :]
+        ok = j < n
+        j = np.minimum(j, n - 1)
+        old = _d(P[i], entry[i]) + _nd(exit_[j], N[j])
+        new = _d(P[i], exit_[j]) + _nd(entry[i], N[j])
+        gain = np.where(ok, old - new, -np.inf)
+        best = np.argmax(gain, axis=1)
+        g = gain[np.arange(len(rows)), best]
+        moves = _pick(g, np.maximum(rows - 1, 0), rows + best + 1)
+        active = np.zeros(n + 1, dtype=bool)
+        for c in moves:
+            a = int(rows[c])
+            b = a + int(best[c]) + 1
+            tour.perm[a:b] = tour.perm[a:b][::-1].copy()
+            tour.rev[a:b] = ~tour.rev[a:b][::-1]
+            saved += float(g[c])
+            active[max(a - WINDOW, 0):b + 1] = True
+        rows = np.flatnonzero(active[:n])
+    return saved
+
+
+def _or_opt(tour: _Tour) -> float:
+    """Move a run of 1..3 strokes (either way round) to between two other positions at most
+    WINDOW away, where that shortens the travel; non-overlapping moves of a round at once."""
+    n = len(tour.perm)
+    saved = 0.0
+    for seg in (1, 2, 3):
+        if n <= seg:
+            break
+        offs = np.concatenate([np.arange(-WINDOW, 0), np.arange(seg + 1, seg + 1 + WINDOW)])
+        i = np.arange(n - seg + 1)
+        while len(i):
+            entry, exit_, P, N = _context(tour)
+            jj = i + seg - 1
+            remove = _d(P[i], entry[i]) + _nd(exit_[jj], N[jj]) - _nd(P[i], N[jj])
+            k = i[:, None] + offs[None, :]
+            ok = (k >= 0) & (k <= n)
+            k = np.clip(k, 0, n)
+            a = P[k]
+            b = np.vstack([entry, np.full((1, 2), np.nan)])[k]
+            base = _nd(a, b)
+            fwd = _d(a, entry[i][:, None]) + _nd(exit_[jj][:, None], b) - base
+            bwd = _d(a, exit_[jj][:, None]) + _nd(entry[i][:, None], b) - base
+            ins = np.where(ok, np.minimum(fwd, bwd), np.inf)
+            m = np.argmin(ins, axis=1)
+            rows = np.arange(len(i))
+            g = remove - ins[rows, m]
+            kk = k[rows, m]
+            lo = np.maximum(np.minimum(kk - 1, i - 1), 0)
+            hi = np.maximum(jj + 1, kk)
+            moves = _pick(g, lo, hi)
+            flip = bwd[rows, m] < fwd[rows, m]
+            active = np.zeros(n + 1, dtype=bool)
+            for c in moves:
+                s = int(i[c])
+                e, t = s + seg, int(kk[c])
+                rp, rr = tour.perm[s:e].copy(), tour.rev[s:e].copy()
+                if flip[c]:
+                    rp, rr = rp[::-1], ~rr[::-1]
+                if t < s:
+                    tour.perm[t:e] = np.concatenate([rp, tour.perm[t:s]])
+                    tour.rev[t:e] = np.concatenate([rr, tour.rev[t:s]])
+                else:
+                    tour.perm[s:t] = np.concatenate([tour.perm[e:t], rp])
+                    tour.rev[s:t] = np.concatenate([tour.rev[e:t], rr])
+                saved += float(g[c])
+                active[max(min(s, t) - WINDOW - seg, 0):max(e, t) + WINDOW + 1] = True
+            i = np.flatnonzero(active[:n - seg + 1])
+    return saved
+
+
+def _seams(tour: _Tour) -> float:
+    """Each closed stroke enters (and leaves) at the vertex nearest to the travel in and out."""
+    saved = 0.0
+    if not tour.closed.any():
+        return saved
+    entry, exit_ = tour.ends()
+    n = len(tour.perm)
+    for k in np.flatnonzero(tour.closed[tour.perm]).tolist():
+        i = int(tour.perm[k])
+        prev = tour.start if k == 0 else exit_[k - 1]
+        q = tour.strokes[i].pts[:-1]
+        cost = _d(q, prev)
+        if k + 1 < n:
+            cost = cost + _d(q, entry[k + 1])
+        v = int(np.argmin(cost))
+        old = float(_d(tour.first[i], prev)) + (float(_d(tour.first[i], entry[k + 1])) if k + 1 < n else 0.0)
+        if cost[v] < old - 1e-12:
+            saved += old - float(cost[v])
+            tour.set_seam(i, v)
+            entry[k] = exit_[k] = q[v]
+    return saved
