@@ -67,19 +67,18 @@ def _box_of(pts: np.ndarray) -> Box:
     return Box(float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
 
 
-def matrix(p: Placement, box: Box | None, page: Box) -> tuple[np.ndarray, np.ndarray]:
-    """(A, b): a point x lands at A @ x + b. `box` is the drawing's extent as read."""
-    if box is None:
+def matrix(p: Placement, pts: np.ndarray, page: Box) -> tuple[np.ndarray, np.ndarray]:
+    """(A, b): a point x lands at A @ x + b. `pts` (N, 2): every point of the drawing as
+    read (fit and align look at the extent of the transformed points)."""
+    if len(pts) == 0:
         return np.eye(2), np.asarray(p.offset_mm, dtype=float)
+    box = _box_of(pts)
     a = math.radians(p.rotate_deg)
     rot = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
     A = p.scale * rot
     c = box.centre
     b = c - A @ c
-    # the extent after step 1: the transformed corners (a rotated box's extent is its corners')
-    corners = np.array([[box.x_min, box.y_min], [box.x_max, box.y_min],
-                        [box.x_min, box.y_max], [box.x_max, box.y_max]])
-    now = _box_of(corners @ A.T + b)
+    now = _box_of(pts @ A.T + b)
     room = page.size - 2 * p.margin_mm
     if p.fit or p.align or p.valign:
         if (room <= 0).any():
@@ -91,7 +90,7 @@ def matrix(p: Placement, box: Box | None, page: Box) -> tuple[np.ndarray, np.nda
         s = min(k) if k else 1.0
         # scale about the extent's centre, then move that centre to the page's centre
         A, b = s * A, s * (b - now.centre) + page.centre
-        now = _box_of(corners @ A.T + b)
+        now = _box_of(pts @ A.T + b)
     shift = np.zeros(2)
     if p.align:
         shift[0] = {"left": page.x_min + p.margin_mm - now.x_min,
@@ -114,5 +113,6 @@ def apply(strokes: list[Stroke], A: np.ndarray, b: np.ndarray) -> list[Stroke]:
 def place(strokes: list[Stroke], p: Placement, page: Box) -> list[Stroke]:
     if p.identity:
         return strokes
-    A, b = matrix(p, extent(strokes), page)
+    pts = np.concatenate([s.pts for s in strokes]) if strokes else np.zeros((0, 2))
+    A, b = matrix(p, pts, page)
     return apply(strokes, A, b)
