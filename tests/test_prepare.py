@@ -320,3 +320,59 @@ def test_gcode_keep_streams_the_file_itself(config_path):
     assert a == list(gcode.read(str(CAR), warn=lambda m: None))
     assert list(prep.records()) == a                         # a fresh iterator each time
     assert any(isinstance(r, gcode.Move) and r.arc for r in a)     # exact arcs
+
+
+def test_interrupted_ordered_draw_resumes_on_the_placed_path(capsys, config_path, tmp_path,
+                                                             monkeypatch):
+    """Placed and reordered drawings are numbered record by record: a stop mid-stroke resumes
+    there, both parts lie on the placed path and together cover it; other options are refused."""
+    import signal
+
+    from scipy.spatial import cKDTree
+
+    from test_safety import interrupt_after
+    from vplotter import state
+    from vplotter.backends.fake import FakeBackend
+
+    opts = ["--order", "best", "--rotate", "15", "--scale", "0.9"]
+    placed, t1, t2 = tmp_path / "placed.ngc", tmp_path / "t1.csv", tmp_path / "t2.csv"
+    assert run(capsys, ["--config", config_path, "calibrate", "--at", "0", "0"])[0] == 0
+    assert run(capsys, ["--config", config_path, "convert", CAR, "-o", placed, *opts])[0] == 0
+    orig = interrupt_after(monkeypatch, 150_000, signal.SIGINT)
+    assert main(["--config", str(config_path), "draw", str(CAR), "--backend", "fake", "--trace",
+                 str(t1), *opts]) == 130
+    capsys.readouterr()
+    monkeypatch.setattr(FakeBackend, "play", orig)
+    resume = state.load().extra["resume"]
+    assert resume["line"] > 0
+    code, _, err = run(capsys, ["--config", config_path, "draw", CAR, "--backend", "fake",
+                                "--resume", "--order", "greedy"])
+    assert code == 2 and "other options" in err
+    pos = state.load()
+    assert run(capsys, ["--config", config_path, "draw", CAR, "--backend", "fake", "--resume",
+                        "--trace", t2, *opts])[0] == 0
+    cfg = tc.load_config(config_path)
+    from vplotter import config as vconfig, kinematics
+
+    vcfg = vconfig.load(config_path)
+    kin = kinematics.from_config(vcfg)
+    xy = kin.to_gcode(kin.forward(np.array([[pos.left_mm, pos.right_mm]])))[0]
+    dec1 = tc.decode(tc.read_trace(t1), cfg, (0.0, 0.0))
+    dec2 = tc.decode(tc.read_trace(t2), cfg, (float(xy[0]), float(xy[1])))
+    ref = tc.reference_path(placed)
+    for dec in (dec1, dec2):
+        pts = np.column_stack((dec.x, dec.y))[dec.pen_down]
+        assert len(pts) and tc.distances_to_polylines(pts, ref).max() <= 0.02
+    drawn = np.vstack([np.column_stack((d.x, d.y))[d.pen_down] for d in (dec1, dec2)])
+    assert max(cKDTree(drawn).query(r)[0].max() for r in ref) <= 0.02
+
+
+def test_progress_line_shows_travel_pen_lifts_and_time(capsys):
+    from vplotter.commands.draw import _Progress
+    from vplotter.pipeline import Summary
+
+    p = _Progress(Summary(travel_mm=1234.0, pen_downs=17, time_s=3725.0))
+    p(1_862_500_000, 42)
+    err = capsys.readouterr().err
+    assert "50%" in err and "line 42" in err and "31:02 left" in err
+    assert "travel 1.23 m, 17 pen lifts, plot time 1:02:05" in err

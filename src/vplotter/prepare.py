@@ -124,6 +124,7 @@ class Prepared:
     pause: bool = False
     order_s: float = 0.0
     key: str = ""                 # the options that make the order; resume checks them
+    start_xy: tuple[float, float] = (0.0, 0.0)   # where the travel starts (G-code mm)
     warn: Callable[[str], None] = _stderr
     _drawing: object = None
     _strokes: list | None = None
@@ -246,7 +247,8 @@ def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
     tol = cfg.motion.tolerance_mm * pipeline.CHORD_SHARE
     key = options_key(path, args)
     prep = Prepared(path, not svg, passthrough=False, strict=strict, join_mm=join_mm,
-                    pause=pause, key=key, warn=warn)
+                    pause=pause, key=key, warn=warn,
+                    start_xy=(float(start_xy[0]), float(start_xy[1])))
     prep._tol_mm = tol
     if not svg and method == "keep" and place_opts.identity:
         prep.passthrough = True

@@ -75,7 +75,11 @@ def cmd_draw(args, argv=None) -> int:
     # the session (lock, pins, signal handlers) is open first, so that a signal at any moment
     # ends the same way; nothing is output before the whole file has been validated
     with sess as s:
-        prep = prepare_file(args, cfg, pos)
+        # a resumed draw is ordered from where the interrupted one started, so that the
+        # record numbers match
+        start = (pos.extra.get("resume") or {}).get("start") if args.resume else None
+        prep = prepare_file(args, cfg, pos, start_xy=start)
+        sess.drawing["start"] = list(prep.start_xy)
         # validation pass: the whole file, page limits and exact plot time before anything moves
         summary = pipeline.validate(cfg, prep.records(), pos.counts, pos.ref_mm, args.file, begin,
                                     lambda: s.stop_pending, where=prep.where)

@@ -10,15 +10,15 @@ from vplotter.commands.common import eprint, load_config, position, say
 from vplotter.errors import InputError
 
 
-def prepare_file(args, cfg, pos, warn=None, **changes):
+def prepare_file(args, cfg, pos, warn=None, start_xy=None, **changes):
     """prepare() for a command (with some options changed): the travel starts where the pen
-    is."""
+    is, or at start_xy (a resumed draw keeps the order it was started with)."""
     from vplotter.commands import jog
     from vplotter.prepare import prepare
 
     if changes:
         args = argparse.Namespace(**{**vars(args), **changes})
-    xy = jog.pen_xy(cfg, pos, pos.counts)
+    xy = jog.pen_xy(cfg, pos, pos.counts) if start_xy is None else start_xy
     extra = {"warn": warn} if warn is not None else {}
     return prepare(args.file, cfg, args, start_xy=(float(xy[0]), float(xy[1])), **extra)
 
