@@ -83,7 +83,7 @@ def main() -> None:
     cfg = config.load(os.path.join(ROOT, "config.toml"))
     kin = kinematics.from_config(cfg)
     cords = kin.inverse(kin.to_machine([[0.0, 0.0]]))[0]
-    pos = state.Position.at_cords(cords[0], cords[1], cfg.motors.steps_per_mm)
+    pos = state.Position.at_cords(cords[0], cords[1], cfg.motors.steps_per_unit)
     print("| drawing | strokes | travel file | greedy | best | vpype linesort | best / linesort "
           "| order CPU (greedy / best) | plot time file | plot time best |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")

@@ -60,7 +60,7 @@ def stream(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: s
            emit: bool = True, summary: Summary | None = None,
            start_at: StartAt | None = None, pen_down: bool | None = None,
            where=None) -> Iterator[Rows | Pause]:
-    """Rows for drawing `records` starting from the given step counts (cords = ref + counts/spm).
+    """Rows for drawing `records` starting from the given step counts (cords = ref + counts / steps per unit).
 
     With `start_at`, records before that line are skipped (their pen changes still count), the
     pen travels up to the resume point and goes down again if the file has it down there.
@@ -69,11 +69,11 @@ def stream(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: s
     """
     where = where or (lambda line, col: f"{name}:{line}:{col}")
     kin = kinematics.from_config(cfg)
-    spm = cfg.motors.steps_per_mm
+    spu = np.asarray(cfg.motors.steps_per_unit)
     summary = summary if summary is not None else Summary()
-    cords = np.asarray(ref_mm, dtype=float) + np.asarray(counts, dtype=float) / spm
+    cords = np.asarray(ref_mm, dtype=float) + np.asarray(counts, dtype=float) / spu
     start = kin.forward(cords[None, :])[0]
-    planner = Planner(kin, cfg.motors.max_step_rate, cfg.motors.max_accel, spm, start)
+    planner = Planner(kin, cfg.motors.max_step_rate, cfg.motors.max_accel, spu, start)
     sched = Scheduler(cfg, kin, counts, ref_mm)
     page = cfg.page
     tol = cfg.motion.tolerance_mm * CHORD_SHARE
