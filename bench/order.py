@@ -4,8 +4,9 @@ For car.ngc and two generated drawings (20,000 random short strokes; a grid of c
 shuffled order with random seams), prints pen-up travel in file order, after --order greedy
 and after --order best, the CPU time of each ordering, the plot time (pipeline.validate, the
 number `estimate` prints) in file order and after best, and, when vpype is importable, the
-travel of vpype's linesort (greedy with reversal, vpype's own LineIndex) on the same strokes,
-measured the same way (from X0 Y0, no return).
+travel of vpype's `linesort` (greedy with reversal; vpype_cli.execute) on the same strokes,
+measured the same way (from X0 Y0, no return). vpype's own pen_up_length leaves out the travel
+from the start to the first stroke; the last two columns compare that way (between strokes).
 
 Run: python bench/order.py          (vpype is optional: pip install vpype in a throwaway venv)
 """
@@ -61,22 +62,23 @@ def plot_time_s(cfg, pos, ss) -> float:
     return pipeline.validate(cfg, prep.records(), pos.counts, pos.ref_mm, "bench").time_s
 
 
-def vpype_travel(ss) -> float | None:
+def vpype_linesort(ss) -> list | None:
+    """The strokes in the order vpype's `linesort` command (greedy, with reversal) gives them,
+    run through vpype_cli.execute (None without vpype)."""
     try:
         import vpype as vp
+        import vpype_cli
     except ImportError:
         return None
-    lines = [s.pts[:, 0] + 1j * s.pts[:, 1] for s in ss]
-    # vpype_cli.operations.linesort, as vpype 1.15 does it (the click command wraps this loop)
-    index = vp.LineIndex(lines[1:], reverse=True)
-    out = [lines[0]]
-    while len(index) > 0:
-        idx, reverse = index.find_nearest(out[-1][-1])
-        line = index.pop(idx)
-        if line is not None:
-            out.append(np.flip(line) if reverse else line)
-    sorted_ = [strokes.Stroke(np.c_[z.real, z.imag]) for z in out]
-    return min(order.travel_mm(sorted_), order.travel_mm(ss))   # linesort keeps the better
+    doc = vp.Document(vp.LineCollection([s.pts[:, 0] + 1j * s.pts[:, 1] for s in ss]))
+    out = vpype_cli.execute("linesort", doc)
+    lines = out.layers[1] if out.layers else []
+    return [strokes.Stroke(np.c_[z.real, z.imag]) for z in lines]
+
+
+def between(ss) -> float:
+    """Pen-up travel between strokes only (vpype's pen_up_length)."""
+    return order.travel_mm(ss, ss[0].pts[0]) if ss else 0.0
 
 
 def main() -> None:
@@ -85,8 +87,9 @@ def main() -> None:
     cords = kin.inverse(kin.to_machine([[0.0, 0.0]]))[0]
     pos = state.Position.at_cords(cords[0], cords[1], cfg.motors.steps_per_unit)
     print("| drawing | strokes | travel file | greedy | best | vpype linesort | best / linesort "
-          "| order CPU (greedy / best) | plot time file | plot time best |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+          "| order CPU (greedy / best) | plot time file | plot time best "
+          "| between strokes: best / linesort |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for name, ss in (("car.ngc", car(cfg)), ("20,000 random short strokes", random_strokes()),
                      ("4,200 circles, shuffled", circles())):
         t0 = time.process_time()
@@ -95,12 +98,16 @@ def main() -> None:
         best = order.order(ss, "best")
         t2 = time.process_time()
         tf, tg, tb = (order.travel_mm(x) for x in (ss, greedy, best))
-        vp = vpype_travel(ss)
+        lines = vpype_linesort(ss)
+        vp = order.travel_mm(lines) if lines is not None else None
         pf, pb = plot_time_s(cfg, pos, ss), plot_time_s(cfg, pos, best)
         vps = f"{vp / 1000:.2f} m" if vp is not None else "(no vpype)"
         ratio = f"{tb / vp:.3f}" if vp else "-"
+        btw = (f"{between(best) / 1000:.2f} m / {between(lines) / 1000:.2f} m"
+               if lines is not None else "-")
         print(f"| {name} | {len(ss)} | {tf / 1000:.2f} m | {tg / 1000:.2f} m | {tb / 1000:.2f} m "
-              f"| {vps} | {ratio} | {t1 - t0:.2f} s / {t2 - t1:.2f} s | {pf:.0f} s | {pb:.0f} s |")
+              f"| {vps} | {ratio} | {t1 - t0:.2f} s / {t2 - t1:.2f} s | {pf:.0f} s | {pb:.0f} s "
+              f"| {btw} |")
 
 
 if __name__ == "__main__":
