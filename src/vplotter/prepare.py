@@ -125,6 +125,7 @@ class Prepared:
     order_s: float = 0.0
     key: str = ""                 # the options that make the order; resume checks them
     start_xy: tuple[float, float] = (0.0, 0.0)   # where the travel starts (G-code mm)
+    tol_mm: float = 0.0075        # chords of G-code arcs read into strokes
     warn: Callable[[str], None] = _stderr
     _drawing: object = None
     _strokes: list | None = None
@@ -148,9 +149,7 @@ class Prepared:
     def _read_gcode_strokes(self) -> list:
         from vplotter.inputs import strokes
 
-        return strokes.from_records(self._gcode(), self._tol_mm)
-
-    _tol_mm: float = 0.0075
+        return strokes.from_records(self._gcode(), self.tol_mm)
 
     def _gcode(self):
         from vplotter.inputs import gcode
@@ -248,8 +247,7 @@ def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
     key = options_key(path, args)
     prep = Prepared(path, not svg, passthrough=False, strict=strict, join_mm=join_mm,
                     pause=pause, key=key, warn=warn,
-                    start_xy=(float(start_xy[0]), float(start_xy[1])))
-    prep._tol_mm = tol
+                    start_xy=(float(start_xy[0]), float(start_xy[1])), tol_mm=tol)
     if not svg and method == "keep" and place_opts.identity:
         prep.passthrough = True
         return prep
