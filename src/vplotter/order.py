@@ -11,8 +11,15 @@ a layer may be another pen. Deterministic: no clocks, no random numbers.
   empties.
 - `best`: greedy, then the tour improved by 2-opt (reversing a run of strokes, each drawn the
   other way) and or-opt (moving a run of up to three strokes, either way round) within a window
-  of nearby tour positions, vectorised per position; seams of closed strokes are chosen to
-  minimise the travel in and out. Never longer than the file order.
+  of nearby tour positions, vectorised over all positions at once (every non-overlapping
+  improving move of a round is made, then only the positions near a change are looked at
+  again); seams of closed strokes are chosen to minimise the travel in and out. Up to
+  ALL_TOURS_UP_TO strokes per layer, two more tours are improved the same way: one whose first
+  leg costs nothing (then run from its nearer end), and one that starts with the file's first
+  stroke as vpype's linesort does. Of these and the file order, the shortest travel from the
+  pen is taken among those no longer *between strokes* than the file order and linesort's
+  greedy order, so that best is no longer than either, from the pen or between strokes
+  (vpype's pen_up_length) alike.
 
 Joining (`joined`): a stroke that starts within join_mm of where the previous one ended is
 drawn without lifting the pen.
@@ -30,6 +37,7 @@ from vplotter.inputs.strokes import Stroke
 METHODS = ("keep", "greedy", "best")
 SEAM_SAMPLES = 16     # candidate seams per closed stroke in the greedy pass
 WINDOW = 40           # tour positions looked at by 2-opt and or-opt
+ALL_TOURS_UP_TO = 5000   # strokes of a layer; above, only the tour from the pen is improved
 PASSES = 3            # improvement rounds at most
 
 
@@ -85,9 +93,12 @@ def _layers(strokes: list[Stroke]) -> list[list[Stroke]]:
 class _Tour:
     """A tour as arrays: stroke index, reversed flag and seam (closed strokes) per position."""
 
-    def __init__(self, strokes: list[Stroke], start: np.ndarray):
+    def __init__(self, strokes: list[Stroke], start: np.ndarray, free: bool = False,
+                 fixed_first: bool = False):
         self.strokes = strokes
-        self.start = start
+        self.fixed_first = fixed_first            # strokes[0] stays first, as it is
+        self.origin = start                       # where the pen is (the greedy starts there)
+        self.start = np.full(2, np.nan) if free else start   # free: the first leg costs nothing
         self.closed = np.array([s.closed for s in strokes])
         self.first = np.array([s.pts[0] for s in strokes], dtype=float)
         self.last = np.array([s.pts[-1] for s in strokes], dtype=float)
@@ -103,10 +114,23 @@ class _Tour:
         exit_ = np.where(r[:, None], a, b)
         return entry, exit_
 
-    def length(self) -> float:
+    def length(self, first: int = 0) -> float:
+        """Travel from the start (the first leg left out in a free tour); first=-1: the tour
+        run backwards."""
         entry, exit_ = self.ends()
+        if first == -1:
+            entry, exit_ = exit_[::-1], entry[::-1]
         prev = np.vstack([self.start[None, :], exit_[:-1]])
-        return float(np.hypot(*(entry - prev).T).sum())
+        return float(np.nansum(np.hypot(*(entry - prev).T)))
+
+    def between(self) -> float:
+        """Travel between strokes only (vpype's pen_up_length)."""
+        entry, exit_ = self.ends()
+        return float(np.hypot(*(entry[1:] - exit_[:-1]).T).sum())
+
+    def reverse(self) -> None:
+        self.perm = self.perm[::-1].copy()
+        self.rev = ~self.rev[::-1]
 
     def set_seam(self, i: int, v: int) -> None:
         """Closed stroke i enters and leaves at its vertex v."""
@@ -129,29 +153,57 @@ class _Tour:
 
 
 def _order_group(strokes: list[Stroke], method: str, start: np.ndarray) -> list[Stroke]:
-    tour = _Tour(strokes, start)
-    keep_len = tour.length()
-    _greedy(tour)
-    if method == "best":
-        _seams(tour)
-        for _ in range(PASSES):
-            gain = _two_opt(tour) + _or_opt(tour)
-            gain += _seams(tour)
-            if gain <= 1e-9 * max(1.0, keep_len):
-                break
-        if tour.length() > keep_len:        # never longer than the file order
-            return list(strokes)
-    return tour.result()
+    if method == "greedy":
+        tour = _Tour(strokes, start)
+        _greedy(tour)
+        return tour.result()
+    keep = _Tour(strokes, start)
+    # from the pen's position; then, for drawings small enough that the first leg weighs,
+    # with a free start (run from its nearer end), and from the file's first stroke the way
+    # vpype's linesort starts (greedy with reversal, ends only)
+    tours = [keep, _improved(_Tour(strokes, start))]
+    if len(strokes) <= ALL_TOURS_UP_TO:
+        free = _improved(_Tour(strokes, start, free=True))
+        free.start = start
+        if free.length(-1) < free.length(0):
+            free.reverse()
+        tours += [free, _improved(_Tour(strokes, start, fixed_first=True), seams=False)]
+        linesort = _Tour(strokes, start, fixed_first=True)
+        _greedy(linesort, seams=False)
+        bound = min(keep.between(), linesort.between())
+    else:
+        bound = np.inf
+    # the shortest travel from the pen among those no longer between strokes than the file
+    # order and the linesort-like order (the last tour improves on the latter by both
+    # measures, so one always qualifies): then best is no longer than either, either way
+    bound *= 1 + 1e-12
+    pick = min((t for t in tours if t.between() <= bound), key=lambda t: t.length())
+    return list(strokes) if pick is keep else pick.result()
+
+
+def _improved(tour: "_Tour", seams: bool = True) -> "_Tour":
+    _greedy(tour, seams)
+    _seams(tour)
+    ref = max(tour.length(), 1.0)
+    for _ in range(PASSES):
+        gain = _two_opt(tour) + _or_opt(tour)
+        gain += _seams(tour)
+        if gain <= 1e-9 * ref:
+            break
+    return tour
 
 
 # ------------------------------------------------------------------ greedy nearest neighbour
-def _greedy(tour: _Tour) -> None:
+def _greedy(tour: _Tour, seams: bool = True) -> None:
+    """Nearest neighbour with reversal from the pen (or after strokes[0] with fixed_first).
+    seams=False: closed strokes are entered at their first point only. Ties go to a first
+    point before a last one, then to the stroke that comes first in the file."""
     n = len(tour.strokes)
     owner: list[int] = []
     which: list[int] = []     # 0 first point, 1 last point, >= 2: closed vertex index + 2
     pts: list[np.ndarray] = []
     for i, s in enumerate(tour.strokes):
-        if tour.closed[i]:
+        if tour.closed[i] and seams:
             k = len(s.pts) - 1
             vs = np.unique(np.linspace(0, k - 1, min(k, SEAM_SAMPLES)).round().astype(int))
             pts.append(s.pts[vs])
@@ -163,13 +215,20 @@ def _greedy(tour: _Tour) -> None:
             which += [0, 1]
     xy = np.concatenate(pts)
     px, py = xy[:, 0].tolist(), xy[:, 1].tolist()
+    rank = [(w == 1) * n + i for i, w in zip(owner, which)]
     alive = [True] * n
     count = np.bincount(owner, minlength=n).tolist()
     alive_pts = len(px)
-    grid = _Grid(px, py, owner, alive, range(len(px)))
-    x, y = float(tour.start[0]), float(tour.start[1])
     perm, rev = [], []
-    for left in range(n, 0, -1):
+    x, y = float(tour.origin[0]), float(tour.origin[1])
+    if tour.fixed_first:
+        alive[0] = False
+        alive_pts -= count[0]
+        perm.append(0)
+        rev.append(False)
+        x, y = float(tour.last[0][0]), float(tour.last[0][1])
+    grid = _Grid(px, py, owner, alive, range(len(px)), rank)
+    for left in range(n - len(perm), 0, -1):
         p = grid.nearest(x, y)
         i, w = owner[p], which[p]
         alive[i] = False
@@ -183,7 +242,7 @@ def _greedy(tour: _Tour) -> None:
         ex = tour.first[i] if w == 1 else tour.last[i]
         x, y = float(ex[0]), float(ex[1])
         if left > 1 and alive_pts * 2 < grid.built_with:
-            grid = _Grid(px, py, owner, alive, grid.points())
+            grid = _Grid(px, py, owner, alive, grid.points(), rank)
     tour.perm = np.array(perm, dtype=np.int64)
     tour.rev = np.array(rev, dtype=bool)
 
@@ -192,8 +251,8 @@ class _Grid:
     """Points in square cells (about two per cell); nearest() searches rings of cells outwards
     and drops the points of finished strokes on the way."""
 
-    def __init__(self, px, py, owner, alive, ids):
-        self.px, self.py, self.owner, self.alive = px, py, owner, alive
+    def __init__(self, px, py, owner, alive, ids, rank):
+        self.px, self.py, self.owner, self.alive, self.rank = px, py, owner, alive, rank
         ids = [p for p in ids if alive[owner[p]]]
         self.built_with = len(ids)
         xs = [px[p] for p in ids] or [0.0]
@@ -216,7 +275,8 @@ class _Grid:
         cell, nx, ny = self.cell, self.nx, self.ny
         cx = min(max(int((x - self.x0) // cell), 0), nx - 1)
         cy = min(max(int((y - self.y0) // cell), 0), ny - 1)
-        px, py, owner, alive, cells = self.px, self.py, self.owner, self.alive, self.cells
+        px, py, owner, alive, cells, rank = (self.px, self.py, self.owner, self.alive,
+                                             self.cells, self.rank)
         best, bp = math.inf, -1
         r = 0
         while True:
@@ -239,7 +299,7 @@ class _Grid:
                 for p in lst:
                     if alive[owner[p]]:
                         d = (px[p] - x) ** 2 + (py[p] - y) ** 2
-                        if d < best or (d == best and p < bp):
+                        if d < best or (d == best and rank[p] < rank[bp]):
                             best, bp = d, p
                     else:
                         dead = True
@@ -269,7 +329,7 @@ def _context(tour: _Tour):
 
 
 def _nd(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Distance, 0 where b is NaN (no next stroke)."""
+    """Distance, 0 where a point is NaN (no next stroke; no start point in a free tour)."""
     return np.nan_to_num(_d(a, b), nan=0.0)
 
 
@@ -296,15 +356,16 @@ def _two_opt(tour: _Tour) -> float:
     n = len(tour.perm)
     saved = 0.0
     off = np.arange(WINDOW)
-    rows = np.arange(n)
+    first = int(tour.fixed_first)
+    rows = np.arange(first, n)
     while len(rows):
         entry, exit_, P, N = _context(tour)
         i = rows[:, None]
         j = i + off[None, :]
         ok = j < n
         j = np.minimum(j, n - 1)
-        old = _d(P[i], entry[i]) + _nd(exit_[j], N[j])
-        new = _d(P[i], exit_[j]) + _nd(entry[i], N[j])
+        old = _nd(P[i], entry[i]) + _nd(exit_[j], N[j])
+        new = _nd(P[i], exit_[j]) + _nd(entry[i], N[j])
         gain = np.where(ok, old - new, -np.inf)
         best = np.argmax(gain, axis=1)
         g = gain[np.arange(len(rows)), best]
@@ -318,6 +379,7 @@ def _two_opt(tour: _Tour) -> float:
             saved += float(g[c])
             active[max(a - WINDOW, 0):b + 1] = True
         rows = np.flatnonzero(active[:n])
+        rows = rows[rows >= first]
     return saved
 
 
@@ -330,19 +392,20 @@ def _or_opt(tour: _Tour) -> float:
         if n <= seg:
             break
         offs = np.concatenate([np.arange(-WINDOW, 0), np.arange(seg + 1, seg + 1 + WINDOW)])
-        i = np.arange(n - seg + 1)
+        first = int(tour.fixed_first)
+        i = np.arange(first, n - seg + 1)
         while len(i):
             entry, exit_, P, N = _context(tour)
             jj = i + seg - 1
-            remove = _d(P[i], entry[i]) + _nd(exit_[jj], N[jj]) - _nd(P[i], N[jj])
+            remove = _nd(P[i], entry[i]) + _nd(exit_[jj], N[jj]) - _nd(P[i], N[jj])
             k = i[:, None] + offs[None, :]
-            ok = (k >= 0) & (k <= n)
+            ok = (k >= first) & (k <= n)
             k = np.clip(k, 0, n)
             a = P[k]
             b = np.vstack([entry, np.full((1, 2), np.nan)])[k]
             base = _nd(a, b)
-            fwd = _d(a, entry[i][:, None]) + _nd(exit_[jj][:, None], b) - base
-            bwd = _d(a, exit_[jj][:, None]) + _nd(entry[i][:, None], b) - base
+            fwd = _nd(a, entry[i][:, None]) + _nd(exit_[jj][:, None], b) - base
+            bwd = _nd(a, exit_[jj][:, None]) + _nd(entry[i][:, None], b) - base
             ins = np.where(ok, np.minimum(fwd, bwd), np.inf)
             m = np.argmin(ins, axis=1)
             rows = np.arange(len(i))
@@ -368,6 +431,7 @@ def _or_opt(tour: _Tour) -> float:
                 saved += float(g[c])
                 active[max(min(s, t) - WINDOW - seg, 0):max(e, t) + WINDOW + 1] = True
             i = np.flatnonzero(active[:n - seg + 1])
+            i = i[i >= first]
     return saved
 
 
@@ -379,14 +443,16 @@ def _seams(tour: _Tour) -> float:
     entry, exit_ = tour.ends()
     n = len(tour.perm)
     for k in np.flatnonzero(tour.closed[tour.perm]).tolist():
+        if k == 0 and tour.fixed_first:
+            continue
         i = int(tour.perm[k])
         prev = tour.start if k == 0 else exit_[k - 1]
         q = tour.strokes[i].pts[:-1]
-        cost = _d(q, prev)
+        cost = _nd(q, prev)
         if k + 1 < n:
             cost = cost + _d(q, entry[k + 1])
         v = int(np.argmin(cost))
-        old = float(_d(tour.first[i], prev)) + (float(_d(tour.first[i], entry[k + 1])) if k + 1 < n else 0.0)
+        old = float(_nd(tour.first[i], prev)) + (float(_d(tour.first[i], entry[k + 1])) if k + 1 < n else 0.0)
         if cost[v] < old - 1e-12:
             saved += old - float(cost[v])
             tour.set_seam(i, v)
