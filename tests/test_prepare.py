@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import io
 import json
+import os
 import sys
 import types
 
@@ -148,8 +149,12 @@ def test_bad_option_values(capsys, config_path, tmp_path, command, bad):
     assert code == 2
 
 
+DEGENERATE = (b"G0 X0 Y0\nG1 X0 Y0\nM3\nG1 X0 Y0\nG4 P0\nG2 X0 Y0 I5 J0\n"
+              b"G3 X0 Y0 I0 J-0.01\nG1 X0\nM5\nM5\nG0 X0 Y0\n")
+
+
 @pytest.mark.parametrize("content,code", [(b"", 0), (b"G1 X10 Y10\n", 0), (b"\x00\xff garbage", 2),
-                                          (None, 2), ("dir", 2),
+                                          (None, 2), ("dir", 2), (DEGENERATE, 0),
                                           (b"G0 X10 Y10\nM3\nG1 X500 Y0\nM5\n", 0)])
 @pytest.mark.parametrize("command", ["info", "convert"])
 def test_info_and_convert_on_bad_input(capsys, config_path, tmp_path, command, content, code):
@@ -161,6 +166,9 @@ def test_info_and_convert_on_bad_input(capsys, config_path, tmp_path, command, c
     extra = ["-o", tmp_path / "o.ngc"] if command == "convert" else []
     got, out, err = run(capsys, ["--config", config_path, command, f, *extra])
     assert got == code
+    bad_cfg = tmp_path / "bad.toml"
+    bad_cfg.write_text(open(config_path).read().replace("max_step_rate = 663", "max_step_rate = -5"))
+    assert run(capsys, ["--config", bad_cfg, command, CAR, *extra])[0] == 2
     if isinstance(content, bytes) and b"X500" in content and command == "info":
         assert "does not fit the page" in out and "warning:" in err
 
@@ -365,6 +373,20 @@ def test_interrupted_ordered_draw_resumes_on_the_placed_path(capsys, config_path
         assert len(pts) and tc.distances_to_polylines(pts, ref).max() <= 0.02
     drawn = np.vstack([np.column_stack((d.x, d.y))[d.pen_down] for d in (dec1, dec2)])
     assert max(cKDTree(drawn).query(r)[0].max() for r in ref) <= 0.02
+
+
+def test_pause_goes_on_when_stdin_is_closed(capsys, tmp_path):
+    from vplotter.commands.draw import wait_enter
+
+    with open(tmp_path / "empty", "w+") as f:          # a real file descriptor at its end
+        wait_enter(f, lambda: False)
+    assert "standard input is closed" in capsys.readouterr().err
+    r, w = os.pipe()                                   # nothing typed: a signal ends the wait
+    with os.fdopen(r) as f:
+        calls = []
+        wait_enter(f, lambda: calls.append(1) or len(calls) > 2, poll_s=0)
+    os.close(w)
+    assert len(calls) == 3
 
 
 def test_progress_line_shows_travel_pen_lifts_and_time(capsys):

@@ -145,20 +145,24 @@ def _pause_handler(s, progress):
     return on_pause
 
 
-def wait_enter(stdin, stop) -> None:
-    """Read one line from stdin; polls so that a signal (stop() true) ends the wait."""
+def wait_enter(stdin, stop, poll_s: float = 0.2) -> None:
+    """Read one line from stdin; polls so that a signal (stop() true) ends the wait. With
+    stdin closed (end of file) it says so and goes on."""
     try:
         fd = stdin.fileno()
     except (AttributeError, OSError, ValueError):
-        stdin.readline()
-        return
-    import select
+        fd = None
+    if fd is not None:
+        import select
 
-    while not stop():
-        ready, _, _ = select.select([fd], [], [], 0.2)
-        if ready:
-            stdin.readline()
+        while not stop():
+            ready, _, _ = select.select([fd], [], [], poll_s)
+            if ready:
+                break
+        else:
             return
+    if stdin.readline() == "":
+        eprint("vplotter: warning: standard input is closed: not waiting at the pause")
 
 
 class _Progress:
