@@ -209,3 +209,46 @@ def test_best_is_at_most_linesort(seed):
     assert order.travel_mm(ours, (0, 0)) <= order.travel_mm(vp, (0, 0))
     assert between(ours) <= between(vp)
     assert segments(ours) == segments(ss)
+
+
+def _greedy_reference(ss, start):
+    """Nearest neighbour with reversal by brute force: (distance², first point before last
+    point, file order) decides."""
+    left = list(range(len(ss)))
+    at = np.asarray(start, dtype=float)
+    out = []
+    while left:
+        cands = []
+        for i in left:
+            for rev, q in ((0, ss[i].pts[0]), (1, ss[i].pts[-1])):
+                cands.append((float(((q - at) ** 2).sum()), rev, i))
+        _, rev, i = min(cands)
+        left.remove(i)
+        p = ss[i].pts[::-1] if rev else ss[i].pts
+        out.append((i, rev))
+        at = p[-1]
+    return out
+
+
+@pytest.mark.parametrize("kind", ["uniform", "cluster", "starburst"])
+def test_greedy_is_nearest_neighbour_on_uneven_drawings(kind):
+    """The grid's dense-cell and sparse-search paths give the brute-force answer."""
+    rng = np.random.default_rng(3)
+    if kind == "uniform":
+        a = rng.uniform(-100, 100, (400, 2))
+    elif kind == "cluster":
+        a = np.vstack([rng.uniform(0, 0.5, (390, 2)), rng.uniform(-190, 190, (10, 2))])
+    else:
+        a = np.zeros((300, 2))
+    ss = []
+    for i, p in enumerate(a):
+        q = p + (rng.normal(0, 0.2, 2) if kind != "starburst"
+                 else 80 * np.array([math.cos(i), math.sin(i)]))
+        ss.append(Stroke(np.array([p, q]), line=i))
+    if kind == "starburst":
+        ss += [Stroke(np.array([[3.0, 3.0]]), line=300 + i) for i in range(100)]  # one spot
+    ref = _greedy_reference(ss, (150.0, 150.0))
+    got = order.order(ss, "greedy", (150.0, 150.0))
+    assert [s.line for s in got] == [ss[i].line for i, _ in ref]
+    for s, (i, rev) in zip(got, ref):
+        assert np.array_equal(s.pts, ss[i].pts[::-1] if rev else ss[i].pts)

@@ -48,8 +48,8 @@ def _number(kind: str, lo: float | None = None, above: bool = False):
 
 def add_file_options(p: argparse.ArgumentParser) -> None:
     """Placement, order and layer options, for every command that takes a drawing file."""
-    g = p.add_argument_group("placement (applied in this order; the result is checked against "
-                             "the page)")
+    g = p.add_argument_group("placement (scale and rotate about the drawing's centre, then fit, "
+                             "align, offset; the result is checked against the page)")
     size = g.add_mutually_exclusive_group()
     size.add_argument("--scale", type=_number("scale", 0, above=True), metavar="S",
                       help="scale about the drawing's centre")
