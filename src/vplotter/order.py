@@ -7,8 +7,8 @@ a layer may be another pen. Deterministic: no clocks, no random numbers.
 
 - `keep`: file order.
 - `greedy`: nearest neighbour from the pen's position (either end of an open stroke, a few
-  candidate seams of a closed one), found with a uniform grid that is rebuilt coarser as it
-  empties.
+  candidate seams of a closed one), found with a grid (`_Grid`: cells shrink where the
+  drawing is dense, a numpy scan where it is sparse) that is rebuilt as it empties.
 - `best`: greedy, then the tour improved by 2-opt (reversing a run of strokes, each drawn the
   other way) and or-opt (moving a run of up to three strokes, either way round) within a window
   of nearby tour positions, vectorised over all positions at once (every non-overlapping
