@@ -248,6 +248,36 @@ def test_convert_round_trip(ss):
     assert g.getvalue().splitlines()[1:] == f.getvalue().splitlines()[1:]
 
 
+def test_convert_pen_words_follow_the_configured_dialect():
+    """Z5/Z-1 by default; with a [gcode] pen dialect (config.toml), that dialect's words."""
+    from vplotter.commands.files import pen_words
+
+    cfg = config.load(REPO / "config.toml")
+    assert pen_words(cfg) == ("G0 Z5", "G1 Z-1")
+    dialect = types.SimpleNamespace
+    assert pen_words(dialect(gcode=dialect(pen="auto", z_down_below_mm=0.0))) == ("G0 Z5", "G1 Z-1")
+    assert pen_words(dialect(gcode=dialect(pen="z", z_down_below_mm=3.0))) == ("G0 Z8", "G1 Z2")
+    assert pen_words(dialect(gcode=dialect(pen="m3", m3_down=True))) == ("M5", "M3")
+    assert pen_words(dialect(gcode=dialect(pen="m3", m3_down=False))) == ("M3", "M5")
+    assert pen_words(dialect(gcode=dialect(pen="m280", m280_servo=1, m280_up_s=(70.0, 180.0),
+                                           m280_down_s=(0.0, 50.0)))) == ("M280 P1 S125",
+                                                                          "M280 P1 S25")
+
+
+def test_convert_with_m3_pen_reads_back(tmp_path):
+    cfg = config.load(REPO / "config.toml")
+    cfg_m3 = types.SimpleNamespace(motion=cfg.motion,
+                                   gcode=types.SimpleNamespace(pen="m3", m3_down=True))
+    ss = [Stroke(np.array([[0.0, 0.0], [10, 0], [10, 5]])), Stroke(np.array([[20.0, 1.0]]))]
+    prep = Prepared("x.svg", False, False, join_mm=0.0)
+    prep._strokes = ss
+    f = io.StringIO()
+    write_gcode(prep, cfg_m3, f)
+    assert "Z" not in f.getvalue() and "M3" in f.getvalue()
+    back = _strokes_of(f.getvalue())
+    assert [b.pts.tolist() for b in back] == [s.pts.tolist() for s in ss]
+
+
 # ------------------------------------------------------------------ draw
 def test_placed_ordered_draw_lies_on_the_placed_path(capsys, config_path, tmp_path):
     """A dry run of car.ngc rotated, scaled, moved and reordered: the decoded trace lies within

@@ -146,8 +146,20 @@ def cmd_convert(args, argv=None) -> int:
     return 0
 
 
-PEN_UP = "G0 Z5"
-PEN_DOWN = "G1 Z-1"
+def pen_words(cfg) -> tuple[str, str]:
+    """(up, down) pen commands: Z5 / Z-1, or what config.toml [gcode] says the files of this
+    setup use (pen = "m3": M5 / M3, or the reverse with m3_down = false; "m280": M280 at the
+    middle of the up and down angle ranges; Z relative to z_down_below_mm)."""
+    d = getattr(cfg, "gcode", None)          # [gcode] (pen dialects), when the config has it
+    mode = getattr(d, "pen", "z")
+    if mode == "m3":
+        return ("M5", "M3") if getattr(d, "m3_down", True) else ("M3", "M5")
+    if mode == "m280":
+        servo = getattr(d, "m280_servo", 0)
+        up, down = (sum(getattr(d, k)) / 2 for k in ("m280_up_s", "m280_down_s"))
+        return f"M280 P{servo} S{_num(up)}", f"M280 P{servo} S{_num(down)}"
+    z = getattr(d, "z_down_below_mm", 0.0)
+    return f"G0 Z{_num(z + 5)}", f"G1 Z{_num(z - 1)}"
 
 
 def _num(v: float) -> str:
@@ -156,14 +168,15 @@ def _num(v: float) -> str:
 
 
 def write_gcode(prep, cfg, f) -> None:
-    """The strokes as G-code: G0 travel, G1 drawing, the pen by Z (Z5 up, Z-1 down); a stroke
-    that starts within --join of the previous end is drawn on without lifting."""
+    """The strokes as G-code: G0 travel, G1 drawing, the pen by `pen_words`; a stroke that
+    starts within --join of the previous end is drawn on without lifting."""
     from vplotter import order
 
     strokes = prep.strokes
     joined = order.joined(strokes, prep.join_mm)
+    pen_up, pen_down = pen_words(cfg)
     f.write(f"(vplotter convert {os.path.basename(prep.path)}: {len(strokes)} strokes)\n")
-    f.write(f"G21\nG90\n{PEN_UP}\n")
+    f.write(f"G21\nG90\n{pen_up}\n")
     feeds = any(s.feed_mm_s is not None for s in strokes)
     feed = None
     layer = object()
@@ -174,7 +187,7 @@ def write_gcode(prep, cfg, f) -> None:
         layer = st.layer
         xy = [f"X{_num(x)} Y{_num(y)}" for x, y in st.pts.tolist()]
         if not joined[k]:
-            f.write(f"G0 {xy[0]}\n{PEN_DOWN}\n")
+            f.write(f"G0 {xy[0]}\n{pen_down}\n")
             at = xy[0]
         lines = []
         for w in xy:            # no zero-length moves: they would not read back
@@ -188,7 +201,7 @@ def write_gcode(prep, cfg, f) -> None:
         if lines:
             f.write("\n".join(lines) + "\n")
         if k + 1 == len(strokes) or not joined[k + 1]:
-            f.write(f"{PEN_UP}\n")
+            f.write(f"{pen_up}\n")
     f.write("M2\n")
 
 
