@@ -70,6 +70,7 @@ def vpype_linesort(ss) -> list | None:
         import vpype_cli
     except ImportError:
         return None
+    # (vpype keeps no single-point lines: compare on drawings without dots)
     doc = vp.Document(vp.LineCollection([s.pts[:, 0] + 1j * s.pts[:, 1] for s in ss]))
     out = vpype_cli.execute("linesort", doc)
     lines = out.layers[1] if out.layers else []
