@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, strategies as st
+from hypothesis import given, settings, strategies as st
 
 from vplotter import order, place
 from vplotter.inputs.strokes import Stroke
@@ -131,6 +131,7 @@ def between(ss) -> float:
     return order.travel_mm(ss, ss[0].pts[0]) if ss else 0.0
 
 
+@settings(max_examples=60)
 @given(strokes(), point)
 def test_best_is_never_longer_than_file_order_or_linesort_by_either_measure(ss, start):
     best = order.order(ss, "best", start)
@@ -140,6 +141,7 @@ def test_best_is_never_longer_than_file_order_or_linesort_by_either_measure(ss, 
         assert between(best) <= between(other) + 1e-9
 
 
+@settings(max_examples=40)
 @given(strokes(), point)
 def test_ordering_is_deterministic(ss, start):
     a = order.order(ss, "best", start)
