@@ -126,6 +126,7 @@ class Prepared:
     key: str = ""                 # the options that make the order; resume checks them
     start_xy: tuple[float, float] = (0.0, 0.0)   # where the travel starts (G-code mm)
     tol_mm: float = 0.0075        # chords of G-code arcs read into strokes
+    dialect: object = None        # config.toml [gcode] pen dialect, when the config has one
     warn: Callable[[str], None] = _stderr
     _drawing: object = None
     _strokes: list | None = None
@@ -156,7 +157,8 @@ class Prepared:
 
         warn = self.warn if self._reads == 0 else (lambda m: None)
         self._reads += 1
-        return gcode.read(self.path, strict=self.strict, warn=warn)
+        extra = {"dialect": self.dialect} if self.dialect is not None else {}
+        return gcode.read(self.path, strict=self.strict, warn=warn, **extra)
 
     def records(self) -> Iterator:
         """A fresh iterator of pipeline records (warnings are given on the first read only)."""
@@ -247,7 +249,8 @@ def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
     key = options_key(path, args)
     prep = Prepared(path, not svg, passthrough=False, strict=strict, join_mm=join_mm,
                     pause=pause, key=key, warn=warn,
-                    start_xy=(float(start_xy[0]), float(start_xy[1])), tol_mm=tol)
+                    start_xy=(float(start_xy[0]), float(start_xy[1])), tol_mm=tol,
+                    dialect=getattr(cfg, "gcode", None))
     if not svg and method == "keep" and place_opts.identity:
         prep.passthrough = True
         return prep
