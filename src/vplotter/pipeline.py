@@ -63,21 +63,24 @@ PLAN_LIMIT = 100_000   # pieces (about 11 MB): a validated plan up to this size 
 def stream(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str = "<input>",
            emit: bool = True, summary: Summary | None = None,
            start_at: StartAt | None = None, pen_down: bool | None = None,
-           keep: Kept | None = None, where=None) -> Iterator[Rows | Pause]:
+           keep: Kept | None = None, scheduler=Scheduler, where=None) -> Iterator[Rows | Pause]:
     """Rows for drawing `records` starting from the given step counts (cords = ref + counts / steps per unit).
 
     With `start_at`, records before that line are skipped (their pen changes still count), the
     pen travels up to the resume point and goes down again if the file has it down there.
     With `keep` (a Kept list), the plan (pen events and planned blocks) is appended to it, so that
     `replay` can make the same rows later without parsing and planning again.
+    `scheduler` makes what is played from the plan (Rows for GPIO; the serial backend's
+    `linestream.LineScheduler` makes G-code lines); its `chord_share` cuts arcs.
     A Pause record (pen up, coils released) is passed on as it is, for the player to wait.
     where(line, col) names the file place of a line in errors (default: name:line:col).
     """
     summary = summary if summary is not None else Summary()
-    ops = plan(cfg, records, counts, ref_mm, name, summary, start_at, pen_down, where)
+    ops = plan(cfg, records, counts, ref_mm, name, summary, start_at, pen_down,
+               getattr(scheduler, "chord_share", CHORD_SHARE), where)
     if keep is not None:
         ops = _keeping(ops, keep)
-    yield from _schedule(cfg, ops, counts, ref_mm, emit, summary)
+    yield from _schedule(cfg, ops, counts, ref_mm, emit, summary, scheduler)
 
 
 def replay(cfg: Config, ops: list, counts, ref_mm) -> Iterator[Rows]:
@@ -104,9 +107,10 @@ def _keeping(ops, keep: Kept):
         yield op
 
 
-def _schedule(cfg, ops, counts, ref_mm, emit: bool, summary: Summary) -> Iterator[Rows]:
+def _schedule(cfg, ops, counts, ref_mm, emit: bool, summary: Summary,
+              scheduler=Scheduler) -> Iterator[Rows]:
     kin = kinematics.from_config(cfg)
-    sched = Scheduler(cfg, kin, counts, ref_mm)
+    sched = scheduler(cfg, kin, counts, ref_mm)
     for op in ops:
         kind = op[0]
         if kind == "motion":
@@ -134,7 +138,8 @@ def _schedule(cfg, ops, counts, ref_mm, emit: bool, summary: Summary) -> Iterato
 
 def plan(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str,
          summary: Summary, start_at: StartAt | None = None,
-         pen_down: bool | None = None, where=None) -> Iterator[tuple]:
+         pen_down: bool | None = None, chord_share: float = CHORD_SHARE,
+         where=None) -> Iterator[tuple]:
     """The plan: ("start", pen_down), ("motion", Block), ("pen", down, line),
     ("dwell", seconds, line) and ("finish", lift) in the order the machine does them.
 
@@ -149,7 +154,7 @@ def plan(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str
     start = kin.forward(cords[None, :])[0]
     planner = Planner(kin, cfg.motors.max_step_rate, cfg.motors.max_accel, spu, start)
     page = cfg.page
-    tol = cfg.motion.tolerance_mm * CHORD_SHARE
+    tol = cfg.motion.tolerance_mm * chord_share
     mo = cfg.motion
     file_xy = (0.0, 0.0)
 
@@ -271,12 +276,15 @@ def plan(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str
 
 
 def validate(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str = "<input>",
-             start_at: StartAt | None = None, stop=lambda: False, where=None) -> Summary | None:
+             start_at: StartAt | None = None, stop=lambda: False,
+             scheduler=Scheduler, where=None) -> Summary | None:
     """The validation pass: every record checked, planned and timed, no step computed.
     Returns the summary, or None if stop() turned true first."""
     summary = Summary()
     kept = Kept()
-    ops = _keeping(plan(cfg, records, counts, ref_mm, name, summary, start_at, where=where), kept)
+    ops = _keeping(plan(cfg, records, counts, ref_mm, name, summary, start_at,
+                        chord_share=getattr(scheduler, "chord_share", CHORD_SHARE), where=where),
+                   kept)
     stopped = False
 
     def watched():
@@ -287,7 +295,7 @@ def validate(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name:
                 return
             yield op
 
-    for _ in _schedule(cfg, watched(), counts, ref_mm, False, summary):
+    for _ in _schedule(cfg, watched(), counts, ref_mm, False, summary, scheduler):
         pass
     if stopped:
         return None

@@ -23,6 +23,8 @@ def add_draw(p: argparse.ArgumentParser) -> None:
                    help="go on from where the last interrupted draw of FILE stopped")
     g.add_argument("--from-line", type=int, metavar="N", help="start at line N of FILE")
     p.add_argument("--force", action="store_true", help="--resume even if FILE changed since")
+    p.add_argument("--save-stream", metavar="OUT.gcode",
+                   help="with --backend serial: write the G-code lines streamed to the controller")
     p.add_argument("--detach", action="store_true",
                    help="after validation, draw in the background (survives the end of the SSH "
                         "session; follow with `vplotter status --watch` or `vplotter log -f`)")
@@ -80,6 +82,10 @@ def cmd_draw(args, argv=None) -> int:
                           "not with --detach")
     pos = position(cfg, args, args.dry_run)
     begin = start_at(args, pos)
+    if args.backend == "serial" or args.save_stream:
+        from vplotter.commands import serial
+
+        return serial.draw(args, argv, cfg, pos, begin)
     sess = session(args, cfg, command_line(argv), pos)
     sess.drawing = {"file": os.path.abspath(args.file), "sha256": file_hash(args.file),
                     "options": options_key(args.file, args)}
