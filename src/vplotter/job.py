@@ -244,7 +244,8 @@ class Session:
         self.backend.stop_requested = False
         t = self.t_us + 1 if self._moved else 0
         up, settle = self.cfg.pen.up_us, int(round(self.cfg.pen.settle_s * 1e6))
-        rows = Rows(np.array([t, t + settle], dtype=np.int64), np.zeros(2, dtype=np.uint8),
+        rows = Rows(np.array([t, t + settle], dtype=np.int64),
+                    np.full(2, self.backend.idle_word, dtype=np.uint8),
                     np.array([up, 0], dtype=np.int32), np.full(2, self.line, dtype=np.int64),
                     np.array([self.counts, self.counts], dtype=np.int64))
         try:

@@ -16,7 +16,7 @@ from vplotter import kinematics, segment
 from vplotter.inputs import gcode
 from vplotter.config import Config
 from vplotter.errors import InputError
-from vplotter.planner import Block, Planner
+from vplotter.planner import Block, Planner, Turn
 from vplotter.schedule import Rows, Scheduler
 
 
@@ -68,15 +68,22 @@ def stream(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: s
     summary = summary if summary is not None else Summary()
     cords = np.asarray(ref_mm, dtype=float) + np.asarray(counts, dtype=float) / spu
     start = kin.forward(cords[None, :])[0]
-    planner = Planner(kin, cfg.motors.max_step_rate, cfg.motors.max_accel, spu, start)
+    planner = Planner(kin, cfg.motors.max_step_rate, cfg.motors.max_accel, spu, start,
+                      start_q=cords)
+    reach = getattr(kin, "first_unreachable", None)
     sched = Scheduler(cfg, kin, counts, ref_mm)
     page = cfg.page
     tol = cfg.motion.tolerance_mm * CHORD_SHARE
     mo = cfg.motion
     file_xy = (0.0, 0.0)
 
-    def blocks(bs: Iterator[Block]) -> Iterator[Rows]:
+    def blocks(bs: Iterator[Block | Turn]) -> Iterator[Rows]:
         for b in bs:
+            if isinstance(b, Turn):
+                rows = sched.turn(b, emit)
+                if rows is not None:
+                    yield rows
+                continue
             summary.pieces += len(b.d)
             drawn = float(b.d[b.drawing].sum())
             summary.drawn_mm += drawn
@@ -101,9 +108,17 @@ def stream(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: s
                     f"{name}:{line[move]}:{col[move]}: error: point X{x:.3f} Y{y:.3f} is outside "
                     f"the page (X {page.x_min_mm:g}..{page.x_max_mm:g}, "
                     f"Y {page.y_min_mm:g}..{page.y_max_mm:g})")
+            machine = kin.to_machine(pts)
+            bad = reach(machine, planner.position) if reach is not None else -1
+            if bad >= 0:
+                move = int(np.searchsorted(np.cumsum(n), bad, side="right"))
+                x, y = pts[bad]
+                raise InputError(f"{name}:{line[move]}:{col[move]}: error: the pen cannot reach "
+                                 f"X{x:.3f} Y{y:.3f} or the line to it (the arm reaches "
+                                 f"{kin.r_min:g}..{kin.r_max:g} mm from the table's centre)")
             batch.clear()
             meta.clear()
-            yield from blocks(planner.add(kin.to_machine(pts), np.repeat(cap, n),
+            yield from blocks(planner.add(machine, np.repeat(cap, n),
                                           np.repeat(line, n), np.repeat(draw, n)))
         if stop:
             yield from blocks(planner.stop())

@@ -17,15 +17,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from vplotter import drivers
 from vplotter.config import Config
-from vplotter.planner import Block
-from vplotter.sequencer import TABLES, coil_words
+from vplotter.planner import ACCEL_MARGIN, RATE_MARGIN, Block, Turn
 
 
 @dataclass
 class Rows:
     t_us: np.ndarray     # int64
-    coils: np.ndarray    # uint8 coil word after the row
+    coils: np.ndarray    # uint8 motor output word after the row (Motors.out_pins, drivers.py)
     pen_us: np.ndarray   # int32 pen pulse width after the row (0 = pulses off)
     line: np.ndarray     # int64 G-code line being drawn
     steps: np.ndarray    # (n, 2) int64 step counts of both motors after the row
@@ -51,21 +51,21 @@ class Scheduler:
         self.cfg = cfg
         self.kin = kin
         self.spu = np.asarray(m.steps_per_unit, dtype=float)
-        self.table = TABLES[m.drive]
-        self.sign = np.array([-1 if m.left_reverse else 1, -1 if m.right_reverse else 1])
         self.hold_us = int(np.ceil(1e6 / m.max_step_rate))
         self.min_interval_us = self.hold_us + 1
         self.last_step_us = [-(10 ** 12), -(10 ** 12)]
         self.settle_us = int(round(cfg.pen.settle_s * 1e6))
         self.ref = np.asarray(ref_mm, dtype=float)
         self.counts = np.asarray(counts, dtype=np.int64).copy()
-        self.phase = (self.counts * self.sign) % len(self.table)
+        self.drv = drivers.create(m, self.counts)
+        self.idle = self.drv.idle_word
         self.t_us = 0
         self.energized = False
         self.pen_down = False
         self.pen_us = 0
         self.line = 0
         self.steps_total = np.zeros(2, dtype=np.int64)
+        self.t_us_floor = 0       # rows before this time were output already
 
     # -- rows helpers
     def _row(self, t_us: int, coils: int, pen_us: int) -> Rows:
@@ -73,8 +73,27 @@ class Scheduler:
                     np.array([pen_us], dtype=np.int32), np.array([self.line], dtype=np.int64),
                     self.counts[None, :].copy())
 
-    def _hold_word(self) -> int:
-        return int(coil_words(self.table, self.phase[:1], self.phase[1:])[0])
+    def _energize(self, rows: list, emit: bool = True) -> None:
+        """Energise the motors where they stand and hold them one step interval."""
+        if not self.energized:
+            if emit:
+                rows.append(self._row(self.t_us, self.drv.hold_word(), 0))
+            self.energized = True
+            self.t_us += self.hold_us
+
+    def _steps(self, t_us, motor, dirn, line) -> Rows:
+        """Rows for step events sorted by time (line: G-code line of each event)."""
+        t, words, done, ev = self.drv.rows(t_us, motor, dirn, self.t_us_floor)
+        cl = np.concatenate(([0], np.cumsum(np.where(motor == 0, dirn, 0))))
+        cr = np.concatenate(([0], np.cumsum(np.where(motor == 1, dirn, 0))))
+        steps = np.column_stack((self.counts[0] + cl[done], self.counts[1] + cr[done]))
+        self.t_us = max(self.t_us, int(t[-1]))
+        for m in (0, 1):
+            mine = t_us[motor == m]
+            if len(mine):
+                self.last_step_us[m] = max(self.last_step_us[m], int(mine[-1]))
+        return Rows(t.astype(np.int64), words, np.zeros(len(t), dtype=np.int32),
+                    np.asarray(line, dtype=np.int64)[ev], steps)
 
     def start(self, pen_down: bool | None = None) -> Rows | None:
         """Lift the pen (wherever it is) and let it settle, coils released. With pen_down
@@ -83,7 +102,7 @@ class Scheduler:
             self.pen_down = pen_down
             return None
         up = self.cfg.pen.up_us
-        rows = [self._row(0, 0, up), self._row(self.settle_us, 0, 0)]
+        rows = [self._row(0, self.idle, up), self._row(self.settle_us, self.idle, 0)]
         self.t_us = self.settle_us
         self.pen_us = 0
         return Rows.concat(rows)
@@ -94,7 +113,8 @@ class Scheduler:
         self.line = line
         self.pen_down = down
         width = self.cfg.pen.down_us if down else self.cfg.pen.up_us
-        rows = [self._row(self.t_us, 0, width), self._row(self.t_us + self.settle_us, 0, 0)]
+        rows = [self._row(self.t_us, self.idle, width),
+                self._row(self.t_us + self.settle_us, self.idle, 0)]
         self.energized = False
         self.t_us += self.settle_us
         return Rows.concat(rows)
@@ -103,7 +123,7 @@ class Scheduler:
         if not self.energized:
             return None
         self.energized = False
-        return self._row(self.t_us, 0, 0)
+        return self._row(self.t_us, self.idle, 0)
 
     def dwell(self, seconds: float, line: int = 0) -> Rows | None:
         self.line = line
@@ -128,17 +148,14 @@ class Scheduler:
         dur = block.durations
         self.steps_total += np.abs(np.diff(targets, axis=0)).sum(axis=0)
         rows = []
-        if not self.energized:
-            if emit:
-                rows.append(self._row(self.t_us, self._hold_word(), 0))
-            self.energized = True
-            self.t_us += self.hold_us
+        self._energize(rows, emit)
         t0 = self.t_us
+        self.t_us_floor = t0
         starts = np.concatenate(([0.0], np.cumsum(dur)[:-1]))
         self.t_us = t0 + int(round(float(dur.sum()) * 1e6))
         if not emit:
+            self.drv.advance(targets[-1] - targets[0])
             self.counts = targets[-1].copy()
-            self.phase = (self.phase + (targets[-1] - targets[0]) * self.sign) % len(self.table)
             self.line = int(block.line[-1])
             return None
         e = block.e
@@ -161,24 +178,14 @@ class Scheduler:
             motors.append(np.full(len(t_us), m, dtype=np.int8))
             dirs.append(dirn)
             pieces.append(piece)
-        if times:
+        if times and sum(len(t) for t in times):
             t_us = np.concatenate(times)
             order = np.argsort(t_us, kind="stable")
-            t_us = t_us[order]
-            self.t_us = max(self.t_us, int(t_us[-1]) if len(t_us) else 0)
-            motor = np.concatenate(motors)[order]
-            dirn = np.concatenate(dirs)[order]
+            motor = np.concatenate(motors)[order].astype(np.int64)
+            dirn = np.concatenate(dirs)[order].astype(np.int64)
             piece = np.concatenate(pieces)[order]
-            dl = np.where(motor == 0, dirn, 0).astype(np.int64)
-            dr = np.where(motor == 1, dirn, 0).astype(np.int64)
-            cl, cr = np.cumsum(dl), np.cumsum(dr)
-            words = coil_words(self.table, self.phase[0] + cl * self.sign[0],
-                               self.phase[1] + cr * self.sign[1])
-            steps = np.column_stack((self.counts[0] + cl, self.counts[1] + cr))
-            rows.append(Rows(t_us, words, np.zeros(len(t_us), dtype=np.int32),
-                             block.line[piece].astype(np.int64), steps))
+            rows.append(self._steps(t_us[order], motor, dirn, block.line[piece]))
         self.counts = targets[-1].copy()
-        self.phase = (self.phase + (targets[-1] - targets[0]) * self.sign) % len(self.table)
         self.line = int(block.line[-1])
         return Rows.concat(rows) if rows else None
 
@@ -209,20 +216,40 @@ class Scheduler:
         return t_us, dirn, piece
 
     def cord_move(self, delta_steps, rate_share: float = 0.5) -> Rows | None:
-        """Move both cords by whole steps, linearly in cord space, rest to rest (jog by cord,
-        calibration). The leading motor runs at most rate_share x max_step_rate."""
+        """Move both motors by whole steps, linearly in motor space, rest to rest (jog by cord,
+        calibration), then release. The leading motor runs at most rate_share x max_step_rate."""
+        m = self.cfg.motors
+        rows = self._rest_move(delta_steps, m.max_step_rate * rate_share, m.max_accel * 0.95)
+        if rows is None:
+            return None
+        return Rows.concat([rows, self.release()])
+
+    def turn(self, turn: Turn, emit: bool = True) -> Rows | None:
+        """The motors move to turn.q with the pen standing still (the polar table turning at the
+        centre), from rest to rest within the rate and acceleration limits."""
+        target = np.rint((np.asarray(turn.q) - self.ref) * self.spu).astype(np.int64)
+        delta = target - self.counts
+        self.line = turn.line
+        self.steps_total += np.abs(delta)
+        m = self.cfg.motors
+        v, a = m.max_step_rate * RATE_MARGIN, m.max_accel * ACCEL_MARGIN
+        if not emit:
+            lead = int(np.abs(delta).max())
+            if lead:
+                self._energize([], False)
+                self.t_us += int(round(float(_rest_to_rest(np.array([float(lead)]), lead, v, a)[0]) * 1e6))
+                self.drv.advance(delta)
+                self.counts = self.counts + delta
+            return None
+        return self._rest_move(delta, v, a)
+
+    def _rest_move(self, delta_steps, v: float, a: float) -> Rows | None:
         delta = np.asarray(delta_steps, dtype=np.int64)
         lead = int(np.abs(delta).max())
         if lead == 0:
             return None
-        m = self.cfg.motors
-        v = m.max_step_rate * rate_share
-        a = m.max_accel * 0.95
         rows = []
-        if not self.energized:
-            rows.append(self._row(self.t_us, self._hold_word(), self.pen_us))
-            self.energized = True
-            self.t_us += self.hold_us
+        self._energize(rows)
         times, motors, dirs = [], [], []
         for k in (0, 1):
             n = abs(int(delta[k]))
@@ -235,18 +262,13 @@ class Scheduler:
         total = float(_rest_to_rest(np.array([float(lead)]), float(lead), v, a)[0])
         t = np.concatenate(times)
         order = np.argsort(t, kind="stable")
-        t_us = self.t_us + np.rint(t[order] * 1e6).astype(np.int64)
+        t0 = self.t_us
+        self.t_us_floor = t0
+        t_us = t0 + np.rint(t[order] * 1e6).astype(np.int64)
         motor, dirn = np.concatenate(motors)[order], np.concatenate(dirs)[order]
-        cl = np.cumsum(np.where(motor == 0, dirn, 0))
-        cr = np.cumsum(np.where(motor == 1, dirn, 0))
-        words = coil_words(self.table, self.phase[0] + cl * self.sign[0], self.phase[1] + cr * self.sign[1])
-        steps = np.column_stack((self.counts[0] + cl, self.counts[1] + cr))
-        rows.append(Rows(t_us, words, np.zeros(len(t_us), dtype=np.int32),
-                         np.full(len(t_us), self.line, dtype=np.int64), steps))
-        self.t_us += int(round(total * 1e6))
+        rows.append(self._steps(t_us, motor, dirn, np.full(len(t_us), self.line)))
+        self.t_us = max(self.t_us, t0 + int(round(total * 1e6)))
         self.counts = self.counts + delta
-        self.phase = (self.phase + delta * self.sign) % len(self.table)
-        rows.append(self.release())
         return Rows.concat(rows)
 
 

@@ -23,11 +23,12 @@ class FakeBackend(Backend):
         self.record = record
         self.realtime = realtime
         self.recorded: list[Rows] = []
-        self.coils = 0
+        self.coils = self.idle_word
         self.pen_us = 0
         self._player = None
         if realtime:
             self._player = Player(self._write_coils, self._write_pen, clock, sleep, **timing)
+            self._player.coils = self.idle_word
 
     def _write_coils(self, word: int, changed: int) -> None:
         self.coils = word
@@ -36,7 +37,7 @@ class FakeBackend(Backend):
         self.pen_us = pulse_us
 
     def open(self) -> None:
-        self.coils = 0
+        self.coils = self.idle_word
         self.pen_us = 0
 
     def play(self, rows: Rows) -> int:
@@ -55,7 +56,7 @@ class FakeBackend(Backend):
         return n
 
     def close(self) -> None:
-        self.coils = 0
+        self.coils = self.idle_word
         self.pen_us = 0
 
     def lateness(self) -> dict | None:

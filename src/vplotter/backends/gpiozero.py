@@ -35,6 +35,7 @@ class GpiozeroBackend(Backend):
         lo, hi = sorted((cfg.pen.up_us, cfg.pen.down_us))
         self._pen_range = (lo, hi)
         self._player = Player(self._write_coils, self._write_pen, clock, sleep, **timing)
+        self._player.coils = self.idle_word
 
     # -- outputs
     def _write_coils(self, word: int, changed: int) -> None:
@@ -59,8 +60,8 @@ class GpiozeroBackend(Backend):
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")  # gpiozero warns about each factory it skips
-                for pin in self.coil_pins:
-                    self._coils.append(DigitalOutputDevice(pin, initial_value=False,
+                for bit, pin in enumerate(self.coil_pins):
+                    self._coils.append(DigitalOutputDevice(pin, initial_value=bool(self.idle_word >> bit & 1),
                                                            pin_factory=self.pin_factory))
         except Exception as e:  # noqa: BLE001 - BadPinFactory, GPIOPinInUse, ...
             pin = self.coil_pins[len(self._coils)]
@@ -101,8 +102,8 @@ class GpiozeroBackend(Backend):
                 except Exception:  # noqa: BLE001
                     pass
             self._servo = None
-        for dev in self._coils:
-            for action in (dev.off, dev.close):
+        for bit, dev in enumerate(self._coils):
+            for action in (dev.on if self.idle_word >> bit & 1 else dev.off, dev.close):
                 try:
                     action()
                 except Exception:  # noqa: BLE001

@@ -71,7 +71,7 @@ class LgpioBackend(Backend):
     def _reset(self) -> None:
         self.anchor_ns: int | None = None
         self.serial = 0                 # serial number of the next row handed to play()
-        self.coils = 0                  # coil word and pen width after the last row handed over
+        self.coils = self.idle_word     # coil word and pen width after the last row handed over
         self.pen_us = 0
         # pulses not yet queued: time, word (NOOP = no change), serial of the first row, cut
         self._pt = np.zeros(0, np.int64)
@@ -109,7 +109,7 @@ class LgpioBackend(Backend):
                                f"with an older kernel)")
         self.handle = h
         try:
-            lg.group_claim_output(h, list(self.coil_pins), [0] * len(self.coil_pins))
+            lg.group_claim_output(h, list(self.coil_pins), self._idle_levels())
             lg.gpio_claim_output(h, self.pen_pin, 0)
             self.capacity = lg.tx_room(h, self.leader, lg.TX_WAVE)
         except lg.error as e:
@@ -138,8 +138,8 @@ class LgpioBackend(Backend):
         if busy:  # waves still queued: freeing the group stops them, claiming it again at 0
             steps += [lambda: lg.group_free(h, self.leader),
                       lambda: lg.group_claim_output(h, list(self.coil_pins),
-                                                    [0] * len(self.coil_pins))]
-        steps += [lambda: lg.group_write(h, self.leader, 0, self.mask),
+                                                    self._idle_levels())]
+        steps += [lambda: lg.group_write(h, self.leader, self.idle_word, self.mask),
                   self._pulses_off,
                   lambda: lg.group_free(h, self.leader),
                   lambda: lg.gpio_free(h, self.pen_pin),
@@ -151,6 +151,9 @@ class LgpioBackend(Backend):
                 pass
         self.handle = None
         self._reset()
+
+    def _idle_levels(self) -> list[int]:
+        return [self.idle_word >> b & 1 for b in range(len(self.coil_pins))]
 
     def lateness(self) -> dict | None:
         stats = self._late.stats()
