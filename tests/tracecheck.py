@@ -417,7 +417,7 @@ def _per_group_last(gid: np.ndarray, values: np.ndarray, G: int,
     return out
 
 
-def decode(trace, cfg: dict | None = None, start_xy=(0.0, 0.0)) -> Decoded:
+def decode(trace, cfg: dict | None = None, start_xy=(0.0, 0.0), start_q=None) -> Decoded:
     """Decode a trace into steps, pen state and pen positions.
 
     Semantics (from the contract):
@@ -454,7 +454,9 @@ def decode(trace, cfg: dict | None = None, start_xy=(0.0, 0.0)) -> Decoded:
     polar = tp.kind(c) == "polar"
     inv = (lambda X, Y: tp.polar_inverse(c, X, Y)) if polar else (
         lambda X, Y: inverse_kinematics(c, X, Y))
-    L0, R0 = (float(v) for v in inv(start_xy[0], start_xy[1]))
+    # the polar table's angle is not fixed by the pen's point: start_q gives the motor
+    # coordinates at the start (default: the angle in -180..180, as `calibrate --at` sets it)
+    L0, R0 = (float(v) for v in (inv(start_xy[0], start_xy[1]) if start_q is None else start_q))
     dec = Decoded(cfg=c, start_xy=(float(start_xy[0]), float(start_xy[1])),
                   start_cords=(L0, R0), steps={m: _empty_steps() for m in names})
     if len(tr) == 0:
@@ -1183,7 +1185,7 @@ def check_page(decoded: Decoded, cfg: dict | None = None, tol_mm: float = 0.02,
 
 def verify(trace, gcode, cfg: dict | None = None, start_xy=(0.0, 0.0),
            tol_mm: float = 0.02, accel_window_s: float = 0.1,
-           check_accel: bool = True, page: bool = True) -> list[str]:
+           check_accel: bool = True, page: bool = True, start_q=None) -> list[str]:
     """Run every check on a trace against its G-code; returns all problems.
 
     ``trace`` is a :class:`Trace` or a path; ``gcode`` a path or program
@@ -1196,7 +1198,7 @@ def verify(trace, gcode, cfg: dict | None = None, start_xy=(0.0, 0.0),
     """
     tr = _as_trace(trace)
     c = merge_config(cfg)
-    dec = decode(tr, c, start_xy)
+    dec = decode(tr, c, start_xy, start_q)
     probs: list[str] = []
 
     def add(name: str, items: Iterable[str]):

@@ -43,6 +43,7 @@ def load_position(cfg, trust: bool = False, dry_run: bool = False) -> state.Posi
     if pos is None:
         raise MachineError("error: the pen position is unknown; put the pen on a known point and "
                            "run `vplotter calibrate --at X Y` first")
+    check_machine(cfg, pos)
     pos = state.recovered(pos).rebased(cfg.motors.steps_per_unit)
     if not pos.clean and not trust and not dry_run:
         mm = uncertainty_mm(cfg, pos)
@@ -50,6 +51,14 @@ def load_position(cfg, trust: bool = False, dry_run: bool = False) -> state.Posi
                          f"may be off by up to {mm:.2f} mm. Check the pen and run `vplotter "
                          f"calibrate --at X Y`, or pass --trust-position to go on from it")
     return pos
+
+
+def check_machine(cfg, pos: state.Position) -> None:
+    """The stored position must be of this kind of machine (cords or angle and radius)."""
+    kind = pos.extra.get("machine", "vplotter")
+    if kind != cfg.machine.kind:
+        raise MachineError(f"error: the stored position is of a {kind} machine, not of this "
+                           f"{cfg.machine.kind}; run `vplotter calibrate` (or `vplotter home`) first")
 
 
 def uncertainty_mm(cfg, pos: state.Position) -> float:

@@ -35,13 +35,14 @@ class Summary:
     travel_mm: float = 0.0
     time_s: float = 0.0
     pen_downs: int = 0
+    motors: tuple[str, str] = ("left", "right")
 
     def text(self) -> str:
         m, s = divmod(int(round(self.time_s)), 60)
         h, m = divmod(m, 60)
         hms = f"{h}:{m:02d}:{s:02d}" if h else f"{m}:{s:02d}"
         return (f"{self.moves} moves, {self.pieces} pieces, {self.pen_downs} strokes, "
-                f"steps left {self.steps[0]} right {self.steps[1]}, "
+                f"steps {self.motors[0]} {self.steps[0]} {self.motors[1]} {self.steps[1]}, "
                 f"drawn {self.drawn_mm / 1000:.2f} m, travel {self.travel_mm / 1000:.2f} m, "
                 f"plot time {hms} ({self.time_s:.1f} s)")
 
@@ -66,6 +67,7 @@ def stream(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: s
     kin = kinematics.from_config(cfg)
     spu = np.asarray(cfg.motors.steps_per_unit)
     summary = summary if summary is not None else Summary()
+    summary.motors = tuple(kin.motors)
     cords = np.asarray(ref_mm, dtype=float) + np.asarray(counts, dtype=float) / spu
     start = kin.forward(cords[None, :])[0]
     planner = Planner(kin, cfg.motors.max_step_rate, cfg.motors.max_accel, spu, start,

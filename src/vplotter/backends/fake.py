@@ -16,10 +16,15 @@ class FakeBackend(Backend):
     name = "fake"
 
     def __init__(self, cfg, record: bool = False, realtime: bool = False, clock=None,
-                 sleep=None, **timing):
+                 sleep=None, switch_after_s: float = 0.5, **timing):
         """record: keep every played chunk in `recorded`; realtime: play in real time
-        (clock, sleep and timing options such as spin_us go to `realtime.Player`)."""
+        (clock, sleep and timing options such as spin_us go to `realtime.Player`);
+        switch_after_s: an input (a switch, closing to ground) reads high until this much
+        simulated time after it was first read, then low."""
         super().__init__(cfg)
+        self.switch_after_us = int(round(switch_after_s * 1e6))
+        self.t_us = 0
+        self._first_read: dict[int, int] = {}
         self.record = record
         self.realtime = realtime
         self.recorded: list[Rows] = []
@@ -53,7 +58,12 @@ class FakeBackend(Backend):
             self.recorded.append(rows)
         self.coils = int(rows.coils[-1])
         self.pen_us = int(rows.pen_us[-1])
+        self.t_us = int(rows.t_us[-1])
         return n
+
+    def read_input(self, pin: int) -> bool:
+        first = self._first_read.setdefault(pin, self.t_us)
+        return self.t_us - first < self.switch_after_us
 
     def close(self) -> None:
         self.coils = self.idle_word

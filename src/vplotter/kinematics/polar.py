@@ -24,6 +24,7 @@ import numpy as np
 from vplotter.errors import MachineError
 
 POLE_MM = 1e-4            # closer to the centre than this, a vertex is at the pole
+START_POLE_MM = 0.01      # the pen starting this close to the centre turns there first
 DEG = 180.0 / math.pi
 # Pieces are cut at the foot of the perpendicular from the centre (the radius turns round
 # there, the angle moves fastest), at foot +- h / sqrt(3) (where the angle's second derivative
@@ -79,9 +80,12 @@ class Polar:
         q_in = np.empty((n, 2))
         q_out = np.empty((n, 2))
         a_prev = float(q0[0])
-        sign = -1.0 if q0[1] < 0 else 1.0
+        sign = -1.0 if q0[1] < 0 and self.r_min < 0 else 1.0
+        pole = rho < POLE_MM
+        # the motors start where they are: within a few steps of the centre that is the pole
+        pole[0] |= min(rho[0], abs(float(q0[1]))) < START_POLE_MM
         start = 0
-        for j in [*np.flatnonzero(rho < POLE_MM).tolist(), n]:
+        for j in [*np.flatnonzero(pole).tolist(), n]:
             if j > start:
                 seg = raw[start:j] + (180.0 if sign < 0 else 0.0)
                 ang = a_prev + np.cumsum(_wrap(np.diff(np.concatenate(([a_prev], seg)))))
@@ -91,19 +95,21 @@ class Polar:
             if j == n:
                 break
             turn = 0.0
-            if j + 1 < n and rho[j + 1] >= POLE_MM:      # leaving the pole towards vertex j+1
+            if j + 1 < n and not pole[j + 1]:           # leaving the pole towards vertex j+1
                 turn = float(_wrap(raw[j + 1] - a_prev))
                 sign = 1.0
                 over = float(_wrap(raw[j + 1] + 180.0 - a_prev))
                 if self.r_min < 0 and rho[j + 1] <= -self.r_min + 1e-9 and abs(over) < abs(turn):
                     turn, sign = over, -1.0
-            q_in[j] = (a_prev, 0.0)
-            q_out[j] = (a_prev + turn, 0.0)
+            r0 = float(q0[1]) if j == 0 else 0.0        # where the motors stand, at the start
+            q_in[j] = (a_prev, r0)
+            q_out[j] = (a_prev + turn, r0)
             a_prev += turn
             start = j + 1
-        neg = q_out[:, 1] < 0
-        if neg.any() and (-q_out[neg, 1]).max() > -self.r_min + 1e-6:
-            i = int(np.flatnonzero(neg & (q_out[:, 1] < self.r_min - 1e-6))[0])
+        short = q_out[:, 1] < self.r_min - 1e-6
+        short[0] = False                      # where the motors are (a step off the centre)
+        if short.any():
+            i = int(np.flatnonzero(short)[0])
             raise MachineError(f"error: the arm passed over the centre and cannot reach radius "
                                f"{rho[i]:.3f} mm on the far side (radius_min_mm = {self.r_min:g}); "
                                f"lift the pen between such strokes")
