@@ -122,9 +122,10 @@ class Motors:
 @dataclass(frozen=True)
 class Pen:
     """kind "servo": `pin` gets pulses of up_us/down_us. "output": `pin` is held high while
-    the pen is down (a solenoid). "switch": `pin` runs the cam motor until `switch_pin` closes
-    (at most timeout_s). The schedule's pen rows carry up_us/down_us for every kind (1 and 2
-    for output and switch): the backend turns them into what the kind needs."""
+    the pen is down (a solenoid). "switch": `pin` runs the cam motor: up until `switch_pin`
+    closes (at most timeout_s), down for down_s. The schedule's pen rows carry up_us/down_us
+    for every kind (1 and 2 for output and switch): the backend turns them into what the kind
+    needs (pens.py)."""
 
     pin: int
     up_us: int
@@ -134,6 +135,7 @@ class Pen:
     switch_pin: int | None = None
     switch_active_low: bool = True
     timeout_s: float = 2.0
+    down_s: float = 0.2
 
 
 @dataclass(frozen=True)
@@ -223,6 +225,7 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "switch_pin": ("int", None, 0, 63, "switch"),
         "switch_active_low": ("bool", True, None, None, "switch"),
         "timeout_s": ("float+", 2.0, 0.0, 60.0, "switch"),
+        "down_s": ("float", 0.2, 0.0, 10.0, "switch"),
     },
     "motion": {
         "tolerance_mm": ("float+", 0.01, 0.0, 10.0),

@@ -32,6 +32,8 @@ class GpiozeroBackend(Backend):
         self.pin_factory = pin_factory
         self._coils = []
         self._servo = None
+        self._pen = None
+        self._pen_devices = []
         lo, hi = sorted((cfg.pen.up_us, cfg.pen.down_us))
         self._pen_range = (lo, hi)
         self._player = Player(self._write_coils, self._write_pen, clock, sleep, **timing)
@@ -44,6 +46,9 @@ class GpiozeroBackend(Backend):
                 dev.pin.state = word >> bit & 1
 
     def _write_pen(self, pulse_us: int) -> None:
+        if self._pen is not None:           # a solenoid or the cam (pens.py)
+            self._pen.set(pulse_us)
+            return
         if pulse_us <= 0:
             self._servo.value = None  # detach: no pulses
             return
@@ -68,6 +73,9 @@ class GpiozeroBackend(Backend):
             self.close()
             raise BackendError(f"error: gpiozero cannot drive GPIO{pin} ({type(e).__name__}: "
                                f"{e}); {HINT}") from None
+        if self.cfg.pen.kind != "servo":
+            self._open_pen()
+            return
         try:
             self._servo = self._make_servo(self._coils[0].pin_factory)
         except Exception as e:  # noqa: BLE001
@@ -75,6 +83,37 @@ class GpiozeroBackend(Backend):
             raise BackendError(f"error: gpiozero cannot make servo pulses on GPIO{self.pen_pin} "
                                f"({type(e).__name__}: {e}); use a pin factory with PWM "
                                f"(lgpio, pigpio, RPi.GPIO) or --dry-run") from None
+
+    def _open_pen(self) -> None:
+        """The pen pin as a plain output (and the cam's switch as an input)."""
+        from gpiozero import DigitalInputDevice, DigitalOutputDevice
+
+        from vplotter import pens
+
+        pen, factory = self.cfg.pen, self._coils[0].pin_factory
+        try:
+            out = DigitalOutputDevice(self.pen_pin, initial_value=False, pin_factory=factory)
+            self._pen_devices.append(out)
+            switch = None
+            if pen.kind == "switch":
+                switch = DigitalInputDevice(pen.switch_pin, pull_up=pen.switch_active_low,
+                                            pin_factory=factory)
+                self._pen_devices.append(switch)
+        except Exception as e:  # noqa: BLE001
+            self.close()
+            raise BackendError(f"error: gpiozero cannot use the pen's pins ({type(e).__name__}: "
+                               f"{e}); {HINT}") from None
+        self._pen = pens.create(self.cfg, lambda level: setattr(out, "value", level),
+                                lambda: bool(switch.pin.state))
+
+    def read_input(self, pin: int) -> bool:
+        from gpiozero import DigitalInputDevice
+
+        dev = DigitalInputDevice(pin, pull_up=True, pin_factory=self._coils[0].pin_factory)
+        try:
+            return bool(dev.pin.state)
+        finally:
+            dev.close()
 
     def _make_servo(self, factory):
         from gpiozero import Servo
@@ -94,7 +133,8 @@ class GpiozeroBackend(Backend):
         return self._player.play(rows, lambda: self.stop_requested)
 
     def close(self) -> None:
-        """All coils low, pen pulses off, pins released; never raises."""
+        """Motor outputs at the idle word (coils low, ENABLE high), pen off, pins released;
+        never raises."""
         if self._servo is not None:
             for action in (self._servo.detach, self._servo.close):
                 try:
@@ -102,6 +142,13 @@ class GpiozeroBackend(Backend):
                 except Exception:  # noqa: BLE001
                     pass
             self._servo = None
+        for dev in self._pen_devices:
+            for action in (getattr(dev, "off", lambda: None), dev.close):
+                try:
+                    action()
+                except Exception:  # noqa: BLE001
+                    pass
+        self._pen_devices, self._pen = [], None
         for bit, dev in enumerate(self._coils):
             for action in (dev.on if self.idle_word >> bit & 1 else dev.off, dev.close):
                 try:

@@ -63,6 +63,7 @@ class LgpioBackend(Backend):
         self.lead_us = int(lead_s * 1e6)
         self.poll_s = poll_us / 1e6
         self.handle: int | None = None
+        self._pen = None
         self.capacity = 10
         self._late = Lateness()
         self.underruns = 0
@@ -92,7 +93,7 @@ class LgpioBackend(Backend):
                 raise BackendError("error: the lgpio backend needs the lgpio package "
                                    "(pip install lgpio); use --dry-run to simulate") from None
             self.lg = lg
-        for w in (self.cfg.pen.up_us, self.cfg.pen.down_us):
+        for w in (self.cfg.pen.up_us, self.cfg.pen.down_us) if self.cfg.pen.kind == "servo" else ():
             if not 500 <= w <= 2500:
                 raise BackendError(f"error: lgpio makes servo pulses of 500..2500 us, not {w} "
                                    f"([pen] up_us/down_us)")
@@ -111,6 +112,7 @@ class LgpioBackend(Backend):
         try:
             lg.group_claim_output(h, list(self.coil_pins), self._idle_levels())
             lg.gpio_claim_output(h, self.pen_pin, 0)
+            self._open_pen()
             self.capacity = lg.tx_room(h, self.leader, lg.TX_WAVE)
         except lg.error as e:
             self.close()
@@ -151,6 +153,23 @@ class LgpioBackend(Backend):
                 pass
         self.handle = None
         self._reset()
+
+    def _open_pen(self) -> None:
+        from vplotter import pens
+
+        lg, h, pen = self.lg, self.handle, self.cfg.pen
+        if pen.kind == "switch":
+            lg.gpio_claim_input(h, pen.switch_pin, lg.SET_PULL_UP if pen.switch_active_low else 0)
+        self._pen = pens.create(self.cfg, lambda level: lg.gpio_write(h, self.pen_pin, level),
+                                lambda: bool(lg.gpio_read(h, pen.switch_pin)))
+
+    def read_input(self, pin: int) -> bool:
+        lg, h = self.lg, self.handle
+        lg.gpio_claim_input(h, pin, lg.SET_PULL_UP)
+        try:
+            return bool(lg.gpio_read(h, pin))
+        finally:
+            lg.gpio_free(h, pin)
 
     def _idle_levels(self) -> list[int]:
         return [self.idle_word >> b & 1 for b in range(len(self.coil_pins))]
@@ -226,7 +245,9 @@ class LgpioBackend(Backend):
             if limit_serial is not None and serial >= limit_serial:
                 return
             self._events.popleft()
-            if width > 0:
+            if self._pen is not None:            # a solenoid or the cam (pens.py)
+                self._pen.set(width)
+            elif width > 0:
                 lg.tx_servo(h, self.pen_pin, width, SERVO_HZ)
             else:
                 self._pulses_off()
