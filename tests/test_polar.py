@@ -263,3 +263,38 @@ def test_calibrate_jog_and_a_stored_position_of_another_machine(tmp_path, capsys
     # a V-plotter config does not take the polar machine's position for cords
     assert main(["--config", str(config_path), "goto", "0", "0", "--backend", "fake"]) == 2
     assert "stored position is of a polar machine" in capsys.readouterr().err
+
+
+def test_jog_by_motor_and_resume_after_ctrl_c(tmp_path, capsys, monkeypatch):
+    import signal
+
+    from test_safety import interrupt_after
+
+    assert main(["--config", str(POLAR), "calibrate", "--at", "0", "0"]) == 0
+    g = REPO / "gcode_samples" / "polar" / "pole.ngc"
+    first, second = tmp_path / "a.csv", tmp_path / "b.csv"
+    orig = interrupt_after(monkeypatch, 150_000, signal.SIGINT)
+    assert main(["--config", str(POLAR), "draw", str(g), "--backend", "fake", "--trace", str(first)]) == 130
+    stopped = state.load()
+    assert stopped.clean and stopped.extra["resume"]["line"] > 0
+    monkeypatch.setattr("vplotter.backends.fake.FakeBackend.play", orig)
+    assert main(["--config", str(POLAR), "draw", str(g), "--resume", "--backend", "fake",
+                 "--trace", str(second)]) == 0
+    cfg = tc.load_config(POLAR)
+    a = tc.decode(tc.read_trace(first), cfg, (0, 0))
+    b = tc.decode(tc.read_trace(second), cfg, start_q=(stopped.left_mm, stopped.right_mm))
+    # the position stored at the stop is where the trace left the motors, to the step
+    assert (a.left_mm[-1], a.right_mm[-1]) == pytest.approx((stopped.left_mm, stopped.right_mm), abs=1e-9)
+    # both parts together draw the whole file
+    drawn = tc.drawn_polylines(a) + tc.drawn_polylines(b)
+    ref = tc.reference_path(g)
+    far = tc.distances_to_polylines(np.concatenate([tc._densify(p, 0.005) for p in ref]), drawn)
+    assert far.max() < 0.02
+    # jog the motors themselves: --left turns the table by degrees, --right moves the arm by mm
+    before = state.load()
+    assert main(["--config", str(POLAR), "jog", "--left", "90", "--right", "3", "--backend", "fake"]) == 0
+    after = state.load()
+    assert after.left_mm - before.left_mm == pytest.approx(90, abs=0.02)
+    assert after.right_mm - before.right_mm == pytest.approx(3, abs=0.01)
+    assert main(["--config", str(POLAR), "jog", "--right", "500", "--backend", "fake"]) == 2
+    assert "does not reach" in capsys.readouterr().err

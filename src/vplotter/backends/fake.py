@@ -40,6 +40,7 @@ class FakeBackend(Backend):
         if realtime:
             self._player = Player(self._write_coils, self._write_pen, clock, sleep, **timing)
             self._player.coils = self.idle_word
+            self._player.idle_word = self.idle_word
 
     def _write_coils(self, word: int, changed: int) -> None:
         self.coils = word

@@ -38,6 +38,7 @@ class GpiozeroBackend(Backend):
         self._pen_range = (lo, hi)
         self._player = Player(self._write_coils, self._write_pen, clock, sleep, **timing)
         self._player.coils = self.idle_word
+        self._player.idle_word = self.idle_word
 
     # -- outputs
     def _write_coils(self, word: int, changed: int) -> None:

@@ -74,6 +74,7 @@ class Player:
         self.stall_ns = stall_us * 1000
         self.anchor_ns: int | None = None
         self.coils = 0
+        self.idle_word = 0            # the motors released (ENABLE high for step/dir drivers)
         self.pen_us = 0
         self.last_t_us = 0
         self.last_out_ns = 0
@@ -96,6 +97,7 @@ class Player:
         n = len(rows)
         clock, sleep, late = self.clock, self.sleep, self.lateness.ns
         spin, poll, catchup = self.spin_ns, self.poll_ns, self.catchup_ns
+        idle = self.idle_word
         ts, words, pens = rows.t_us.tolist(), rows.coils.tolist(), rows.pen_us.tolist()
         if self.anchor_ns is None:
             self.anchor_ns = clock() - ts[0] * 1000
@@ -124,7 +126,7 @@ class Player:
             out = clock()
             late_ns = out - (self.anchor_ns + t * 1000)
             late.append(late_ns)
-            if late_ns > self.stall_ns or late_ns > 0 and (self.coils == 0 or word == 0):
+            if late_ns > self.stall_ns or late_ns > 0 and (self.coils == idle or word == idle):
                 self.anchor_ns += late_ns  # the motors stand (or stood) still: pause, never race
             self.coils, self.pen_us = word, pen
             self.last_t_us, self.last_out_ns = t, out
