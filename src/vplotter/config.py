@@ -244,6 +244,9 @@ SECTION_WHEN = {"origin": "vplotter", "polar": "polar"}
 SECTION_CLASSES = {"machine": Machine, "origin": Origin, "polar": Polar, "page": Page,
                    "motors": Motors, "pen": Pen, "motion": Motion, "gpio": Gpio}
 PEN_CODES = {"output": (1, 2), "switch": (1, 2)}    # up_us, down_us of the pen rows
+# values of the V-plotter's coil keys where they do not apply (the fields have no defaults)
+NOT_USED = {"drive": "half", "steps_per_rev": 0, "spool_circumference_mm": 0.0, "left_pins": (),
+            "right_pins": (), "left_reverse": False, "right_reverse": False}
 
 
 def _fmt(v: Any) -> str:
@@ -324,7 +327,9 @@ def from_dict(data: dict, path: str = "config.toml") -> Config:
                 raise ConfigError(f"{path}: [{section}] is only for {whose(when)}")
             continue
         if table is None:
-            if section not in OPTIONAL_SECTIONS and not (section == "page" and kind == "polar"):
+            if section == "page" and kind == "polar":
+                continue                          # the square around the reach, below
+            if section not in OPTIONAL_SECTIONS:
                 raise ConfigError(f"{path}: missing section [{section}]")
             table = {}
         if not isinstance(table, dict):
@@ -342,8 +347,6 @@ def from_dict(data: dict, path: str = "config.toml") -> Config:
             if when_ and not applies(when_[0]):
                 continue
             if key not in table:
-                if section == "page" and kind == "polar":
-                    continue
                 if default is None:
                     raise ConfigError(f"{where} is missing")
                 values[key] = None if default is UNSET else default
@@ -351,17 +354,9 @@ def from_dict(data: dict, path: str = "config.toml") -> Config:
             values[key] = _value(where, kind_, table[key], lo, hi)
         if section == "motors":
             values["names"] = MOTOR_NAMES[kind]
-            values.setdefault("drive", "half")
-            values.setdefault("steps_per_rev", 0)
-            values.setdefault("spool_circumference_mm", 0.0)
-            values.setdefault("left_pins", ())
-            values.setdefault("right_pins", ())
-            values.setdefault("left_reverse", False)
-            values.setdefault("right_reverse", False)
+            values = {**NOT_USED, **values}
         if section == "pen" and values["kind"] in PEN_CODES:
             values["up_us"], values["down_us"] = PEN_CODES[values["kind"]]
-        if section == "page" and kind == "polar" and not values:
-            continue
         sections[section] = SECTION_CLASSES[section](**values)
     if kind == "polar":
         sections.setdefault("origin", None)
