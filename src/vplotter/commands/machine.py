@@ -31,6 +31,11 @@ def cmd_calibrate(args, argv=None) -> int:
     if args.what == "steps":
         from vplotter.commands.calibrate import calibrate_steps
 
+        if cfg.machine.kind == "polar":
+            raise ConfigError("error: `calibrate steps` measures a cord; on the polar plotter set "
+                              "[motors] rotary_steps_per_deg and linear_steps_per_mm from the "
+                              "gearing and the drivers' microsteps")
+
         return calibrate_steps(args, cfg, command_line(argv))
     if args.at is None and args.cords is None:
         raise ConfigError("error: say where the pen is: --at X Y or --cords LEFT RIGHT "
