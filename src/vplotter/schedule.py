@@ -1,14 +1,15 @@
 """Step schedule: planned motion + pen events -> rows of output states on one timeline.
 
 A `Rows` chunk says: at time t_us (microseconds since the start) the outputs become
-(coil word, pen pulse width). Backends play rows and compute no geometry; the trace is
+(motor output word, pen pulse width); drivers.py makes the words (coils or step/dir). Backends play rows and compute no geometry; the trace is
 written from them. Each motor steps when its cord length, computed from the pen's planned
 position through the inverse kinematics, crosses the next step boundary (half-way between
 two step counts), so step targets are absolute and rounding never accumulates.
 
-Coils are energised only while moving: released at every pen change, dwell and at the end.
-Before moving again a motor's coils are energised at the phase they were released at and held
-for one step interval, so no step is lost.
+Motors are energised only while moving: released at every pen change, dwell and at the end.
+Before moving again a motor's coils are energised at the phase they were released at (or a
+step/dir driver enabled) and held for one step interval, so no step is lost. A `Turn` (the
+polar table at its centre) moves the motors from rest to rest with the pen standing still.
 """
 
 from __future__ import annotations
@@ -44,7 +45,8 @@ class Rows:
 
 
 class Scheduler:
-    """Turns a stream of planned blocks and pen events into Rows. Keeps the clock and phases."""
+    """Turns a stream of planned blocks, turns and pen events into Rows. Keeps the clock and
+    the step counts (the driver keeps the output state)."""
 
     def __init__(self, cfg: Config, kin, counts, ref_mm):
         m = cfg.motors

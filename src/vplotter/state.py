@@ -29,7 +29,8 @@ def state_path() -> Path:
 @dataclass
 class Position:
     """Motor coordinates (cord lengths): left_mm = ref_left_mm + left_steps / steps_per_unit[0]
-    (the same for right with steps_per_unit[1])."""
+    (the same for right with steps_per_unit[1]). On the polar plotter (extra["machine"] =
+    "polar") left_mm and right_mm hold the table angle in degrees and the pen radius in mm."""
 
     left_mm: float
     right_mm: float
