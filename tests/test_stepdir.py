@@ -275,10 +275,34 @@ def test_fake_backend_idles_with_enable_high(sd_parts):
     assert b.coils == 1 << 4
 
 
-def test_ctrl_c_mid_draw_releases_the_step_dir_motors(sd_path, tmp_path, monkeypatch):
+def interrupt_after_step_high(monkeypatch, after_rows: int) -> None:
+    """SIGINT once the fake backend has played a part (after `after_rows` rows) that ends with
+    a STEP pin high: the stop then comes in the middle of a pulse."""
+    import os
+
+    from vplotter.backends.fake import FakeBackend
+
+    orig, seen = FakeBackend.play, {"n": 0, "sent": False}
+
+    def play(self, rows):
+        n = orig(self, rows)
+        seen["n"] += n
+        if not seen["sent"] and seen["n"] >= after_rows and n and rows.coils[n - 1] & 0b101:
+            seen["sent"] = True
+            os.kill(os.getpid(), signal.SIGINT)
+        return n
+
+    monkeypatch.setattr(FakeBackend, "play", play)
+
+
+@pytest.mark.parametrize("where", ["anywhere", "STEP high"])
+def test_ctrl_c_mid_draw_releases_the_step_dir_motors(where, sd_path, tmp_path, monkeypatch):
     trace = tmp_path / "t.csv"
     assert main(["--config", str(sd_path), "calibrate", "--at", "0", "0"]) == 0
-    interrupt_after(monkeypatch, 20_000, signal.SIGINT)
+    if where == "anywhere":
+        interrupt_after(monkeypatch, 20_000, signal.SIGINT)
+    else:
+        interrupt_after_step_high(monkeypatch, 20_000)
     code = main(["--config", str(sd_path), "draw", str(SAMPLES[0]), "--backend", "fake",
                  "--trace", str(trace)])
     assert code == 130

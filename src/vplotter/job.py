@@ -251,7 +251,9 @@ class Session:
         if self.backend is None:
             return
         self.backend.stop_requested = False
-        t = self.t_us + 1 if self._moved else 0
+        m = self.cfg.motors
+        # a STEP pulse that was just raised stays high its full width
+        t = self.t_us + (m.step_pulse_us if m.driver == "stepdir" else 1) if self._moved else 0
         up, settle = self.cfg.pen.up_us, int(round(self.cfg.pen.settle_s * 1e6))
         rows = Rows(np.array([t, t + settle], dtype=np.int64),
                     np.full(2, self.backend.idle_word, dtype=np.uint8),
