@@ -129,6 +129,9 @@ def merge_config(cfg: dict | None) -> dict:
     drive = out["motors"]["drive"]
     if drive not in SEQUENCES:
         raise ValueError(f"unknown motors.drive {drive!r}")
+    if out["pen"].get("kind", "servo") in ("output", "switch"):
+        # solenoid and cam pens: the pen pin's trace values are the commands 1 (up), 2 (down)
+        out["pen"]["up_us"], out["pen"]["down_us"] = 1, 2
     if out["pen"]["up_us"] == out["pen"]["down_us"]:
         raise ValueError("pen.up_us == pen.down_us")
     return out
