@@ -56,9 +56,10 @@ def test_forward_inverts_inverse(x, y):
     q = KIN.inverse(xy)
     assert -180 < q[0, 0] <= 180
     assert np.allclose(KIN.forward(q), xy, atol=1e-9)
-    # the paper point at polar angle p lies under the arm when a = arm - p
+    # the paper point at polar angle p lies under the arm when a = arm - p (at the centre: 0)
     p = math.degrees(math.atan2(y, x))
-    assert abs((q[0, 0] - (30.0 - p) + 180) % 360 - 180) < 1e-9
+    want = 30.0 - p if math.hypot(x, y) > 1e-4 else 0.0
+    assert abs((q[0, 0] - want + 180) % 360 - 180) < 1e-9
 
 
 @given(coord, coord, coord, coord, st.floats(0.05, 0.95))
@@ -298,3 +299,19 @@ def test_jog_by_motor_and_resume_after_ctrl_c(tmp_path, capsys, monkeypatch):
     assert after.right_mm - before.right_mm == pytest.approx(3, abs=0.01)
     assert main(["--config", str(POLAR), "jog", "--right", "500", "--backend", "fake"]) == 2
     assert "does not reach" in capsys.readouterr().err
+
+
+def test_calibrate_at_the_centre_is_angle_zero(tmp_path, capsys):
+    cfg_path = polar_cfg(tmp_path, arm_angle_deg="90.0", centre_x_mm="5.0")
+    assert main(["--config", cfg_path, "calibrate", "--at", "5", "0"]) == 0
+    pos = state.load()
+    assert (pos.left_mm, pos.right_mm) == (0.0, 0.0)
+    g = gfile(tmp_path, "G0 X5 Y20\nM3\nG1 X25 Y0 F600\nG1 X5 Y0\nG1 X-15 Y0\nM5")
+    trace = tmp_path / "t.csv"
+    assert draw(cfg_path, g, trace, at=("5", "0")) == 0
+    cfg = tc.load_config(cfg_path)
+    assert tc.verify(tc.read_trace(trace), g, cfg, start_xy=(5, 0)) == []
+    dec = tc.decode(tc.read_trace(trace), cfg, (5, 0))
+    # the paper point X5 Y20 is under the arm (pointing +Y) with the table at 0: no turn first
+    first = dec.steps["rotary"].t_us
+    assert len(first) == 0 or first[0] > dec.steps["linear"].t_us[0]

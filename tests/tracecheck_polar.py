@@ -58,12 +58,14 @@ def _polar(c: dict):
 
 
 def polar_inverse(c: dict, X, Y):
-    """(table angle in (-180, 180], radius) with the pen over G-code point(s) X, Y."""
+    """(table angle in (-180, 180], radius) with the pen over G-code point(s) X, Y; at the
+    centre the angle is 0 (the table's angle is 0 where calibrate leaves it)."""
     cx, cy, arm = _polar(c)
     dx, dy = np.asarray(X, float) - cx, np.asarray(Y, float) - cy
     a = arm - np.degrees(np.arctan2(dy, dx))
     a = 180.0 - np.mod(180.0 - a, 360.0)
-    return a, np.hypot(dx, dy)
+    rho = np.hypot(dx, dy)
+    return np.where(rho < 1e-9, 0.0, a), rho
 
 
 def polar_forward(c: dict, a, r):

@@ -62,8 +62,10 @@ class Polar:
     def inverse(self, xy: np.ndarray, ref=None) -> np.ndarray:
         """Motor coordinates of the points, the angle unwrapped from one point to the next,
         starting nearest to ref's angle (ref: motor coordinates before the first point; None:
-        the first angle in (-180, 180]). Positive radius (see `path` for the pole)."""
+        the first angle in (-180, 180], and 0 at the centre, where any angle puts the pen over
+        it). Positive radius (see `path` for turns at the centre)."""
         raw, rho = self._raw(xy)
+        raw = np.where(rho < POLE_MM, 0.0 if ref is None else float(ref[0]), raw)
         flat = raw.reshape(-1)
         a0 = 0.0 if ref is None else float(ref[0])
         ang = a0 + np.cumsum(_wrap(np.diff(np.concatenate(([a0], flat)))))
