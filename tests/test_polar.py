@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import assume, given, strategies as st
+from hypothesis import assume, given, settings, strategies as st
 
 import tracecheck as tc
 import tracecheck_polar as tp
@@ -316,3 +316,48 @@ def test_calibrate_at_the_centre_is_angle_zero(tmp_path, capsys):
     # the paper point X5 Y20 is under the arm (pointing +Y) with the table at 0: no turn first
     first = dec.steps["rotary"].t_us
     assert len(first) == 0 or first[0] > dec.steps["linear"].t_us[0]
+
+
+@st.composite
+def strokes_near_the_pole(draw_):
+    """A pen-down polyline whose lines pass through or close by the table's centre."""
+    pts = []
+    for _ in range(draw_(st.integers(2, 4))):
+        ang = draw_(st.floats(0, 2 * math.pi))
+        r = draw_(st.floats(2, 40))
+        miss = draw_(st.sampled_from([0.0, 0.0, 1e-3, 0.02, 0.5]))
+        a = np.array([math.cos(ang), math.sin(ang)])
+        n = np.array([-a[1], a[0]]) * miss
+        pts += [(r * a + n).tolist(), (-r * 0.7 * a + n).tolist()]
+    return pts
+
+
+@settings(max_examples=8)
+@given(strokes_near_the_pole())
+def test_random_strokes_across_the_pole(pts):
+    """Property: lines through and close by the centre, decoded independently, stay within
+    0.02 mm of the path both ways, within the limits, turning the shorter way."""
+    import io
+    import tempfile
+
+    from vplotter import kinematics, pipeline
+    from vplotter.inputs import gcode as gc
+    from vplotter.trace import TraceWriter
+
+    cfg = config.load(POLAR)
+    text = "G21 G90\n" + f"G0 X{pts[0][0]:.4f} Y{pts[0][1]:.4f}\nM3\n" + "".join(
+        f"G1 X{x:.4f} Y{y:.4f} F600\n" for x, y in pts[1:]) + "M5\n"
+    with tempfile.TemporaryDirectory() as d:
+        g = f"{d}/g.ngc"
+        with open(g, "w") as f:
+            f.write(text)
+        kin = kinematics.from_config(cfg)
+        q = kin.inverse(kin.to_machine(np.array([[0.0, 0.0]])))[0]
+        buf = io.StringIO()
+        w = TraceWriter(buf, cfg.motors.out_pins, cfg.pen.pin)
+        for rows in pipeline.stream(cfg, gc.read(g), (0, 0), q, g):
+            w.write(rows)
+        with open(f"{d}/t.csv", "w") as f:
+            f.write(buf.getvalue())
+        probs = tc.verify(tc.read_trace(f"{d}/t.csv"), g, tc.load_config(POLAR))
+    assert probs == []
