@@ -27,7 +27,8 @@ def main(files: list[str]) -> None:
     cfg = config.load(os.path.join(ROOT, "examples", "polar.toml"))
     kin = kinematics.from_config(cfg)
     q = kin.inverse(kin.to_machine(np.array([[0.0, 0.0]])))[0]
-    print("| file | rotary steps | linear steps | rows | planning CPU | steps / CPU s | plot time | plot / CPU |")
+    print("| file | rotary steps | linear steps | rows | planning CPU | steps / CPU s | plot time "
+          "| plot / CPU |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- |")
     for path in files:
         summary = pipeline.Summary()

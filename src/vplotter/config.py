@@ -109,8 +109,8 @@ class Motors:
         """The motor output pins, bit i of an output word = out_pins[i]: IN1..IN4 of both
         motors (uln2003), or STEP, DIR of both motors and ENABLE (stepdir)."""
         if self.driver == "stepdir":
-            return [p for n in self.names for p in (getattr(self, f"{n}_step_pin"),
-                                                    getattr(self, f"{n}_dir_pin"))] + [self.enable_pin]
+            pins = [getattr(self, f"{n}_{what}_pin") for n in self.names for what in ("step", "dir")]
+            return pins + [self.enable_pin]
         return [p for pins in self._pair("pins") for p in pins]
 
     @property

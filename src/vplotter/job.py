@@ -58,7 +58,8 @@ def check_machine(cfg, pos: state.Position) -> None:
     kind = pos.extra.get("machine", "vplotter")
     if kind != cfg.machine.kind:
         raise MachineError(f"error: the stored position is of a {kind} machine, not of this "
-                           f"{cfg.machine.kind}; run `vplotter calibrate` (or `vplotter home`) first")
+                           f"{cfg.machine.kind}; run `vplotter calibrate` (or `vplotter home`) "
+                           f"first")
 
 
 def uncertainty_mm(cfg, pos: state.Position) -> float:

@@ -19,7 +19,8 @@ from vplotter.errors import MachineError
 
 
 def create(cfg, write: Callable[[int], None], read: Callable[[], bool] | None = None,
-           clock: Callable[[], float] = time.monotonic, sleep: Callable[[float], None] = time.sleep):
+           clock: Callable[[], float] = time.monotonic,
+           sleep: Callable[[float], None] = time.sleep):
     """write(level) drives the pen pin; read() is the switch pin's level (kind "switch")."""
     if cfg.pen.kind == "output":
         return OutputPen(cfg.pen, write)
@@ -55,9 +56,10 @@ class SwitchPen:
             try:
                 while not self.closed():
                     if self.clock() - start > self.pen.timeout_s:
+                        pen = self.pen
                         raise MachineError(
-                            f"error: the pen cam's switch (GPIO{self.pen.switch_pin}) did not close "
-                            f"within {self.pen.timeout_s:g} s; check the cam motor (GPIO{self.pen.pin}) "
+                            f"error: the pen cam's switch (GPIO{pen.switch_pin}) did not close "
+                            f"within {pen.timeout_s:g} s; check the cam motor (GPIO{pen.pin}) "
                             f"and [pen] switch_pin, switch_active_low")
                     self.sleep(0.001)
             finally:

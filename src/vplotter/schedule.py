@@ -1,8 +1,8 @@
 """Step schedule: planned motion + pen events -> rows of output states on one timeline.
 
 A `Rows` chunk says: at time t_us (microseconds since the start) the outputs become
-(motor output word, pen pulse width); drivers.py makes the words (coils or step/dir). Backends play rows and compute no geometry; the trace is
-written from them. Each motor steps when its cord length, computed from the pen's planned
+(motor output word, pen pulse width); drivers.py makes the words (coils or step/dir).
+Backends play rows and compute no geometry; the trace is written from them. Each motor steps when its cord length, computed from the pen's planned
 position through the inverse kinematics, crosses the next step boundary (half-way between
 two step counts), so step targets are absolute and rounding never accumulates.
 

@@ -67,7 +67,8 @@ class GpiozeroBackend(Backend):
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")  # gpiozero warns about each factory it skips
                 for bit, pin in enumerate(self.coil_pins):
-                    self._coils.append(DigitalOutputDevice(pin, initial_value=bool(self.idle_word >> bit & 1),
+                    idle = bool(self.idle_word >> bit & 1)
+                    self._coils.append(DigitalOutputDevice(pin, initial_value=idle,
                                                            pin_factory=self.pin_factory))
         except Exception as e:  # noqa: BLE001 - BadPinFactory, GPIOPinInUse, ...
             pin = self.coil_pins[len(self._coils)]

@@ -27,7 +27,8 @@ def from_config(cfg: Config):
         from vplotter.kinematics.polar import Polar
 
         p = cfg.polar
-        return Polar(p.centre_x_mm, p.centre_y_mm, p.arm_angle_deg, p.radius_min_mm, p.radius_max_mm)
+        return Polar(p.centre_x_mm, p.centre_y_mm, p.arm_angle_deg, p.radius_min_mm,
+                     p.radius_max_mm)
     from vplotter.kinematics.vplotter import TwoCord
 
     return TwoCord(cfg.machine.anchor_distance_mm, cfg.origin.x_mm, cfg.origin.y_mm)

@@ -57,7 +57,8 @@ class Polar:
 
     def _raw(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         m = np.asarray(xy, dtype=float)
-        return self.arm_deg - np.degrees(np.arctan2(m[..., 1], m[..., 0])), np.hypot(m[..., 0], m[..., 1])
+        angle = self.arm_deg - np.degrees(np.arctan2(m[..., 1], m[..., 0]))
+        return angle, np.hypot(m[..., 0], m[..., 1])
 
     def inverse(self, xy: np.ndarray, ref=None) -> np.ndarray:
         """Motor coordinates of the points, the angle unwrapped from one point to the next,
