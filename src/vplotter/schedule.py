@@ -2,9 +2,11 @@
 
 A `Rows` chunk says: at time t_us (microseconds since the start) the outputs become
 (motor output word, pen pulse width); drivers.py makes the words (coils or step/dir).
-Backends play rows and compute no geometry; the trace is written from them. Each motor steps when its cord length, computed from the pen's planned
-position through the inverse kinematics, crosses the next step boundary (half-way between
-two step counts), so step targets are absolute and rounding never accumulates.
+Backends play rows and compute no geometry; the trace is written from them. Each motor
+steps when its coordinate (a cord length, the polar table's angle or arm's radius), computed
+from the pen's planned position through the inverse kinematics, crosses the next step
+boundary (half-way between two step counts), so step targets are absolute and rounding never
+accumulates.
 
 Motors are energised only while moving: released at every pen change, dwell and at the end.
 Before moving again a motor's coils are energised at the phase they were released at (or a
