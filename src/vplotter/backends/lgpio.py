@@ -93,7 +93,8 @@ class LgpioBackend(Backend):
                 raise BackendError("error: the lgpio backend needs the lgpio package "
                                    "(pip install lgpio); use --dry-run to simulate") from None
             self.lg = lg
-        for w in (self.cfg.pen.up_us, self.cfg.pen.down_us) if self.cfg.pen.kind == "servo" else ():
+        servo = self.cfg.pen.kind == "servo"
+        for w in (self.cfg.pen.up_us, self.cfg.pen.down_us) if servo else ():
             if not 500 <= w <= 2500:
                 raise BackendError(f"error: lgpio makes servo pulses of 500..2500 us, not {w} "
                                    f"([pen] up_us/down_us)")
