@@ -63,19 +63,19 @@ def test_forward_inverts_inverse(x, y):
     assert abs((q[0, 0] - want + 180) % 360 - 180) < 1e-9
 
 
-@given(coord, coord, coord, coord, st.floats(0.05, 0.95))
-def test_crossing_finds_where_a_motor_reaches_a_value(x0, y0, x1, y1, f):
-    p0, p1 = np.array([x0, y0]), np.array([x1, y1])
-    d = float(np.hypot(*(p1 - p0)))
-    assume(d > 0.1)
-    e = (p1 - p0) / d
+@given(coord, coord, st.floats(0, 2 * math.pi), st.floats(0.1, 80), st.floats(0.05, 0.95))
+def test_crossing_finds_where_a_motor_reaches_a_value(x0, y0, ang, d, f):
+    p0 = np.array([x0, y0])
+    e = np.array([math.cos(ang), math.sin(ang)])
+    if p0 @ e < 0:
+        e = -e                                         # moving away from the foot: monotonic
     h = abs(x0 * e[1] - y0 * e[0])
-    foot = -float(p0 @ e)
-    assume(h > 0.05 and not 0 < foot < d)              # one monotonic piece (no foot inside)
+    assume(h > 0.05)
+    p1 = p0 + d * e
     q = KIN.path(np.array([p0, p1]), KIN.inverse(p0[None, :])[0])[1]
     for m in (0, 1):
         target = q[0, m] + f * (q[1, m] - q[0, m])
-        s = KIN.crossing(p0[None, :], e[None, :], np.array([m]), np.array([target]),
+        s = KIN.crossing(p0[None, :], e[None, :], m, np.array([0]), np.array([target]),
                          np.array([q[1, m] > q[0, m]]))[0]
         at = KIN.path(np.array([p0, p0 + s * e]), q[0])[1][1, m]
         assert 0 <= s <= d + 1e-9 and abs(at - target) < 1e-7

@@ -159,39 +159,48 @@ class Scheduler:
         self.t_us = t0 + int(round(float(dur.sum()) * 1e6))
         if not emit:
             self.drv.advance(targets[-1] - targets[0])
-            self.counts = targets[-1].copy()
-            self.line = int(block.line[-1])
+            self._advance(targets, block)
             return None
         e = block.e
-        times, motors, dirs, pieces = [], [], [], []
+        T, S, V, A, s_cru, s_dec = block.phase_table(starts)
+        table = (T * 1e6 + t0, S, V * 1e-6, A * 1e-12, s_cru, s_dec)   # in microseconds
+        times, dirs, pieces = [], [], []
         for m in (0, 1):
             ns, ne = targets[:-1, m], targets[1:, m]
             c = np.abs(ne - ns)
             total = int(c.sum())
             if total == 0:
+                times.append(np.zeros(0, np.int64))
+                dirs.append(np.zeros(0, np.int8))
+                pieces.append(np.zeros(0, np.intp))
                 continue
             piece = np.repeat(np.arange(len(c)), c)
             j = np.arange(total) - np.repeat(np.cumsum(c) - c, c)
-            rising = (ne > ns)[piece]
-            q = self.ref[m] + (ns[piece] + np.where(rising, j + 0.5, -j - 0.5)) / self.spu[m]
-            s = self.kin.crossing(block.verts[piece], e[piece], np.full(total, m), q, rising)
-            s = np.clip(s, 0.0, block.d[piece])
-            t_us = t0 + np.rint((starts[piece] + block.time_at(piece, s)) * 1e6).astype(np.int64)
-            t_us, dirn, piece = self._spaced(m, t_us, np.where(rising, 1, -1).astype(np.int8), piece)
+            step = np.sign(ne - ns)                                # per piece: +1 / -1
+            rising = step[piece] > 0
+            # step k of a piece crosses half-way to the next count: ns + step (k + 1/2)
+            q = ((self.ref[m] + (ns + 0.5 * step) / self.spu[m])[piece]
+                 + (step / self.spu[m])[piece] * j)
+            s = self.kin.crossing(block.verts[:-1], e, m, piece, q, rising)
+            np.clip(s, 0.0, block.d[piece], out=s)
+            t_us = np.rint(block.time_at(piece, s, table)).astype(np.int64)
+            t_us, dirn, piece = self._spaced(m, t_us, step[piece].astype(np.int8), piece)
             times.append(t_us)
-            motors.append(np.full(len(t_us), m, dtype=np.int8))
             dirs.append(dirn)
             pieces.append(piece)
-        if times and sum(len(t) for t in times):
-            t_us = np.concatenate(times)
-            order = np.argsort(t_us, kind="stable")
-            motor = np.concatenate(motors)[order].astype(np.int64)
+        if sum(len(t) for t in times):
+            t_all = np.concatenate(times)
+            order = np.argsort(t_all, kind="stable")
+            motor = np.repeat(np.arange(2), [len(t) for t in times])[order]
             dirn = np.concatenate(dirs)[order].astype(np.int64)
             piece = np.concatenate(pieces)[order]
-            rows.append(self._steps(t_us[order], motor, dirn, block.line[piece]))
+            rows.append(self._steps(t_all[order], motor, dirn, block.line[piece]))
+        self._advance(targets, block)
+        return Rows.concat(rows) if rows else None
+
+    def _advance(self, targets: np.ndarray, block: Block) -> None:
         self.counts = targets[-1].copy()
         self.line = int(block.line[-1])
-        return Rows.concat(rows) if rows else None
 
     def _spaced(self, m: int, t_us, dirn, piece):
         """Keep one motor's steps at least one step interval apart.

@@ -38,9 +38,9 @@ class FakeBackend(Backend):
         self.pen_us = 0
         self._player = None
         if realtime:
+            timing = {"min_step_us": 1e6 / cfg.motors.max_step_rate, **timing}
             self._player = Player(self._write_coils, self._write_pen, clock, sleep, **timing)
             self._player.coils = self.idle_word
-            self._player.idle_word = self.idle_word
 
     def _write_coils(self, word: int, changed: int) -> None:
         self.coils = word

@@ -151,24 +151,25 @@ class Polar:
         inside = (s > 1e-9) & (s < d[:, None] - 1e-9)
         return np.where(inside, s, np.nan)
 
-    def crossing(self, p0: np.ndarray, e: np.ndarray, motor: np.ndarray, q: np.ndarray,
-                 rising: np.ndarray) -> np.ndarray:
-        """Distance s along p0 + s e at which motor `motor` reaches q (rows broadcast): the
-        angle where the line meets the line through the centre at paper angle arm - q, the
-        radius where the pen is |q| from the centre (the radius's sign is q's)."""
+    def crossing(self, p0: np.ndarray, e: np.ndarray, motor: int, piece: np.ndarray,
+                 q: np.ndarray, rising: np.ndarray) -> np.ndarray:
+        """Distance s along p0[piece] + s e[piece] at which motor `motor` reaches q: the angle
+        where the line meets the line through the centre at paper angle arm - q, the radius
+        where the pen is |q| from the centre (the radius's sign is q's)."""
         p0 = np.asarray(p0, dtype=float)
-        p = np.radians(self.arm_deg - q)
-        u = np.stack((np.cos(p), np.sin(p)), axis=-1)
-        cross_pu = p0[:, 0] * u[:, 1] - p0[:, 1] * u[:, 0]
-        cross_eu = e[:, 0] * u[:, 1] - e[:, 1] * u[:, 0]
-        safe = np.where(np.abs(cross_eu) > 1e-15, cross_eu, 1e-15)
-        s_angle = -cross_pu / safe
-        b = np.einsum("nk,nk->n", p0, e)
-        c = np.einsum("nk,nk->n", p0, p0)
-        root = np.sqrt(np.maximum(b * b - c + q * q, 0.0))
+        if motor == 0:
+            p = np.radians(self.arm_deg - q)
+            ux, uy = np.cos(p), np.sin(p)
+            x, y, ex, ey = p0[piece, 0], p0[piece, 1], e[piece, 0], e[piece, 1]
+            cross_eu = ex * uy - ey * ux
+            safe = np.where(np.abs(cross_eu) > 1e-15, cross_eu, 1e-15)
+            return -(x * uy - y * ux) / safe
+        b = p0[:, 0] * e[:, 0] + p0[:, 1] * e[:, 1]                 # per piece
+        c = b * b - (p0[:, 0] ** 2 + p0[:, 1] ** 2)
+        b, c = b[piece], c[piece]                                    # per step
+        root = np.sqrt(np.maximum(c + q * q, 0.0))
         away = rising == (q >= 0)                       # the distance from the centre grows
-        s_radius = np.where(away, -b + root, -b - root)
-        return np.where(motor == 0, s_angle, s_radius)
+        return np.where(away, root - b, -b - root)
 
     def first_unreachable(self, xy: np.ndarray, start: np.ndarray) -> int:
         """Index of the first point the pen cannot reach going from `start` through the points
