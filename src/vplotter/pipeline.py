@@ -15,7 +15,7 @@ import numpy as np
 from vplotter import kinematics, segment
 from vplotter.inputs import gcode
 from vplotter.config import Config
-from vplotter.errors import InputError
+from vplotter.errors import ConfigError, InputError
 from vplotter.planner import Block, Planner, Turn, _slice
 from vplotter.schedule import Rows, Scheduler
 
@@ -118,6 +118,9 @@ def _schedule(cfg, ops, counts, ref_mm, emit: bool, summary: Summary,
         elif kind == "dwell":
             rows = sched.dwell(op[1], op[2])
         elif kind == "turn":
+            if not hasattr(sched, "turn"):
+                raise ConfigError("error: the polar table turns in place at its centre here, "
+                                  "which this backend cannot send; use a GPIO backend")
             rows = sched.turn(op[1], emit)
         elif kind == "start":
             rows = sched.start(op[1])
