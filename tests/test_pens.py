@@ -108,39 +108,17 @@ def test_gpiozero_output_and_switch_pens(tmp_path):
     factory.pin("GPIO25").drive_high()                   # open (pulled up)
     b = create("gpiozero", cfg, pin_factory=factory, clock=clock.now, sleep=clock.sleep)
     b.open()
-    b._pen.sleep = lambda s: None                        # the quarter turn down, simulated
+    b._kind_pen.sleep = lambda s: None                   # the quarter turn down, simulated
     for rows in rows_for(cfg, tmp_path):
         b.play(rows)
     b.close()
     assert factory.pin("GPIO24").state == 0              # the cam motor stopped
 
 
-class SwitchLgpio(FakeLgpio):
-    """The stand-in with inputs: the cam's switch closes as soon as its motor runs."""
+def test_lgpio_refuses_other_pens_with_a_hint(tmp_path):
+    from vplotter.errors import BackendError
 
-    SET_PULL_UP = 32
-
-    def gpio_claim_input(self, handle, gpio, lFlags=0):
-        self.calls.append(("gpio_claim_input", handle, gpio, lFlags))
-        self.claimed.add(gpio)
-        return 0
-
-    def gpio_read(self, handle, gpio):
-        return 0 if self.levels.get(24, 0) else 1
-
-
-def test_lgpio_switch_pen(tmp_path):
     cfg = config.load(pen_config(tmp_path, SWITCH))
-    clock = SimClock()
-    lg = SwitchLgpio(clock)
-    b = create("lgpio", cfg, lgpio=lg, clock=clock.now, sleep=clock.sleep)
-    b.open()
-    b._pen.sleep = clock.sleep
-    b._pen.clock = lambda: clock.now() / 1e9
-    for rows in rows_for(cfg, tmp_path):
-        assert b.play(rows) == len(rows)
-    b.close()
-    assert ("gpio_claim_input", 100, 25, 32) in lg.calls
-    writes = [c[3] for c in lg.calls if c[0] == "gpio_write" and c[2] == 24]
-    assert writes[:6] == [1, 0, 1, 0, 1, 0]              # up, down (a quarter turn), up
-    assert not any(c[0] == "tx_servo" and c[3] for c in lg.calls)
+    b = create("lgpio", cfg, lgpio=FakeLgpio(SimClock()))
+    with pytest.raises(BackendError, match='kind = "switch" use --backend gpiozero'):
+        b.open()

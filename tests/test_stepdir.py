@@ -243,8 +243,11 @@ def test_lgpio_plays_step_dir_waves_and_leaves_enable_high(sd_parts):
     got = _changes([(t, w) for t, who, w in lg.log if who == "group"])
     expect = _changes(list(zip(np.concatenate([p.t_us for p in parts]).tolist(),
                                np.concatenate([p.coils for p in parts]).tolist())))
-    got = [(t - got[0][0] + expect[0][0], w) for t, w in got]
-    assert got == expect                                  # every STEP/DIR/ENABLE change, on time
+    assert [w for _, w in got] == [w for _, w in expect]   # every STEP/DIR/ENABLE change
+    # the player writes in real time: never an interval shorter than planned (pulse widths,
+    # DIR set-up), lateness only moves the timeline on
+    gaps = np.diff([t for t, _ in got]) - np.diff([t for t, _ in expect])
+    assert gaps.min() >= 0
     assert lg.levels[4] == 1                              # ENABLE high: motors free
 
 
