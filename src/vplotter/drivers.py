@@ -44,15 +44,15 @@ class Coils:
         """The motors moved by delta_steps without rows (a validation pass)."""
         self.phase = (self.phase + np.asarray(delta_steps) * self.sign) % len(self.table)
 
-    def rows(self, t_us: np.ndarray, motor: np.ndarray, dirn: np.ndarray, floor_us: int):
-        """Rows for step events sorted by time: (t_us, words, done, event) where done[i] is
-        how many events have stepped after row i and event[i] the event row i belongs to."""
-        cl = np.cumsum(np.where(motor == 0, dirn, 0))
-        cr = np.cumsum(np.where(motor == 1, dirn, 0))
+    def rows(self, t_us: np.ndarray, motor: np.ndarray, dirn: np.ndarray, floor_us: int,
+             cl: np.ndarray, cr: np.ndarray):
+        """Rows for step events sorted by time (cl, cr: each motor's steps so far after each
+        event): (t_us, words, done, event) where done[i] is how many events have stepped after
+        row i and event[i] the event row i belongs to; None for both: one row per event."""
         words = coil_words(self.table, self.phase[0] + cl * self.sign[0],
                            self.phase[1] + cr * self.sign[1])
         self.advance((int(cl[-1]), int(cr[-1])))
-        return t_us, words, np.arange(1, len(t_us) + 1), np.arange(len(t_us))
+        return t_us, words, None, None
 
 
 class StepDir:
@@ -73,7 +73,8 @@ class StepDir:
             if d:
                 self.dir_level[m] = int(np.sign(d) * self.high_is[m] > 0)
 
-    def rows(self, t_us: np.ndarray, motor: np.ndarray, dirn: np.ndarray, floor_us: int):
+    def rows(self, t_us: np.ndarray, motor: np.ndarray, dirn: np.ndarray, floor_us: int,
+             cl: np.ndarray, cr: np.ndarray):
         n = len(t_us)
         before = self.dir_level.copy()
         level = (dirn * self.high_is[motor] > 0).astype(np.int64)

@@ -85,19 +85,34 @@ class Scheduler:
             self.energized = True
             self.t_us += self.hold_us
 
-    def _steps(self, t_us, motor, dirn, line) -> Rows:
-        """Rows for step events sorted by time (line: G-code line of each event)."""
-        t, words, done, ev = self.drv.rows(t_us, motor, dirn, self.t_us_floor)
-        cl = np.concatenate(([0], np.cumsum(np.where(motor == 0, dirn, 0))))
-        cr = np.concatenate(([0], np.cumsum(np.where(motor == 1, dirn, 0))))
-        steps = np.column_stack((self.counts[0] + cl[done], self.counts[1] + cr[done]))
-        self.t_us = max(self.t_us, int(t[-1]))
+    def _steps(self, t_us, motor, dirn, line, head: Rows | None = None) -> Rows:
+        """Rows for step events sorted by time (line: G-code line of each event), after the
+        row `head` if given (built in place: no copy of the step rows)."""
+        is_l = motor == 0
+        cl = np.cumsum(np.where(is_l, dirn, 0))
+        cr = np.cumsum(np.where(is_l, 0, dirn))
+        t, words, done, ev = self.drv.rows(t_us, motor, dirn, self.t_us_floor, cl, cr)
+        if done is not None:                  # several rows per step event (step/dir)
+            cl, cr = np.concatenate(([0], cl))[done], np.concatenate(([0], cr))[done]
+            line = np.asarray(line)[ev]
         for m in (0, 1):
             mine = t_us[motor == m]
             if len(mine):
                 self.last_step_us[m] = max(self.last_step_us[m], int(mine[-1]))
-        return Rows(t.astype(np.int64), words, np.zeros(len(t), dtype=np.int32),
-                    np.asarray(line, dtype=np.int64)[ev], steps)
+        self.t_us = max(self.t_us, int(t[-1]))
+        k = 0 if head is None else len(head)
+        n = len(t) + k
+        rows = Rows(np.empty(n, np.int64), np.empty(n, np.uint8), np.zeros(n, np.int32),
+                    np.empty(n, np.int64), np.empty((n, 2), np.int64))
+        if head is not None:
+            for f in ("t_us", "coils", "pen_us", "line", "steps"):
+                getattr(rows, f)[:k] = getattr(head, f)
+        rows.t_us[k:] = t
+        rows.coils[k:] = words
+        rows.line[k:] = line
+        rows.steps[k:, 0] = self.counts[0] + cl
+        rows.steps[k:, 1] = self.counts[1] + cr
+        return rows
 
     def start(self, pen_down: bool | None = None) -> Rows | None:
         """Lift the pen (wherever it is) and let it settle, coils released. With pen_down
@@ -194,9 +209,10 @@ class Scheduler:
             motor = np.repeat(np.arange(2), [len(t) for t in times])[order]
             dirn = np.concatenate(dirs)[order].astype(np.int64)
             piece = np.concatenate(pieces)[order]
-            rows.append(self._steps(t_all[order], motor, dirn, block.line[piece]))
+            head = Rows.concat(rows) if rows else None
+            rows = [self._steps(t_all[order], motor, dirn, block.line[piece], head)]
         self._advance(targets, block)
-        return Rows.concat(rows) if rows else None
+        return Rows.concat(rows) if len(rows) > 1 else (rows[0] if rows else None)
 
     def _advance(self, targets: np.ndarray, block: Block) -> None:
         self.counts = targets[-1].copy()
