@@ -43,6 +43,7 @@ def load_position(cfg, trust: bool = False, dry_run: bool = False) -> state.Posi
     if pos is None:
         raise MachineError("error: the pen position is unknown; put the pen on a known point and "
                            "run `vplotter calibrate --at X Y` first")
+    check_machine(cfg, pos)
     pos = state.recovered(pos).rebased(cfg.motors.steps_per_unit)
     if not pos.clean and not trust and not dry_run:
         mm = uncertainty_mm(cfg, pos)
@@ -50,6 +51,15 @@ def load_position(cfg, trust: bool = False, dry_run: bool = False) -> state.Posi
                          f"may be off by up to {mm:.2f} mm. Check the pen and run `vplotter "
                          f"calibrate --at X Y`, or pass --trust-position to go on from it")
     return pos
+
+
+def check_machine(cfg, pos: state.Position) -> None:
+    """The stored position must be of this kind of machine (cords or angle and radius)."""
+    kind = pos.extra.get("machine", "vplotter")
+    if kind != cfg.machine.kind:
+        raise MachineError(f"error: the stored position is of a {kind} machine, not of this "
+                           f"{cfg.machine.kind}; run `vplotter calibrate` (or `vplotter home`) "
+                           f"first")
 
 
 def uncertainty_mm(cfg, pos: state.Position) -> float:
@@ -96,6 +106,7 @@ class Session:
         self.drawing: dict | None = None     # {"file", "sha256"} while a draw runs
         self.live = None                     # live.Publisher while a draw runs
         self.ignore_hangup = False           # a background draw goes on when SIGHUP comes
+        self.on_pause = None    # on_pause(pause): a Pause came up (pen up, coils released)
 
     @property
     def saves_state(self) -> bool:
@@ -199,11 +210,17 @@ class Session:
         try:
             cur, k = ahead.get(), 0
             while cur is not None and not self._signum:
+                if not isinstance(cur, Rows):        # a pause: wait once all is played
+                    self.backend.drain()
+                    if self.on_pause is not None:
+                        self.on_pause(cur)
+                    cur = ahead.get()
+                    continue
                 nxt = ahead.get()
                 if self.saves_state:
                     self._begin_motion()
                     # until the next record lands the motors are in this part or the next
-                    span = cur if nxt is None else Rows.concat([cur, nxt])
+                    span = cur if not isinstance(nxt, Rows) else Rows.concat([cur, nxt])
                     dev = np.abs(span.steps - np.asarray(self.counts)).max(axis=0)
                     down = self.pen_down or bool((cur.pen_us == self.cfg.pen.down_us).any())
                     self._writer.wait_journal(k - 1)
@@ -269,9 +286,12 @@ class Session:
         if self.backend is None:
             return
         self.backend.stop_requested = False
-        t = self.t_us + 1 if self._moved else 0
+        m = self.cfg.motors
+        # a STEP pulse that was just raised stays high its full width
+        t = self.t_us + (m.step_pulse_us if m.driver == "stepdir" else 1) if self._moved else 0
         up, settle = self.cfg.pen.up_us, int(round(self.cfg.pen.settle_s * 1e6))
-        rows = Rows(np.array([t, t + settle], dtype=np.int64), np.zeros(2, dtype=np.uint8),
+        rows = Rows(np.array([t, t + settle], dtype=np.int64),
+                    np.full(2, self.backend.idle_word, dtype=np.uint8),
                     np.array([up, 0], dtype=np.int32), np.full(2, self.line, dtype=np.int64),
                     np.array([self.counts, self.counts], dtype=np.int64))
         try:
@@ -336,7 +356,8 @@ class _Ahead:
         self.stopped = threading.Event()
         self.thread = None
         if not threaded:
-            self.parts = (p for rows in chunks for p in (_split(rows) if split else (rows,)))
+            self.parts = (p for rows in chunks
+                          for p in (_split(rows) if split and isinstance(rows, Rows) else (rows,)))
             return
         self.thread = threading.Thread(target=self._run, args=(chunks,), daemon=True,
                                        name="vplotter-plan")
@@ -354,7 +375,7 @@ class _Ahead:
     def _run(self, chunks) -> None:
         try:
             for rows in chunks:
-                for part in (_split(rows) if self.split else (rows,)):
+                for part in (_split(rows) if self.split and isinstance(rows, Rows) else (rows,)):
                     if not self._put(part):
                         return
             self._put(_END)

@@ -15,8 +15,9 @@ import numpy as np
 from vplotter import kinematics, segment
 from vplotter.inputs import gcode
 from vplotter.config import Config
-from vplotter.errors import InputError
-from vplotter.planner import Block, Planner, _slice
+from vplotter.errors import ConfigError, InputError
+from vplotter.planner import Block, Planner, Turn, _slice
+from vplotter.prepare import Pause
 from vplotter.schedule import Rows, Scheduler
 
 
@@ -35,14 +36,15 @@ class Summary:
     travel_mm: float = 0.0
     time_s: float = 0.0
     pen_downs: int = 0
+    motors: tuple[str, str] = ("left", "right")
     plan: list | None = None     # the validated plan, for `replay` (None: plan again)
 
     def text(self) -> str:
         m, s = divmod(int(round(self.time_s)), 60)
         h, m = divmod(m, 60)
         hms = f"{h}:{m:02d}:{s:02d}" if h else f"{m}:{s:02d}"
-        return (f"{self.moves} moves, {self.pieces} pieces, {self.pen_downs} strokes, "
-                f"steps left {self.steps[0]} right {self.steps[1]}, "
+        return (f"{self.moves} moves, {self.pieces} pieces, {self.pen_downs} pen lifts, "
+                f"steps {self.motors[0]} {self.steps[0]} {self.motors[1]} {self.steps[1]}, "
                 f"drawn {self.drawn_mm / 1000:.2f} m, travel {self.travel_mm / 1000:.2f} m, "
                 f"plot time {hms} ({self.time_s:.1f} s)")
 
@@ -56,25 +58,31 @@ class StartAt:
     xy: tuple[float, float] | None = None
 
 
+STEPS_PER_PART = 50_000  # steps: the rows of one part of a block are a few MB at most
 PLAN_LIMIT = 100_000   # pieces (about 11 MB): a validated plan up to this size is kept for the draw
 
 
 def stream(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str = "<input>",
            emit: bool = True, summary: Summary | None = None,
            start_at: StartAt | None = None, pen_down: bool | None = None,
-           keep: Kept | None = None) -> Iterator[Rows]:
+           keep: Kept | None = None, scheduler=Scheduler, where=None) -> Iterator[Rows | Pause]:
     """Rows for drawing `records` starting from the given step counts (cords = ref + counts / steps per unit).
 
     With `start_at`, records before that line are skipped (their pen changes still count), the
     pen travels up to the resume point and goes down again if the file has it down there.
     With `keep` (a Kept list), the plan (pen events and planned blocks) is appended to it, so that
     `replay` can make the same rows later without parsing and planning again.
+    `scheduler` makes what is played from the plan (Rows for GPIO; the serial backend's
+    `linestream.LineScheduler` makes G-code lines); its `chord_share` cuts arcs.
+    A Pause record (pen up, coils released) is passed on as it is, for the player to wait.
+    where(line, col) names the file place of a line in errors (default: name:line:col).
     """
     summary = summary if summary is not None else Summary()
-    ops = plan(cfg, records, counts, ref_mm, name, summary, start_at, pen_down)
+    ops = plan(cfg, records, counts, ref_mm, name, summary, start_at, pen_down,
+               getattr(scheduler, "chord_share", CHORD_SHARE), where)
     if keep is not None:
         ops = _keeping(ops, keep)
-    yield from _schedule(cfg, ops, counts, ref_mm, emit, summary)
+    yield from _schedule(cfg, ops, counts, ref_mm, emit, summary, scheduler)
 
 
 def replay(cfg: Config, ops: list, counts, ref_mm) -> Iterator[Rows]:
@@ -101,19 +109,37 @@ def _keeping(ops, keep: Kept):
         yield op
 
 
-def _schedule(cfg, ops, counts, ref_mm, emit: bool, summary: Summary) -> Iterator[Rows]:
+def _schedule(cfg, ops, counts, ref_mm, emit: bool, summary: Summary,
+              scheduler=Scheduler) -> Iterator[Rows]:
     kin = kinematics.from_config(cfg)
-    sched = Scheduler(cfg, kin, counts, ref_mm)
+    sched = scheduler(cfg, kin, counts, ref_mm)
+    spu = np.asarray(cfg.motors.steps_per_unit, dtype=float)
     for op in ops:
         kind = op[0]
         if kind == "motion":
-            rows = sched.motion(op[1], emit)
+            for part in _parts(op[1], spu):
+                rows = sched.motion(part, emit)
+                if rows is not None and emit:
+                    yield rows
+            continue
         elif kind == "pen":
             rows = sched.pen(op[1], op[2])
         elif kind == "dwell":
             rows = sched.dwell(op[1], op[2])
+        elif kind == "turn":
+            if not hasattr(sched, "turn"):
+                raise ConfigError("error: the polar table turns in place at its centre here, "
+                                  "which this backend cannot send; use a GPIO backend")
+            rows = sched.turn(op[1], emit)
         elif kind == "start":
             rows = sched.start(op[1])
+        elif kind == "pause":
+            rows = sched.release()
+            if emit:
+                if rows is not None:
+                    yield rows
+                yield op[1]
+            continue
         else:
             rows = sched.finish(lift=op[1])
         if rows is not None and emit:
@@ -122,27 +148,52 @@ def _schedule(cfg, ops, counts, ref_mm, emit: bool, summary: Summary) -> Iterato
     summary.time_s = sched.t_us / 1e6
 
 
+def _parts(block: Block, spu: np.ndarray) -> Iterator[Block]:
+    """A block in parts of about STEPS_PER_PART steps (whole pieces), so that the rows of one
+    part stay small however long the pieces are (a block holds up to 2 x 2048 pieces)."""
+    steps = (np.abs(np.diff(block.cords, axis=0)) * spu).sum(axis=1)
+    total = float(steps.sum())
+    if total <= STEPS_PER_PART:
+        yield block
+        return
+    cum = np.cumsum(steps)
+    cuts = np.unique(np.searchsorted(cum, np.arange(STEPS_PER_PART, total, STEPS_PER_PART)) + 1)
+    i = 0
+    for j in [*cuts[cuts < len(steps)].tolist(), len(steps)]:
+        yield _slice(block, i, j)
+        i = j
+
+
 def plan(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str,
          summary: Summary, start_at: StartAt | None = None,
-         pen_down: bool | None = None) -> Iterator[tuple]:
-    """The plan: ("start", pen_down), ("motion", Block), ("pen", down, line),
+         pen_down: bool | None = None, chord_share: float = CHORD_SHARE,
+         where=None) -> Iterator[tuple]:
+    """The plan: ("start", pen_down), ("motion", Block), ("turn", Turn), ("pen", down, line),
     ("dwell", seconds, line) and ("finish", lift) in the order the machine does them.
 
     Pen changes and dwells are stops inside the planner's look-ahead, so that many short
     strokes are planned together: they travel with the planned pieces as the events of the
-    stop they happen at, and come out right after the block that ends there."""
+    stop they happen at, and come out right after the block that ends there. A Pause record
+    gives ("pause", record), a stop like a pen change."""
+    where = where or (lambda line, col: f"{name}:{line}:{col}")
     kin = kinematics.from_config(cfg)
     spu = np.asarray(cfg.motors.steps_per_unit)
+    summary.motors = tuple(kin.motors)
     cords = np.asarray(ref_mm, dtype=float) + np.asarray(counts, dtype=float) / spu
     start = kin.forward(cords[None, :])[0]
-    planner = Planner(kin, cfg.motors.max_step_rate, cfg.motors.max_accel, spu, start)
+    planner = Planner(kin, cfg.motors.max_step_rate, cfg.motors.max_accel, spu, start,
+                      start_q=cords)
+    reach = getattr(kin, "first_unreachable", None)
     page = cfg.page
-    tol = cfg.motion.tolerance_mm * CHORD_SHARE
+    tol = cfg.motion.tolerance_mm * chord_share
     mo = cfg.motion
     file_xy = (0.0, 0.0)
 
-    def blocks(bs: Iterator[Block]) -> Iterator[tuple]:
+    def blocks(bs: Iterator[Block | Turn]) -> Iterator[tuple]:
         for b in bs:
+            if isinstance(b, Turn):
+                yield ("turn", b)
+                continue
             summary.pieces += len(b.d)
             drawn = float(b.d[b.drawing].sum())
             summary.drawn_mm += drawn
@@ -182,10 +233,17 @@ def plan(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str
                 move = int(np.searchsorted(np.cumsum(n), bad, side="right"))
                 x, y = pts[bad]
                 raise InputError(
-                    f"{name}:{line[move]}:{col[move]}: error: point X{x:.3f} Y{y:.3f} is outside "
+                    f"{where(int(line[move]), int(col[move]))}: error: point X{x:.3f} Y{y:.3f} is outside "
                     f"the page (X {page.x_min_mm:g}..{page.x_max_mm:g}, "
                     f"Y {page.y_min_mm:g}..{page.y_max_mm:g})")
             mpts = kin.to_machine(pts)
+            bad = reach(mpts, planner.position) if reach is not None else -1
+            if bad >= 0:
+                move = int(np.searchsorted(np.cumsum(n), bad, side="right"))
+                x, y = pts[bad]
+                raise InputError(f"{name}:{line[move]}:{col[move]}: error: the pen cannot reach "
+                                 f"X{x:.3f} Y{y:.3f} or the line to it (the arm reaches "
+                                 f"{kin.r_min:g}..{kin.r_max:g} mm from the table's centre)")
             keep = planner.nonzero(mpts)
             cap, line, draw = (np.repeat(v, n)[keep] for v in (cap, line, draw))
             # the events after entry i go to the last point kept up to the end of entry i
@@ -250,6 +308,8 @@ def plan(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str
             pen_down = rec.down
         elif isinstance(rec, gcode.Dwell):
             yield from stop_for(("dwell", rec.seconds, rec.line))
+        elif isinstance(rec, Pause):
+            yield from stop_for(("pause", rec))
     if start_at is not None:
         raise InputError(f"{name}: error: line {start_at.line} is past the last move of the file")
     yield from flush(True)
@@ -257,12 +317,15 @@ def plan(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str
 
 
 def validate(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str = "<input>",
-             start_at: StartAt | None = None, stop=lambda: False) -> Summary | None:
+             start_at: StartAt | None = None, stop=lambda: False,
+             scheduler=Scheduler, where=None) -> Summary | None:
     """The validation pass: every record checked, planned and timed, no step computed.
     Returns the summary, or None if stop() turned true first."""
     summary = Summary()
     kept = Kept()
-    ops = _keeping(plan(cfg, records, counts, ref_mm, name, summary, start_at), kept)
+    ops = _keeping(plan(cfg, records, counts, ref_mm, name, summary, start_at,
+                        chord_share=getattr(scheduler, "chord_share", CHORD_SHARE), where=where),
+                   kept)
     stopped = False
 
     def watched():
@@ -273,7 +336,7 @@ def validate(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name:
                 return
             yield op
 
-    for _ in _schedule(cfg, watched(), counts, ref_mm, False, summary):
+    for _ in _schedule(cfg, watched(), counts, ref_mm, False, summary, scheduler):
         pass
     if stopped:
         return None

@@ -113,6 +113,7 @@ def calibrate_pattern(args, cfg, command: str) -> int:
     from vplotter.commands.common import position, session, stream_rows
     from vplotter.inputs.strokes import to_records
 
+    _vplotter_only(cfg, "pattern")
     for name, v in (("--rows", args.rows), ("--cols", args.cols)):
         if not 2 <= v <= 10:
             raise ConfigError(f"error: {name} must be 2..10 (got {v})")
@@ -157,6 +158,12 @@ def calibrate_pattern(args, cfg, command: str) -> int:
     return 0
 
 
+def _vplotter_only(cfg, what: str) -> None:
+    if cfg.machine.kind != "vplotter":
+        raise ConfigError(f"error: calibrate {what} measures a V-plotter's cords and anchors; "
+                          f"this is a {cfg.machine.kind} machine")
+
+
 def _machine_from(cfg, reference):
     from vplotter import fit
 
@@ -181,6 +188,7 @@ def calibrate_fit(args, cfg, command: str) -> int:
 
     from vplotter import config, fit, kinematics, lock, pattern
 
+    _vplotter_only(cfg, "fit")
     if not args.file:
         raise ConfigError("error: calibrate fit needs the pattern file: vplotter calibrate fit pattern.csv")
     pat = pattern.read(args.file)
