@@ -141,7 +141,8 @@ def test_stepdir_rows_decode_to_the_same_steps(ev):
     t = np.array([e[0] for e in evs], dtype=np.int64)
     m = np.array([e[1] for e in evs], dtype=np.int64)
     d = np.array([e[2] for e in evs], dtype=np.int64)
-    t_rows, words, done, _ = drv.rows(t, m, d, 0)
+    cl, cr = np.cumsum(np.where(m == 0, d, 0)), np.cumsum(np.where(m == 1, d, 0))
+    t_rows, words, done, _ = drv.rows(t, m, d, 0, cl, cr)
     assert (np.diff(t_rows) > 0).all() and done[-1] == len(evs)
     # the rows as a trace: every pin at t = 0 (released), then the changes
     pins = cfg.motors.out_pins
