@@ -197,11 +197,13 @@ def test_the_pattern_and_its_file(drawn_pattern, tmp_path):
         assert not dec.pen_down[i + 1] and dec.left_mm[i + 1] == dec.left_mm[i]
 
 
-def draw_and_check(w, name: str) -> float:
+def draw_and_check(w, name: str, placed: list | None = None) -> float:
     trace = w["tmp"] / f"{name}.csv"
     assert run(w["cfg"], "draw", w["gfile"], "--dry-run", "--trace", trace) == 0
     dec = tc.decode(tc.read_trace(trace), w["true"], w["start"])
     assert not dec.problems
+    if placed is not None:      # without any move: G-code X0 Y0 is where the pen was calibrated
+        placed.append(max(tc.accuracy(dec, tc.reference_path(w["gfile"], spacing=0.05))))
     return rigid_error(dec, w["gfile"])
 
 
@@ -212,10 +214,15 @@ def test_fit_on_a_simulated_wall(wall, capsys):
     assert run(wall["cfg"], "calibrate", "fit", wall["csv"]) == 0
     out = capsys.readouterr().out
     assert "outlier" not in out
-    after = draw_and_check(wall, "after")
-    print(f"simulated wall: {before:.2f} mm before the fit, {after:.3f} mm after")
+    placed = []
+    after = draw_and_check(wall, "after", placed)
+    print(f"simulated wall: {before:.2f} mm before the fit, {after:.3f} mm after "
+          f"({placed[0]:.3f} mm without the rigid move)")
     assert before > 2.0
     assert after < 0.5
+    # the stored position and the origin were kept consistent: the drawing also lands where
+    # the G-code puts it relative to the point calibrated with `calibrate --at 0 0`
+    assert placed[0] < 1.0
     # the new values are in config.toml, comments kept; the drawing depends on D - spacing
     text = wall["cfg"].read_text()
     assert "# between the points where the cords leave the two spools" in text
