@@ -16,13 +16,44 @@ included. Béziers are mapped by their control points (affine maps keep Béziers
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 
 from vplotter.inputs.svg_style import sigma_max
 
 Subpath = tuple[tuple[float, float], list[tuple], bool]   # start, segments, closed
+_POINT_EXP = re.compile(r"([0-9])\.(?=[eE])")
+_BARE_POINT = re.compile(r"([0-9])\.(?![0-9])")
 MAX_PIECES = 1_000_000   # per curve: beyond this the input is absurd (a typo in a number)
+
+
+_PATH_CLASS: list = []
+
+
+def _raw_arcs_path():
+    """svgelements' Path, made once: its arcs become straight placeholders with their own
+    parameters kept on the side (its Arc object computes a centre approximately and carries the
+    arc-times-matrix shortcut; we need neither, and skipping it is faster)."""
+    if not _PATH_CLASS:
+        from svgelements import Line, Path
+
+        class RawArcs(Path):
+            def __init__(self, d, raw):
+                self._raw = raw
+                super().__init__(d)
+
+            def arc(self, *args, relative=False, **kwargs):
+                for i in range(0, len(args), 6):
+                    start, end = self.current_point, args[i + 5]
+                    if end in ("z", "Z"):
+                        end = self.z_point
+                    self._raw[len(self._segments)] = args[i:i + 5]
+                    self.append(Line(start, end))
+                return self
+
+        _PATH_CLASS.append(RawArcs)
+    return _PATH_CLASS[0]
 
 
 def path_data(d: str) -> list[Subpath]:
@@ -30,22 +61,13 @@ def path_data(d: str) -> list[Subpath]:
     gives nothing; a bad one raises ValueError."""
     if not d or not d.strip():
         return []
-    from svgelements import Arc, Close, CubicBezier, Line, Move, Path, QuadraticBezier
-
-    class RawArcs(Path):
-        """svgelements' Path, remembering each arc's own parameters (its Arc object keeps
-        only a centre computed approximately, which we do not use)."""
-
-        def arc(self, *args, relative=False, **kwargs):
-            first = len(self._segments)
-            super().arc(*args, relative=relative, **kwargs)
-            for k, i in enumerate(range(0, len(args), 6)):
-                raw[first + k] = args[i:i + 5]
-            return self
+    from svgelements import Close, CubicBezier, Line, Move, QuadraticBezier
 
     raw: dict[int, tuple] = {}
+    # "1." is a number in SVG path data, svgelements wants a digit after the point
+    d = _BARE_POINT.sub(r"\1 ", _POINT_EXP.sub(r"\1", d))
     try:
-        path = RawArcs(d)
+        path = _raw_arcs_path()(d, raw)
     except (ValueError, TypeError, IndexError, AttributeError):
         raise ValueError("path data is not valid") from None
     out: list[Subpath] = []
@@ -68,17 +90,17 @@ def path_data(d: str) -> list[Subpath]:
             start, segs = (start[0], start[1]), []   # a command after Z starts there
             continue
         end = (float(s.end.x), float(s.end.y))
-        if isinstance(s, Line):
+        if i in raw:
+            rx, ry, phi, large, sweep = raw[i]
+            segs.append(("A", abs(float(rx)), abs(float(ry)), float(phi), bool(large),
+                         bool(sweep), *end))
+        elif isinstance(s, Line):
             segs.append(("L", *end))
         elif isinstance(s, QuadraticBezier):
             segs.append(("Q", float(s.control.x), float(s.control.y), *end))
         elif isinstance(s, CubicBezier):
             segs.append(("C", float(s.control1.x), float(s.control1.y),
                          float(s.control2.x), float(s.control2.y), *end))
-        elif isinstance(s, Arc):
-            rx, ry, phi, large, sweep = raw[i]
-            segs.append(("A", abs(float(rx)), abs(float(ry)), float(phi), bool(large),
-                         bool(sweep), *end))
         else:
             raise ValueError(f"unknown path segment {type(s).__name__}")
     flush(False)
