@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from vplotter.errors import ConfigError
+from vplotter.inputs.gcode import PenDialect as Gcode   # [gcode]: how files move the pen
 
 DRIVES = ("half", "full", "wave")
 
@@ -83,6 +84,7 @@ class Config:
     pen: Pen
     motion: Motion
     gpio: Gpio
+    gcode: Gcode = Gcode()
     path: str = "config.toml"
 
 
@@ -123,10 +125,18 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "backend": ("str", "lgpio", ("lgpio", "gpiozero", "fake"), None),
         "chip": ("int", 0, 0, 64),
     },
+    "gcode": {
+        "pen": ("str", "auto", ("auto", "z", "m3", "m280"), None),
+        "z_down_below_mm": ("float", 0.0, -1e4, 1e4),
+        "m3_down": ("bool", True, None, None),
+        "m280_servo": ("int", 0, 0, 255),
+        "m280_up_s": ("range", (70.0, 180.0), -1e4, 1e4),
+        "m280_down_s": ("range", (0.0, 50.0), -1e4, 1e4),
+    },
 }
-OPTIONAL_SECTIONS = {"gpio", "motion"}
+OPTIONAL_SECTIONS = {"gpio", "motion", "gcode"}
 SECTION_CLASSES = {"machine": Machine, "origin": Origin, "page": Page, "motors": Motors,
-                   "pen": Pen, "motion": Motion, "gpio": Gpio}
+                   "pen": Pen, "motion": Motion, "gpio": Gpio, "gcode": Gcode}
 
 
 def _fmt(v: Any) -> str:
@@ -157,6 +167,15 @@ def _value(where: str, kind: str, raw: Any, lo: Any, hi: Any) -> Any:
             if not lo <= p <= hi:
                 raise ConfigError(f"{where} pin {p} is not a BCM number {lo}..{hi}")
         return tuple(raw)
+    if base == "range":
+        if (not isinstance(raw, list) or len(raw) != 2
+                or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in raw)):
+            raise ConfigError(f"{where} must be a range [low, high] (got {_fmt(raw)})")
+        low, high = float(raw[0]), float(raw[1])
+        if not lo <= low <= high <= hi:
+            raise ConfigError(f"{where} must be [low, high] with {_fmt(lo)} <= low <= high <= "
+                              f"{_fmt(hi)} (got {_fmt(raw)})")
+        return (low, high)
     if base == "int":
         if isinstance(raw, bool) or not isinstance(raw, int):
             raise ConfigError(f"{where} must be a whole number (got {_fmt(raw)})")
@@ -223,6 +242,10 @@ def _check_geometry(cfg: Config) -> None:
     if pg.y_min_mm >= pg.y_max_mm:
         raise ConfigError(f"{path}: [page] y_min_mm must be below y_max_mm "
                           f"(got {pg.y_min_mm:g} and {pg.y_max_mm:g})")
+    up, down = cfg.gcode.m280_up_s, cfg.gcode.m280_down_s
+    if up[0] <= down[1] and down[0] <= up[1]:
+        raise ConfigError(f"{path}: [gcode] m280_up_s {_fmt(list(up))} and m280_down_s "
+                          f"{_fmt(list(down))} must not overlap")
     if cfg.pen.up_us == cfg.pen.down_us:
         raise ConfigError(f"{path}: [pen] up_us and down_us must differ (both {cfg.pen.up_us})")
     # The whole page must hang below the anchor line.

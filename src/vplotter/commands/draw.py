@@ -65,12 +65,13 @@ def cmd_draw(args, argv=None) -> int:
     # ends the same way; nothing is output before the whole file has been validated
     with sess as s:
         # validation pass: the whole file, page limits and exact plot time before anything moves
-        records = gcode.read(args.file, strict=args.strict)
+        records = gcode.read(args.file, strict=args.strict, dialect=cfg.gcode)
         summary = pipeline.validate(cfg, records, pos.counts, pos.ref_mm, args.file, begin,
                                     lambda: s.stop_pending)
         if summary is not None:
             say(f"{args.file}: {summary.text()}")
-        quiet = gcode.read(args.file, strict=args.strict, warn=lambda m: None)
+        quiet = gcode.read(args.file, strict=args.strict, warn=lambda m: None,
+                            dialect=cfg.gcode)
         if s.tracer is not None:
             s.tracer.comment(f"file {os.path.abspath(args.file)}")
         progress = (_Progress(summary.time_s) if summary and sys.stderr.isatty() and not s.dry_run
@@ -136,8 +137,8 @@ def cmd_estimate(args, argv=None) -> int:
 
     cfg = load_config(args)
     pos = position(cfg, args, True)
-    summary = pipeline.validate(cfg, gcode.read(args.file, strict=args.strict), pos.counts,
-                                pos.ref_mm, args.file)
+    records = gcode.read(args.file, strict=args.strict, dialect=cfg.gcode)
+    summary = pipeline.validate(cfg, records, pos.counts, pos.ref_mm, args.file)
     print(f"{args.file}: {summary.text()}")
     return 0
 
