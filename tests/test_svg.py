@@ -478,6 +478,8 @@ def test_layer_selection_by_label_or_id(tmp_path):
     (doc('<rect width="abc" height="1"/>'), ":1:", "not a length"),
     (doc('<polyline points="1 2 3"/>'), ":1:", "odd number"),
     (doc('<line x1="3em2"/>'), ":1:", "line"),
+    (doc('<line x1="1e999"/>'), ":1:", "too large"),
+    (doc('<polygon points="1 1 1e400 2"/>'), ":1:", "too large"),
     (doc('', size='width="10furlong" height="1mm" viewBox="0 0 1 1"'), ":1:1:", "unit"),
     (doc('', size='width="10mm" height="1mm" viewBox="0 0 0 1"'), ":1:1:", "viewBox"),
     (doc('', size='width="-10mm" height="1mm" viewBox="0 0 1 1"'), ":1:1:", "above 0"),
@@ -526,3 +528,61 @@ def test_relative_and_absolute_path_data_agree(tmp_path, pts, closed):
     assert len(a) == len(b) == 1 and np.allclose(a[0], b[0], atol=1e-9)
     if closed:
         assert np.array_equal(a[0][0], a[0][-1])
+
+
+# ------------------------------------------------------------------ the samples
+SAMPLES = __import__("pathlib").Path(__file__).resolve().parent.parent / "svg_samples"
+
+
+def sample(name: str, layers=None):
+    warnings: list[str] = []
+    return svg.read(str(SAMPLES / name), TOL, layers, warnings.append), warnings
+
+
+def bbox(pts: np.ndarray) -> list[float]:
+    return [*pts.min(axis=0), *pts.max(axis=0)]
+
+
+def test_sample_inkscape_layers():
+    d, w = sample("inkscape_layers.svg")
+    assert (d.width_mm, d.height_mm) == (210, 148)
+    assert [(x["label"], x["visible"]) for x in d.layers] == [
+        ("Frame", True), ("Arcs", True), ("Stars", True), ("Construction", True), ("Sketch", False)]
+    assert d.skipped == {"text": 2, "image": 0, "hidden": 4}
+    assert len(w) == 2 and "'#missing'" in w[0] and "2 text elements skipped" in w[1]
+    by = {}
+    for s in d.strokes:
+        by.setdefault(s.src, []).append(s)
+    assert list(by) == ["frame", "sun", "arcs", "skewed-arc", "skewed-circle", "star1", "star2",
+                        "curves", "stipple", "shown-again"]
+    assert [len(s.pts) for s in by["stipple"]] == [1, 1, 1, 1]
+    assert by["star1"][0].layer == "Stars" and by["frame"][0].layer == "Frame"
+    # the rotated ellipse: its bounding box, computed from its axes (page centre 105, 74)
+    c, s_ = math.cos(math.radians(20)), math.sin(math.radians(20))
+    hx, hy = math.hypot(14 * c, 9 * s_), math.hypot(14 * s_, 9 * c)
+    assert bbox(by["sun"][0].pts) == pytest.approx([65 - hx, 39 - hy, 65 + hx, 39 + hy], abs=TOL)
+    # the first star's eye: circle (0, -1) r 1.2 placed at (40, 110) in a layer moved down 4
+    eye = by["star1"][1].pts
+    assert np.hypot(*(eye - (40 - 105, 74 - 113)).T) == pytest.approx(1.2, abs=TOL)
+    d, _ = sample("inkscape_layers.svg", ["Stars"])
+    assert {s.src for s in d.strokes} == {"star1", "star2"}
+
+
+def test_sample_units_symbols():
+    d, w = sample("units_symbols.svg")
+    assert w == [] and d.layers == []
+    assert (d.width_mm, d.height_mm) == pytest.approx((152.4, 101.6))
+    assert d.skipped == {"text": 0, "image": 1, "hidden": 2}
+    # 600 x 300 user units in 6 x 4 in: 0.254 mm each, letterboxed 12.7 mm from the top
+    first_gear = d.strokes[1].pts      # symbol circle r 8 in a -10..10 viewBox, 60 units wide
+    centre = (70 * 0.254 - 76.2, 50.8 - 12.7 - 70 * 0.254)
+    assert np.hypot(*(first_gear - centre).T) == pytest.approx(24 * 0.254, abs=TOL)
+    assert {s.src for s in d.strokes} >= {"rect#21", "circle#24", "polygon#18"}
+
+
+def test_sample_generative():
+    d, w = sample("generative.svg")
+    assert w == [] and [x["label"] for x in d.layers] == ["1 flow", "2 stipple", "3 circles"]
+    dots = [s for s in d.strokes if len(s.pts) == 1]
+    assert len(dots) == 400 and all(s.layer == "2 stipple" for s in dots)
+    assert all(np.all(np.abs(s.pts) <= 100) for s in d.strokes)

@@ -175,19 +175,19 @@ class _Reader:
         st = self.style
         try:
             vb = st.view_box(root.attrs.get("viewBox"))
-            w_px = self.root_size(root, "width")
-            h_px = self.root_size(root, "height")
+            w_mm = self.root_size(root, "width")
+            h_mm = self.root_size(root, "height")
         except st.BadValue as e:
             raise self.err(root, str(e)) from None
-        if w_px is None or h_px is None:
+        if w_mm is None or h_mm is None:
             if vb is None:
                 raise self.err(root, "has no width/height (in mm, cm, in, pt, pc or px) and no "
                                      "viewBox: the size of the drawing is unknown")
-            w_px = vb[2] if w_px is None else w_px
-            h_px = vb[3] if h_px is None else h_px
-        if not (w_px > 0 and h_px > 0):
-            raise self.err(root, f"width and height must be above 0 (got {w_px:g} x {h_px:g} px)")
-        w_mm, h_mm = w_px * MM_PER_PX, h_px * MM_PER_PX
+            w_mm = vb[2] * MM_PER_PX if w_mm is None else w_mm
+            h_mm = vb[3] * MM_PER_PX if h_mm is None else h_mm
+        if not (w_mm > 0 and h_mm > 0):
+            raise self.err(root, f"width and height must be above 0 (got {w_mm:g} x {h_mm:g} mm)")
+        w_px, h_px = w_mm / MM_PER_PX, h_mm / MM_PER_PX
         if vb is None:
             user_to_mm = np.diag([MM_PER_PX, MM_PER_PX, 1.0])
             vp = (w_px, h_px)
@@ -215,7 +215,7 @@ class _Reader:
         text = root.attrs.get(name)
         if text is None or text.strip() in ("", "auto") or text.strip().endswith("%"):
             return None
-        return self.style.length(text)
+        return self.style.length_mm(text)
 
     def collect_styles(self, node: Node) -> None:
         todo = [node]

@@ -16,6 +16,8 @@ PX_PER_MM = 96.0 / 25.4
 # CSS absolute units in px (user units); em/ex assume the default 16 px font
 UNIT_PX = {"": 1.0, "px": 1.0, "mm": PX_PER_MM, "cm": 10 * PX_PER_MM, "in": 96.0,
            "pt": 96.0 / 72.0, "pc": 16.0, "q": PX_PER_MM / 4, "em": 16.0, "ex": 8.0}
+UNIT_MM = {"": 25.4 / 96, "px": 25.4 / 96, "mm": 1.0, "cm": 10.0, "in": 25.4, "pt": 25.4 / 72,
+           "pc": 25.4 / 6, "q": 0.25}
 _NUM = r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?"
 _LENGTH = re.compile(rf"\s*({_NUM})\s*([a-zA-Z]*|%)\s*$")
 _NUMBERS = re.compile(_NUM)
@@ -26,6 +28,13 @@ class BadValue(ValueError):
     """A value that does not parse; the reader turns it into file:line:col: error."""
 
 
+def _finite(text: str) -> float:
+    value = float(text)
+    if not abs(value) < 1e12:
+        raise BadValue(f"{text} is too large")
+    return value
+
+
 def length(text: str | None, ref: float | None = None) -> float | None:
     """A length in user units (px); `ref` is what 100 % is. None for a missing value."""
     if text is None:
@@ -33,7 +42,7 @@ def length(text: str | None, ref: float | None = None) -> float | None:
     m = _LENGTH.match(text)
     if not m:
         raise BadValue(f"{text.strip()!r} is not a length")
-    value, unit = float(m.group(1)), m.group(2).lower()
+    value, unit = _finite(m.group(1)), m.group(2).lower()
     if unit == "%":
         if ref is None:
             raise BadValue(f"{text.strip()!r}: a percentage is not allowed here")
@@ -43,13 +52,24 @@ def length(text: str | None, ref: float | None = None) -> float | None:
     return value * UNIT_PX[unit]
 
 
+def length_mm(text: str) -> float:
+    """An absolute length (the root's width/height) in mm, exact for mm, cm, in, pt, pc."""
+    m = _LENGTH.match(text)
+    if not m:
+        raise BadValue(f"{text.strip()!r} is not a length")
+    unit = m.group(2).lower()
+    if unit not in UNIT_MM:
+        raise BadValue(f"{text.strip()!r}: unknown unit {unit!r} (mm, cm, in, pt, pc or px)")
+    return _finite(m.group(1)) * UNIT_MM[unit]
+
+
 def numbers(text: str | None) -> list[float]:
     """A list of numbers separated by white space and/or commas (points, viewBox)."""
     if not text:
         return []
     if not _SEPARATORS.match(_NUMBERS.sub(" ", text)):
         raise BadValue(f"{text.strip()[:40]!r} is not a list of numbers")
-    return [float(v) for v in _NUMBERS.findall(text)]
+    return [_finite(v) for v in _NUMBERS.findall(text)]
 
 
 def view_box(text: str | None) -> tuple[float, float, float, float] | None:
