@@ -51,7 +51,7 @@ def parts(cfg, tmp_path_factory):
     path.write_text(SHORT)
     kin = kinematics.from_config(cfg)
     cords = kin.inverse(kin.to_machine(np.array([[0.0, 0.0]])))[0]
-    pos = state.Position.at_cords(cords[0], cords[1], cfg.motors.steps_per_mm)
+    pos = state.Position.at_cords(cords[0], cords[1], cfg.motors.steps_per_unit)
     out = []
     for rows in pipeline.stream(cfg, gcode.read(str(path)), pos.counts, pos.ref_mm):
         out.extend(_split(rows))

@@ -28,7 +28,7 @@ def test_seed_config_loads(config_path):
     assert (m.drive, m.steps_per_rev, m.max_step_rate, m.max_accel) == ("half", 4096, 663.0, 2000.0)
     assert m.left_pins == (0, 5, 6, 13) and m.right_pins == (12, 16, 20, 21)
     assert m.left_reverse is True and m.right_reverse is False
-    assert m.steps_per_mm == pytest.approx(4096 / 25.0)
+    assert m.steps_per_unit == pytest.approx((4096 / 25.0, 4096 / 25.0))
     assert isinstance(m.max_step_rate, float) and isinstance(m.steps_per_rev, int)
     assert (cfg.pen.pin, cfg.pen.up_us, cfg.pen.down_us, cfg.pen.settle_s) == (24, 500, 1500, 0.3)
     assert cfg.gpio.backend == "lgpio"

@@ -10,7 +10,7 @@ from conftest import REPO
 
 CFG = config.load(REPO / "config.toml")
 KIN = kinematics.from_config(CFG)
-SPM = CFG.motors.steps_per_mm
+SPM = CFG.motors.steps_per_unit[0]
 
 
 def zigzag(n, seed=0):

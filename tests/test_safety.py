@@ -261,7 +261,7 @@ def test_calibrate_steps_writes_the_circumference_keeping_comments(tmp_path, con
     assert "spool_circumference_mm = 25.6    # cord wound per revolution" in text
     assert text.replace("25.6 ", "25.0 ") == config_path.read_text()
     pos = state.load()
-    assert pos.left_mm == pytest.approx(492.5) and pos.steps_per_mm == pytest.approx(4096 / 25.6)
+    assert pos.left_mm == pytest.approx(492.5) and pos.steps_per_unit == pytest.approx((4096 / 25.6, 4096 / 25.6))
 
 
 @pytest.mark.parametrize("answers", [("480", "abc"), ("480", "700"), ("480",), ("-3", "4")])

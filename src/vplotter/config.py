@@ -50,8 +50,10 @@ class Motors:
     right_reverse: bool
 
     @property
-    def steps_per_mm(self) -> float:
-        return self.steps_per_rev / self.spool_circumference_mm
+    def steps_per_unit(self) -> tuple[float, float]:
+        """Steps per unit of each motor's coordinate (per mm of cord, left and right)."""
+        spm = self.steps_per_rev / self.spool_circumference_mm
+        return (spm, spm)
 
 
 @dataclass(frozen=True)

@@ -43,7 +43,7 @@ def load_position(cfg, trust: bool = False, dry_run: bool = False) -> state.Posi
     if pos is None:
         raise MachineError("error: the pen position is unknown; put the pen on a known point and "
                            "run `vplotter calibrate --at X Y` first")
-    pos = state.recovered(pos).rebased(cfg.motors.steps_per_mm)
+    pos = state.recovered(pos).rebased(cfg.motors.steps_per_unit)
     if not pos.clean and not trust and not dry_run:
         mm = uncertainty_mm(cfg, pos)
         raise StateError(f"error: the last stop was not clean (crash or power cut); the position "
@@ -60,10 +60,10 @@ def uncertainty_mm(cfg, pos: state.Position) -> float:
     from vplotter import kinematics
 
     kin = kinematics.from_config(cfg)
-    spm = pos.steps_per_mm
+    spu = np.asarray(pos.steps_per_unit)
     c = np.array([pos.left_mm, pos.right_mm])
     here = kin.forward(c[None, :])[0]
-    corners = np.array([[sl, sr] for sl in (-1, 1) for sr in (-1, 1)]) * np.array(dev) / spm
+    corners = np.array([[sl, sr] for sl in (-1, 1) for sr in (-1, 1)]) * np.array(dev) / spu
     return float(np.hypot(*(kin.forward(c + corners) - here).T).max())
 
 

@@ -58,17 +58,17 @@ class StartAt:
 def stream(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str = "<input>",
            emit: bool = True, summary: Summary | None = None,
            start_at: StartAt | None = None, pen_down: bool | None = None) -> Iterator[Rows]:
-    """Rows for drawing `records` starting from the given step counts (cords = ref + counts/spm).
+    """Rows for drawing `records` starting from the given step counts (cords = ref + counts / steps per unit).
 
     With `start_at`, records before that line are skipped (their pen changes still count), the
     pen travels up to the resume point and goes down again if the file has it down there.
     """
     kin = kinematics.from_config(cfg)
-    spm = cfg.motors.steps_per_mm
+    spu = np.asarray(cfg.motors.steps_per_unit)
     summary = summary if summary is not None else Summary()
-    cords = np.asarray(ref_mm, dtype=float) + np.asarray(counts, dtype=float) / spm
+    cords = np.asarray(ref_mm, dtype=float) + np.asarray(counts, dtype=float) / spu
     start = kin.forward(cords[None, :])[0]
-    planner = Planner(kin, cfg.motors.max_step_rate, cfg.motors.max_accel, spm, start)
+    planner = Planner(kin, cfg.motors.max_step_rate, cfg.motors.max_accel, spu, start)
     sched = Scheduler(cfg, kin, counts, ref_mm)
     page = cfg.page
     tol = cfg.motion.tolerance_mm * CHORD_SHARE

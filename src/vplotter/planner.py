@@ -96,11 +96,14 @@ class Block:
 class Planner:
     """Feed pieces with `add`, end a stroke with `stop`; both yield planned Blocks."""
 
-    def __init__(self, kin, max_step_rate: float, max_accel: float, steps_per_mm: float,
+    def __init__(self, kin, max_step_rate: float, max_accel: float, steps_per_unit,
                  start_xy: np.ndarray, window: int = WINDOW):
+        """steps_per_unit: steps per unit of each motor's coordinate (one value or one per
+        motor); the limits are per motor in steps."""
         self.kin = kin
-        self.v_cord = max_step_rate * RATE_MARGIN / steps_per_mm       # mm/s of cord
-        self.a_cord = max_accel * ACCEL_MARGIN / steps_per_mm          # mm/s^2 of cord
+        spu = np.broadcast_to(np.asarray(steps_per_unit, dtype=float), (len(kin.motors),))
+        self.v_cord = max_step_rate * RATE_MARGIN / spu       # (M,) motor units/s
+        self.a_cord = max_accel * ACCEL_MARGIN / spu          # (M,) motor units/s^2
         self.window = window
         self.last = np.asarray(start_xy, dtype=float).reshape(2)
         self._pts: list[np.ndarray] = []
@@ -217,24 +220,23 @@ class Planner:
         k1 = kin.slope(verts[1:], e)
         kmax = np.maximum(np.abs(k0), np.abs(k1))
         bend = np.maximum(np.abs(kin.bend(verts[:-1], e)), np.abs(kin.bend(verts[1:], e)))
-        kworst = np.maximum(kmax.max(axis=1), 0.25)
-        v_rate = self.v_cord / np.maximum(kmax.max(axis=1), 1e-9)
-        bend_budget = BEND_SHARE * self.a_cord
-        v_bend = np.sqrt(bend_budget / np.maximum(bend.max(axis=1), 1e-12))
+        v_rate = (self.v_cord / np.maximum(kmax, 1e-9)).min(axis=1)
+        bend_budget = BEND_SHARE * self.a_cord                    # (M,)
+        v_bend = np.sqrt(bend_budget / np.maximum(bend, 1e-12)).min(axis=1)
         vcap = np.minimum(np.minimum(cap, v_rate), v_bend)
-        a = (1.0 - BEND_SHARE) * self.a_cord / kworst
+        a = ((1.0 - BEND_SHARE) * self.a_cord / np.maximum(kmax, 0.25)).min(axis=1)
         # vertex limits
         n = len(d)
         u_lim = np.empty(n + 1)
         u_lim[0] = u_entry
         u_lim[n] = 0.0
         if n > 1:
-            jump = np.abs(k0[1:] - k1[:-1]).max(axis=1)           # (n-1,)
-            ds = np.minimum(d[1:], d[:-1])
-            # jump * v <= budget * min(TAU, ds / v)  <=>  both limits below
+            jump = np.abs(k0[1:] - k1[:-1])                       # (n-1, M)
+            ds = np.minimum(d[1:], d[:-1])[:, None]
+            # jump * v <= budget * min(TAU, ds / v)  <=>  both limits below, for every motor
             with np.errstate(divide="ignore", invalid="ignore"):
-                v_tau = np.where(jump > 0, bend_budget * TAU_S / jump, np.inf)
-                v_ds = np.where(jump > 0, np.sqrt(bend_budget * ds / jump), np.inf)
+                v_tau = np.where(jump > 0, bend_budget * TAU_S / jump, np.inf).min(axis=1)
+                v_ds = np.where(jump > 0, np.sqrt(bend_budget * ds / jump), np.inf).min(axis=1)
             v_vert = np.minimum(np.minimum(v_tau, v_ds), np.minimum(vcap[1:], vcap[:-1]))
             u_lim[1:n] = v_vert ** 2
         u_lim[0] = min(u_lim[0], vcap[0] ** 2)

@@ -50,7 +50,7 @@ class Scheduler:
         m = cfg.motors
         self.cfg = cfg
         self.kin = kin
-        self.spm = m.steps_per_mm
+        self.spu = np.asarray(m.steps_per_unit, dtype=float)
         self.table = TABLES[m.drive]
         self.sign = np.array([-1 if m.left_reverse else 1, -1 if m.right_reverse else 1])
         self.hold_us = int(np.ceil(1e6 / m.max_step_rate))
@@ -118,7 +118,7 @@ class Scheduler:
 
     def targets(self, block: Block) -> np.ndarray:
         """Absolute step count of each motor at each vertex (rounded, never accumulated)."""
-        n = np.rint((block.cords - self.ref) * self.spm).astype(np.int64)
+        n = np.rint((block.cords - self.ref) * self.spu).astype(np.int64)
         n[0] = self.counts
         return n
 
@@ -152,7 +152,7 @@ class Scheduler:
             piece = np.repeat(np.arange(len(c)), c)
             j = np.arange(total) - np.repeat(np.cumsum(c) - c, c)
             rising = (ne > ns)[piece]
-            q = self.ref[m] + (ns[piece] + np.where(rising, j + 0.5, -j - 0.5)) / self.spm
+            q = self.ref[m] + (ns[piece] + np.where(rising, j + 0.5, -j - 0.5)) / self.spu[m]
             s = self.kin.crossing(block.verts[piece], e[piece], np.full(total, m), q, rising)
             s = np.clip(s, 0.0, block.d[piece])
             t_us = t0 + np.rint((starts[piece] + block.time_at(piece, s)) * 1e6).astype(np.int64)

@@ -28,43 +28,53 @@ def state_path() -> Path:
 
 @dataclass
 class Position:
-    """Cord lengths: left_mm = ref_left_mm + left_steps / steps_per_mm (same for right)."""
+    """Motor coordinates (cord lengths): left_mm = ref_left_mm + left_steps / steps_per_unit[0]
+    (the same for right with steps_per_unit[1])."""
 
     left_mm: float
     right_mm: float
     left_steps: int
     right_steps: int
-    steps_per_mm: float
+    steps_per_unit: tuple[float, float]
     pen: str = "up"
     clean: bool = True
     extra: dict = field(default_factory=dict)
 
     @property
     def ref_mm(self) -> tuple[float, float]:
-        return (self.left_mm - self.left_steps / self.steps_per_mm,
-                self.right_mm - self.right_steps / self.steps_per_mm)
+        spu = self.steps_per_unit
+        return (self.left_mm - self.left_steps / spu[0], self.right_mm - self.right_steps / spu[1])
 
     @property
     def counts(self) -> tuple[int, int]:
         return (self.left_steps, self.right_steps)
 
     @classmethod
-    def at_cords(cls, left_mm: float, right_mm: float, steps_per_mm: float) -> "Position":
-        return cls(float(left_mm), float(right_mm), 0, 0, float(steps_per_mm))
+    def at_cords(cls, left_mm: float, right_mm: float, steps_per_unit) -> "Position":
+        return cls(float(left_mm), float(right_mm), 0, 0, _pair(steps_per_unit))
 
     def moved_to(self, counts) -> "Position":
         ref = self.ref_mm
-        return Position(ref[0] + int(counts[0]) / self.steps_per_mm,
-                        ref[1] + int(counts[1]) / self.steps_per_mm,
-                        int(counts[0]), int(counts[1]), self.steps_per_mm, self.pen,
+        spu = self.steps_per_unit
+        return Position(ref[0] + int(counts[0]) / spu[0], ref[1] + int(counts[1]) / spu[1],
+                        int(counts[0]), int(counts[1]), spu, self.pen,
                         self.clean, dict(self.extra))
 
-    def rebased(self, steps_per_mm: float) -> "Position":
-        """The same cords counted with another steps/mm (after `calibrate steps`)."""
-        if steps_per_mm == self.steps_per_mm:
+    def rebased(self, steps_per_unit) -> "Position":
+        """The same cords counted with other steps per unit (after `calibrate steps`)."""
+        spu = _pair(steps_per_unit)
+        if spu == self.steps_per_unit:
             return self
-        return Position(self.left_mm, self.right_mm, 0, 0, steps_per_mm, self.pen, self.clean,
+        return Position(self.left_mm, self.right_mm, 0, 0, spu, self.pen, self.clean,
                         dict(self.extra))
+
+
+def _pair(value) -> tuple[float, float]:
+    """Steps per unit of both motors from a pair or one number for both."""
+    if isinstance(value, (int, float)):
+        return (float(value), float(value))
+    a, b = value
+    return (float(a), float(b))
 
 
 def atomic_write(path: Path, text: str) -> None:
@@ -107,10 +117,12 @@ def load(path: Path | None = None) -> Position | None:
         if not isinstance(data, dict) or data.get("version") != VERSION:
             raise ValueError("unknown version")
         pos = Position(float(data["left_mm"]), float(data["right_mm"]), int(data["left_steps"]),
-                       int(data["right_steps"]), float(data["steps_per_mm"]),
+                       int(data["right_steps"]),
+                       _pair(data["steps_per_unit"] if "steps_per_unit" in data
+                             else data["steps_per_mm"]),        # version 1 before per-motor
                        str(data.get("pen", "up")), bool(data.get("clean", True)),
                        dict(data.get("extra", {})))
-        if not all(0 < v < 1e6 for v in (pos.left_mm, pos.right_mm, pos.steps_per_mm)):
+        if not all(0 < v < 1e6 for v in (pos.left_mm, pos.right_mm, *pos.steps_per_unit)):
             raise ValueError("cord lengths out of range")
     except (ValueError, KeyError, TypeError) as e:
         raise StateError(f"{p}: error: the stored position is corrupt ({e}); {hint}") from None

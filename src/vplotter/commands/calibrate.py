@@ -43,15 +43,15 @@ def calibrate_steps(args, cfg, command: str) -> int:
     if not 0 < args.steps <= 100_000:
         raise ConfigError(f"error: --steps must be 1..100000 (got {args.steps})")
     m = 0 if args.motor == "left" else 1
-    spm = cfg.motors.steps_per_mm
-    expected = args.steps / spm
+    spu = cfg.motors.steps_per_unit
+    expected = args.steps / spu[m]
     print(f"The {args.motor} cord will be lengthened by {args.steps} steps "
           f"(about {expected:.2f} mm with the configured spool_circumference_mm = "
           f"{cfg.motors.spool_circumference_mm:g}).")
     before = _ask(f"Measure the {args.motor} cord now, from where it leaves the spool to the pen (mm): ")
     pos = job.load_position(cfg, trust=True, dry_run=args.dry_run) if state.load() else None
     if pos is None:
-        pos = state.Position.at_cords(before, before, spm)
+        pos = state.Position.at_cords(before, before, spu)
     from vplotter.commands.common import session
 
     delta = [0, 0]

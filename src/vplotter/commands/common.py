@@ -37,7 +37,7 @@ def position(cfg, args, dry_run: bool):
         kin = kinematics.from_config(cfg)
         cords = kin.inverse(kin.to_machine([[0.0, 0.0]]))[0]
         eprint("note: no calibrated position stored; the dry run assumes the pen at X0 Y0")
-        return state.Position.at_cords(cords[0], cords[1], cfg.motors.steps_per_mm)
+        return state.Position.at_cords(cords[0], cords[1], cfg.motors.steps_per_unit)
     return job.load_position(cfg, getattr(args, "trust_position", False), dry_run)
 
 

@@ -80,7 +80,7 @@ def cmd_draw(args, argv=None) -> int:
             s.play(stream_rows(cfg, quiet, pos, args.file, start_at=begin), progress)
         except Interrupted:
             kin = kinematics.from_config(cfg)
-            cords = np.asarray(pos.ref_mm) + np.asarray(s.counts) / cfg.motors.steps_per_mm
+            cords = np.asarray(pos.ref_mm) + np.asarray(s.counts) / np.asarray(cfg.motors.steps_per_unit)
             xy = kin.to_gcode(kin.forward(cords[None, :]))[0]
             if s.line > 0:      # something of the file was drawn
                 s.resume_info = {**sess.drawing, "line": s.line,

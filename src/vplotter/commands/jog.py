@@ -27,9 +27,9 @@ STEP_MIN, STEP_MAX = 0.1, 50.0
 
 def cord_rows(cfg, pos, counts, left_mm: float, right_mm: float, pen_down: bool = False):
     """Rows that lengthen (or shorten, if negative) the cords by the given mm."""
-    spm = cfg.motors.steps_per_mm
-    delta = np.rint(np.array([left_mm, right_mm]) * spm).astype(np.int64)
-    cords = np.asarray(pos.ref_mm) + (np.asarray(counts) + delta) / spm
+    spu = np.asarray(cfg.motors.steps_per_unit)
+    delta = np.rint(np.array([left_mm, right_mm]) * spu).astype(np.int64)
+    cords = np.asarray(pos.ref_mm) + (np.asarray(counts) + delta) / spu
     kin = kinematics.from_config(cfg)
     d = cfg.machine.anchor_distance_mm
     if cords.min() <= 0 or cords.sum() <= d or abs(cords[0] - cords[1]) >= d:
@@ -47,7 +47,7 @@ def cord_rows(cfg, pos, counts, left_mm: float, right_mm: float, pen_down: bool 
 def pen_xy(cfg, pos, counts) -> np.ndarray:
     """G-code point of the pen after `counts` steps from the stored position's reference."""
     kin = kinematics.from_config(cfg)
-    cords = np.asarray(pos.ref_mm) + np.asarray(counts) / cfg.motors.steps_per_mm
+    cords = np.asarray(pos.ref_mm) + np.asarray(counts) / np.asarray(cfg.motors.steps_per_unit)
     return kin.to_gcode(kin.forward(cords[None, :]))[0]
 
 

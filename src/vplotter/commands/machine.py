@@ -54,7 +54,7 @@ def cmd_calibrate(args, argv=None) -> int:
         cords = np.array([left, right])
     held = lock.acquire(command_line(argv))
     try:
-        pos = state.Position.at_cords(cords[0], cords[1], cfg.motors.steps_per_mm)
+        pos = state.Position.at_cords(cords[0], cords[1], cfg.motors.steps_per_unit)
         pos.extra["home"] = [float(v) for v in kin.to_gcode(kin.forward(cords[None, :]))[0]]
         state.save(pos)
         state.clear_journal()
@@ -95,7 +95,7 @@ def cmd_status(args, argv=None) -> int:
         else:
             print("position unknown: run `vplotter calibrate --at X Y`")
         return 0
-    pos = state.recovered(stored).rebased(cfg.motors.steps_per_mm)
+    pos = state.recovered(stored).rebased(cfg.motors.steps_per_unit)
     off = job.uncertainty_mm(cfg, pos)
     xy = _pen_xy(cfg, pos)
     resume = pos.extra.get("resume")
