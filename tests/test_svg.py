@@ -586,3 +586,14 @@ def test_sample_generative():
     dots = [s for s in d.strokes if len(s.pts) == 1]
     assert len(dots) == 400 and all(s.layer == "2 stipple" for s in dots)
     assert all(np.all(np.abs(s.pts) <= 100) for s in d.strokes)
+
+
+def test_svgz_is_read_and_a_broken_one_is_one_error(tmp_path):
+    import gzip
+
+    p = tmp_path / "t.svgz"
+    p.write_bytes(gzip.compress(doc('<path d="M0 0 L1 1"/>').encode()))
+    assert len(svg.read(str(p), TOL).strokes) == 1
+    p.write_bytes(gzip.compress(doc('<path d="M0 0 L1 1"/>').encode())[:40])
+    with pytest.raises(InputError, match="error: not a valid gzip"):
+        svg.read(str(p), TOL)

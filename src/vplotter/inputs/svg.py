@@ -69,6 +69,7 @@ def _qualify(name: str) -> tuple[str, str]:
 def load_tree(path: str) -> tuple[Node, dict[str, Node]]:
     """Parse the file into Nodes (every element numbered 1, 2, ... in document order) and the
     id table (the first element with an id wins)."""
+    import zlib
     from xml.parsers import expat
 
     parser = expat.ParserCreate(namespace_separator=" ")
@@ -110,9 +111,19 @@ def load_tree(path: str) -> tuple[Node, dict[str, Node]]:
     parser.StartElementHandler = start
     parser.EndElementHandler = end
     parser.CharacterDataHandler = chars
+    import gzip
+
     try:
         with open(path, "rb") as f:
-            parser.ParseFile(f)
+            if f.read(2) == b"\x1f\x8b":              # .svgz: gzip-compressed SVG
+                f.seek(0)
+                with gzip.GzipFile(fileobj=f) as z:
+                    parser.ParseFile(z)
+            else:
+                f.seek(0)
+                parser.ParseFile(f)
+    except (gzip.BadGzipFile, EOFError, zlib.error) as e:
+        raise InputError(f"{path}: error: not a valid gzip-compressed SVG (.svgz): {e}") from None
     except expat.ExpatError as e:
         raise InputError(f"{path}:{e.lineno}:{e.offset + 1}: error: not well-formed XML: "
                          f"{expat.ErrorString(e.code)}") from None
