@@ -69,6 +69,7 @@ def _qualify(name: str) -> tuple[str, str]:
 def load_tree(path: str) -> tuple[Node, dict[str, Node]]:
     """Parse the file into Nodes (every element numbered 1, 2, ... in document order) and the
     id table (the first element with an id wins)."""
+    import gzip
     import zlib
     from xml.parsers import expat
 
@@ -77,6 +78,7 @@ def load_tree(path: str) -> tuple[Node, dict[str, Node]]:
     ids: dict[str, Node] = {}
     holder: list[Node] = []
     root_uri: list[str] = []
+    numbered: list[Node] = []
 
     def start(name, attrs):
         uri, tag = _qualify(name)
@@ -88,9 +90,8 @@ def load_tree(path: str) -> tuple[Node, dict[str, Node]]:
         for key, value in attrs.items():
             kuri, local = _qualify(key)
             plain[PREFIXES.get(kuri, f"{{{kuri}}}" if kuri else "") + local] = value
-        node = Node(tag, svg, plain, parser.CurrentLineNumber, parser.CurrentColumnNumber + 1,
-                    len(numbered) + 1)
-        numbered.append(node)
+        numbered.append(node := Node(tag, svg, plain, parser.CurrentLineNumber,
+                                     parser.CurrentColumnNumber + 1, len(numbered) + 1))
         if stack:
             stack[-1].children.append(node)
         else:
@@ -107,12 +108,9 @@ def load_tree(path: str) -> tuple[Node, dict[str, Node]]:
         if stack and stack[-1].tag == "style":
             stack[-1].text.append(data)
 
-    numbered: list[Node] = []
     parser.StartElementHandler = start
     parser.EndElementHandler = end
     parser.CharacterDataHandler = chars
-    import gzip
-
     try:
         with open(path, "rb") as f:
             if f.read(2) == b"\x1f\x8b":              # .svgz: gzip-compressed SVG
