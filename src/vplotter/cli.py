@@ -12,23 +12,33 @@ import argparse
 import sys
 from typing import Callable
 
-from vplotter.commands import draw, machine
+from vplotter.commands import draw, files, live, machine, serial
 from vplotter.commands.common import eprint
 from vplotter.errors import BusyError, VplotterError
 
 
 COMMANDS: dict[str, tuple[Callable, Callable, str]] = {
-    "draw": (draw.cmd_draw, draw.add_draw, "draw a G-code file"),
+    "draw": (draw.cmd_draw, draw.add_draw, "draw a G-code or SVG file"),
     "estimate": (draw.cmd_estimate, draw.add_estimate, "validate a file and print the plot time"),
+    "info": (files.cmd_info, files.add_info,
+             "size, extent, strokes, travel and time of a file (file order and --order best)"),
+    "convert": (files.cmd_convert, files.add_convert,
+                "write the placed and ordered drawing as G-code"),
     "calibrate": (machine.cmd_calibrate, machine.add_calibrate,
                   "tell vplotter where the pen is, or measure steps/mm"),
-    "status": (machine.cmd_status, machine.add_status, "print the stored position"),
+    "status": (live.cmd_status, live.add_status,
+               "where the pen is, whether the last stop was clean, the running draw"),
+    "stop": (live.cmd_stop, live.add_stop,
+             "pause the running draw: pen up, position stored, ready to --resume"),
+    "log": (live.cmd_log, live.add_log, "print the output of the background draw (--detach)"),
     "pen": (machine.cmd_pen, machine.add_pen, "lift, lower or cycle the pen"),
     "jog": (machine.cmd_jog, machine.add_jog,
             "move the pen by hand (arrow keys) or by --dx/--dy, --left/--right"),
     "goto": (machine.cmd_goto, machine.add_goto, "move the pen (up) to a G-code point"),
     "home": (machine.cmd_home, machine.add_machine_options,
              "move the pen (up) to the last calibrated point"),
+    "serial": (serial.cmd_serial, serial.add_serial,
+               "a grbl controller on [serial] port: check its settings, or a console"),
 }
 
 
@@ -55,7 +65,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     handler = COMMANDS[args.command][0]
     try:
-        return handler(args, argv)
+        return _run(handler, args, argv)
     except VplotterError as e:
         msg = str(e)
         if isinstance(e, BusyError) or "error:" in msg:
@@ -73,6 +83,15 @@ def main(argv: list[str] | None = None) -> int:
             raise
         eprint(f"vplotter: internal error: {type(e).__name__}: {e} (rerun with --debug for details)")
         return 1
+
+
+def _run(handler, args, argv) -> int:
+    from vplotter import lock
+
+    try:
+        return handler(args, argv)
+    finally:
+        lock.release_all()      # movers take the lock before reading the position
 
 
 def run() -> None:

@@ -94,6 +94,9 @@ class Session:
         self.resume_info: dict | None = None
         self._writer: _Writer | None = None
         self.drawing: dict | None = None     # {"file", "sha256"} while a draw runs
+        self.live = None                     # live.Publisher while a draw runs
+        self.ignore_hangup = False           # a background draw goes on when SIGHUP comes
+        self.on_pause = None    # on_pause(pause): a Pause came up (pen up, coils released)
 
     @property
     def saves_state(self) -> bool:
@@ -114,7 +117,8 @@ class Session:
                 self._trace_file = open(self.trace_path, "w", encoding="utf-8")
                 self.tracer = TraceWriter(self._trace_file, self.backend.coil_pins, self.backend.pen_pin)
             for s in SIGNALS:
-                self._old_handlers[s] = signal.signal(s, self._on_signal)
+                ignore = s == signal.SIGHUP and self.ignore_hangup
+                self._old_handlers[s] = signal.signal(s, signal.SIG_IGN if ignore else self._on_signal)
         except BaseException:
             self._cleanup()
             raise
@@ -147,7 +151,19 @@ class Session:
             self._cleanup()
         return False
 
+    def hand_over_pins(self):
+        """`draw --detach`: before anything moved, give up the pins, the trace and the signal
+        handlers, but not the lock, which is returned: the caller passes it on to the process
+        that goes on from here and then closes it with Lock.hand_over() (never unlocking)."""
+        assert not self._moved
+        held, self._lock = self._lock, None
+        self._cleanup()
+        return held
+
     def _cleanup(self) -> None:
+        if self.live is not None:
+            self.live.close()
+            self.live = None
         for s, h in self._old_handlers.items():
             try:
                 signal.signal(s, h)
@@ -175,18 +191,26 @@ class Session:
         the trace are written on another, so that the thread driving the outputs does nothing
         else while the motors run.
         """
-        ahead = _Ahead(chunks)
-        self._writer = _Writer(self.tracer)
+        # a simulated machine (the fake backend, not in real time) needs no helper threads
+        threaded = self.realtime or self.backend_name != "fake"
+        ahead = _Ahead(chunks, split=self.saves_state, threaded=threaded)
+        self._writer = _Writer(self.tracer, threaded=threaded)
         switch = sys.getswitchinterval()
         sys.setswitchinterval(0.0005)     # hand the interpreter back to the player quickly
         try:
             cur, k = ahead.get(), 0
             while cur is not None and not self._signum:
+                if not isinstance(cur, Rows):        # a pause: wait once all is played
+                    self.backend.drain()
+                    if self.on_pause is not None:
+                        self.on_pause(cur)
+                    cur = ahead.get()
+                    continue
                 nxt = ahead.get()
                 if self.saves_state:
                     self._begin_motion()
                     # until the next record lands the motors are in this part or the next
-                    span = cur if nxt is None else Rows.concat([cur, nxt])
+                    span = cur if not isinstance(nxt, Rows) else Rows.concat([cur, nxt])
                     dev = np.abs(span.steps - np.asarray(self.counts)).max(axis=0)
                     down = self.pen_down or bool((cur.pen_us == self.cfg.pen.down_us).any())
                     self._writer.wait_journal(k - 1)
@@ -197,6 +221,8 @@ class Session:
                 self._played(cur, n)
                 if progress is not None:
                     progress(self.t_us, self.line)
+                if self.live is not None:
+                    self._publish()
                 if n < len(cur):
                     break
                 cur = nxt
@@ -211,14 +237,22 @@ class Session:
             self.stop = Stop(signum, self.counts, self.line)
             raise Interrupted(f"stopped by {signal.Signals(signum).name}", signum)
 
+    def _publish(self, force: bool = False) -> None:
+        shifts, lost_ns = self.backend.shifts()
+        self.live.update(self.t_us / 1e6, self.line, shifts, lost_ns / 1e9, force)
+
     def _played(self, part: Rows, n: int) -> None:
         if n <= 0:
             return
         done = part[:n]
-        if self._writer is not None:
-            self._writer.trace(done)
-        elif self.tracer is not None:
-            self.tracer.write(done)
+        if self.tracer is not None:
+            written = self.backend.written_us()
+            shown = done if written is None or len(written) < n else \
+                Rows(written[:n], done.coils, done.pen_us, done.line, done.steps)
+            if self._writer is not None:
+                self._writer.trace(shown)
+            else:
+                self.tracer.write(shown)
         self.counts = (int(done.steps[-1, 0]), int(done.steps[-1, 1]))
         self.t_us = int(done.t_us[-1])
         self.line = int(done.line[-1])
@@ -299,9 +333,19 @@ class _Failure:
 class _Ahead:
     """Computes the schedule's parts on a helper thread, a bounded number ahead."""
 
-    def __init__(self, chunks: Iterable[Rows], depth: int = 8):
+    def __init__(self, chunks: Iterable[Rows], depth: int = 8, split: bool = True,
+                 threaded: bool = True):
+        """split: cut the rows into journal stretches (only a run that stores the position
+        journals; a dry run plays whole chunks); threaded=False: compute each part when it
+        is asked for (a simulated machine waits for nobody)."""
+        self.split = split
         self.q: queue.Queue = queue.Queue(maxsize=depth)
         self.stopped = threading.Event()
+        self.thread = None
+        if not threaded:
+            self.parts = (p for rows in chunks
+                          for p in (_split(rows) if split and isinstance(rows, Rows) else (rows,)))
+            return
         self.thread = threading.Thread(target=self._run, args=(chunks,), daemon=True,
                                        name="vplotter-plan")
         self.thread.start()
@@ -318,7 +362,7 @@ class _Ahead:
     def _run(self, chunks) -> None:
         try:
             for rows in chunks:
-                for part in _split(rows):
+                for part in (_split(rows) if self.split and isinstance(rows, Rows) else (rows,)):
                     if not self._put(part):
                         return
             self._put(_END)
@@ -326,6 +370,8 @@ class _Ahead:
             self._put(_Failure(e))
 
     def get(self) -> Rows | None:
+        if self.thread is None:
+            return next(self.parts, None)
         item = self.q.get()
         if isinstance(item, _Failure):
             self.q.put(item)            # later calls see it too
@@ -337,48 +383,60 @@ class _Ahead:
 
     def close(self) -> None:
         self.stopped.set()
-        self.thread.join(timeout=5)
+        if self.thread is not None:
+            self.thread.join(timeout=5)
 
 
 class _Writer:
     """Writes journal records and trace rows in order on a helper thread (fsync and text
     formatting stay off the thread that drives the outputs)."""
 
-    def __init__(self, tracer):
+    def __init__(self, tracer, threaded: bool = True):
+        """threaded=False: write at once, on the calling thread."""
         self.tracer = tracer
         self.q: queue.Queue = queue.Queue(maxsize=64)   # a dry run must not outrun it unbounded
         self.landed = 0
         self.cond = threading.Condition()
         self.error: BaseException | None = None
-        self.thread = threading.Thread(target=self._run, daemon=True, name="vplotter-write")
-        self.thread.start()
+        self.thread = None
+        if threaded:
+            self.thread = threading.Thread(target=self._run, daemon=True, name="vplotter-write")
+            self.thread.start()
 
     def _run(self) -> None:
         while True:
             item = self.q.get()
             if item is None:
                 return
-            kind, args = item
             try:
-                if kind == "journal":
-                    journal, *rest = args
-                    journal.record(*rest)
-                    with self.cond:
-                        self.landed += 1
-                        self.cond.notify_all()
-                elif self.tracer is not None:
-                    self.tracer.write(args)
+                self._do(*item)
             except BaseException as e:  # noqa: BLE001 - reported by close()
                 self.error = e
                 with self.cond:
                     self.landed = 1 << 62
                     self.cond.notify_all()
 
+    def _do(self, kind: str, args) -> None:
+        if kind == "journal":
+            journal, *rest = args
+            journal.record(*rest)
+            with self.cond:
+                self.landed += 1
+                self.cond.notify_all()
+        elif self.tracer is not None:
+            self.tracer.write(args)
+
+    def _put(self, item) -> None:
+        if self.thread is None:
+            self._do(*item)
+        else:
+            self.q.put(item)
+
     def journal(self, journal, counts, dev, line: int, pen: str) -> None:
-        self.q.put(("journal", (journal, tuple(counts), tuple(int(d) for d in dev), line, pen)))
+        self._put(("journal", (journal, tuple(counts), tuple(int(d) for d in dev), line, pen)))
 
     def trace(self, rows: Rows) -> None:
-        self.q.put(("trace", rows))
+        self._put(("trace", rows))
 
     def wait_journal(self, records: int) -> None:
         with self.cond:
@@ -386,7 +444,8 @@ class _Writer:
                 self.cond.wait()
 
     def close(self) -> None:
-        self.q.put(None)
-        self.thread.join()
+        if self.thread is not None:
+            self.q.put(None)
+            self.thread.join()
         if self.error is not None:
             raise self.error

@@ -30,22 +30,49 @@ def load_config(args):
 
 
 def position(cfg, args, dry_run: bool):
-    """The position to start from. A dry run without a stored position assumes X0 Y0."""
-    from vplotter import job, kinematics, state
+    """The position to start from. Anything that will move or store the machine takes the
+    plotter lock first (a second mover fails here, exit 3, before reading a position that the
+    running one is changing); the session shares it, and it is released when the command ends.
+    A dry run takes no lock; without a stored position it assumes X0 Y0, after an unclean stop
+    it goes on but says how uncertain the stored position is."""
+    from vplotter import job, kinematics, lock, state
 
+    if not dry_run:
+        lock.acquire(lock_command(args))
     if dry_run and state.load() is None:
         kin = kinematics.from_config(cfg)
         cords = kin.inverse(kin.to_machine([[0.0, 0.0]]))[0]
         eprint("note: no calibrated position stored; the dry run assumes the pen at X0 Y0")
         return state.Position.at_cords(cords[0], cords[1], cfg.motors.steps_per_unit)
-    return job.load_position(cfg, getattr(args, "trust_position", False), dry_run)
+    pos = job.load_position(cfg, getattr(args, "trust_position", False), dry_run)
+    if dry_run and not pos.clean:
+        holder = lock.holder()
+        if holder is not None:
+            eprint(f"note: pid {holder['pid']} ({holder.get('command', 'vplotter')}) is moving "
+                   f"the plotter; the dry run starts from the position stored last")
+        else:
+            eprint(f"warning: the last stop was not clean (crash or power cut): the stored "
+                   f"position is uncertain by up to {job.uncertainty_mm(cfg, pos):.2f} mm; the "
+                   f"dry run starts from it (`vplotter calibrate --at X Y` makes it exact)")
+    return pos
+
+
+def lock_command(args) -> str:
+    """What the lock file says the holder does: `vplotter draw car.ngc`."""
+    words = ["vplotter", getattr(args, "command", None) or ""]
+    for name in ("file", "action", "what"):
+        v = getattr(args, name, None)
+        if isinstance(v, str):
+            words.append(v)
+    return " ".join(w for w in words if w)
 
 
 def add_machine_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--dry-run", action="store_true",
                    help="simulate with the fake backend: nothing moves, no state is saved")
-    p.add_argument("--backend", choices=("lgpio", "gpiozero", "fake"),
-                   help="GPIO backend (default: [gpio] backend in config.toml)")
+    p.add_argument("--backend", choices=("lgpio", "gpiozero", "fake", "serial"),
+                   help="GPIO backend (default: [gpio] backend in config.toml); serial: stream "
+                        "the drawing to a grbl controller on [serial] port (draw only)")
     p.add_argument("--trace", metavar="OUT.csv", help="write every GPIO change to a CSV trace")
     p.add_argument("--trust-position", action="store_true",
                    help="go on from the stored position after an unclean stop")
@@ -57,6 +84,8 @@ def session(args, cfg, command: str, pos):
     from vplotter.job import Session
 
     dry = getattr(args, "dry_run", False)
+    if args.backend == "serial":
+        raise MachineError("error: --backend serial streams drawings: use it with `vplotter draw`")
     name = "fake" if dry else (args.backend or cfg.gpio.backend)
     # --backend fake is a simulated machine (lock, stored position); --dry-run touches nothing
     return Session(cfg, command, name, dry, args.trace, args.realtime, pos)
@@ -103,8 +132,9 @@ def run_records(args, cfg, command: str, pos, records) -> int:
     """Validate, then play records on the machine (used by jog, goto and home)."""
     from vplotter import pipeline
 
-    pipeline.validate(cfg, records, pos.counts, pos.ref_mm, command)
+    summary = pipeline.validate(cfg, records, pos.counts, pos.ref_mm, command)
     with session(args, cfg, command, pos) as s:
-        s.play(stream_rows(cfg, records, pos, command))
+        s.play(pipeline.replay(cfg, summary.plan, pos.counts, pos.ref_mm) if summary.plan is not None
+               else stream_rows(cfg, records, pos, command))
     return 0
 
