@@ -20,7 +20,6 @@ from __future__ import annotations
 import inspect
 import time
 
-import numpy as np
 
 from vplotter.backends import Backend
 from vplotter.backends.lgpio_pen import PenTrains
@@ -48,14 +47,17 @@ class LgpioBackend(Backend):
         self.sleep = sleep or time.sleep
         self.handle: int | None = None
         self.pen: PenTrains | None = None
-        if "min_step_us" in inspect.signature(Player).parameters:   # the player's own floor
-            timing = {"min_step_us": 1e6 / cfg.motors.max_step_rate, **timing}
+        if "min_step_us" in inspect.signature(Player).parameters and cfg.motors.driver == "uln2003":
+            timing = {"min_step_us": 1e6 / cfg.motors.max_step_rate, **timing}   # coils only
         self._player = Player(self._write_coils, self._write_pen, self.clock, self.sleep,
                               **timing)
-        self._late = Folded()
+        self._player.coils = self.idle_word
 
     # ------------------------------------------------------------ open / close
     def open(self) -> None:
+        if self.cfg.pen.kind != "servo":
+            raise BackendError(f"error: the lgpio backend drives a servo pen; for [pen] kind = "
+                               f"\"{self.cfg.pen.kind}\" use --backend gpiozero")
         for w in (self.cfg.pen.up_us, self.cfg.pen.down_us):
             if not 500 <= w <= 2500:
                 raise BackendError(f"error: lgpio makes servo pulses of 500..2500 us, not {w} "
@@ -72,7 +74,8 @@ class LgpioBackend(Backend):
             raise chip_error(self.chip, f"error code {h}")
         self.handle = h
         try:
-            lg.group_claim_output(h, list(self.coil_pins), [0] * len(self.coil_pins))
+            idle = [self.idle_word >> b & 1 for b in range(len(self.coil_pins))]
+            lg.group_claim_output(h, list(self.coil_pins), idle)
             lg.gpio_claim_output(h, self.pen_pin, 0)
         except lg.error as e:
             self.close()
@@ -88,7 +91,7 @@ class LgpioBackend(Backend):
         lg, h = self.lg, self.handle
         if h is None:
             return
-        steps = [lambda: lg.group_write(h, self.leader, 0, self.mask)]
+        steps = [lambda: lg.group_write(h, self.leader, self.idle_word, self.mask)]
         if self.pen is not None:
             steps += [self.pen.wait, self.pen.release]
         steps += [lambda: lg.gpio_write(h, self.pen_pin, 0),
@@ -103,12 +106,7 @@ class LgpioBackend(Backend):
         self.handle = self.pen = None
 
     def lateness(self) -> dict | None:
-        self._fold()
-        stats = self._late.stats()
-        lat = self._player.lateness
-        if stats is not None and hasattr(lat, "shifts"):     # the player's timeline shifts
-            stats.update(shifts=lat.shifts, lost_ms=getattr(lat, "lost_ns", 0) / 1e6)
-        return stats
+        return self._player.lateness.stats()
 
     # ------------------------------------------------------------ play
     def play(self, rows: Rows) -> int:
@@ -120,8 +118,6 @@ class LgpioBackend(Backend):
             n = self._player.play(rows, lambda: self.stop_requested or pen.check())
         except self.lg.error as e:
             raise BackendError(f"error: lgpio failed while drawing: {e}") from None
-        finally:
-            self._fold()
         if pen.hung:
             self._hang()
         return n
@@ -133,17 +129,10 @@ class LgpioBackend(Backend):
 
     def _hang(self):
         try:
-            self.lg.group_write(self.handle, self.leader, 0, self.mask)
+            self.lg.group_write(self.handle, self.leader, self.idle_word, self.mask)
         except Exception:  # noqa: BLE001
             pass
         raise self.pen.emergency()
-
-    def _fold(self) -> None:
-        """Move the player's lateness samples into a bounded summary (memory stays flat)."""
-        ns = getattr(self._player.lateness, "ns", None)
-        if ns is not None and len(ns):
-            self._late.add(np.frombuffer(ns, dtype=np.int64))
-            del ns[:]
 
     def _write_coils(self, word: int, changed: int) -> None:
         self.lg.group_write(self.handle, self.leader, word, self.mask)
@@ -151,36 +140,10 @@ class LgpioBackend(Backend):
     def _write_pen(self, width: int) -> None:
         self.pen.start(width)
 
-
-class Folded:
-    """Lateness samples (ns) folded into fixed bins: 1 us bins up to 2 ms, then 1 % wide bins
-    up to 1000 s; p50/p99 to the bin, max and n exact, memory fixed."""
-
-    EDGES = np.concatenate((np.arange(0, 2_000_001, 1000),
-                            np.geomspace(2_000_000, 1e12, 1300)[1:])).astype(np.float64)
-
-    def __init__(self):
-        self.counts = np.zeros(len(self.EDGES) + 1, dtype=np.int64)
-        self.max_ns: int | None = None
-        self.n = 0
-
-    def add(self, ns: np.ndarray) -> None:
-        if not len(ns):
-            return
-        self.counts += np.bincount(np.searchsorted(self.EDGES, ns, side="right"),
-                                   minlength=len(self.counts))
-        m = int(ns.max())
-        self.max_ns = m if self.max_ns is None else max(self.max_ns, m)
-        self.n += len(ns)
-
-    def stats(self) -> dict | None:
-        if not self.n:
-            return None
-        cum = np.cumsum(self.counts)
-        upper = np.concatenate((self.EDGES, [np.inf]))
-
-        def pct(q):
-            k = int(np.searchsorted(cum, q * self.n, side="left"))
-            return min(float(upper[k]), self.max_ns) / 1e6
-
-        return {"p50_ms": pct(0.5), "p99_ms": pct(0.99), "max_ms": self.max_ns / 1e6, "n": self.n}
+    def read_input(self, pin: int) -> bool:
+        lg, h = self.lg, self.handle
+        lg.gpio_claim_input(h, pin, lg.SET_PULL_UP)
+        try:
+            return bool(lg.gpio_read(h, pin))
+        finally:
+            lg.gpio_free(h, pin)
