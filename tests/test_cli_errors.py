@@ -171,7 +171,8 @@ def test_help_is_fast_and_imports_nothing_heavy():
     import sys
 
     code = ("import sys; from vplotter.cli import main; rc = main(['--help']); "
-            "heavy = [m for m in ('numpy', 'gpiozero', 'lgpio', 'tomlkit') if m in sys.modules]; "
+            "heavy = [m for m in ('numpy', 'gpiozero', 'lgpio', 'tomlkit', 'svgelements', "
+            "'PIL', 'serial') if m in sys.modules]; "
             "print(heavy); sys.exit(rc)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert out.returncode == 0

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import re
 import tomllib
 
 import pytest
@@ -144,3 +145,28 @@ def test_load_names_the_file_in_errors(tmp_path, config_path):
     with pytest.raises(ConfigError) as e:
         config.load(p)
     assert str(e.value) == f"{p}: [motors] max_step_rate must be above 0 (got -5)"
+
+
+def test_gcode_section_defaults_are_the_classic_pen_rules(seed):
+    from vplotter.inputs.gcode import CLASSIC
+
+    seed.pop("gcode", None)
+    assert config.from_dict(seed).gcode == CLASSIC
+
+
+def test_gcode_section_values_and_errors(seed):
+    seed["gcode"] = {"pen": "m280", "z_down_below_mm": 1.5, "m3_down": False, "m280_servo": 2,
+                     "m280_up_s": [100, 120], "m280_down_s": [10, 40.5]}
+    g = config.from_dict(seed).gcode
+    assert (g.pen, g.z_down_below_mm, g.m3_down, g.m280_servo) == ("m280", 1.5, False, 2)
+    assert (g.m280_up_s, g.m280_down_s) == ((100.0, 120.0), (10.0, 40.5))
+    for key, value, words in [("pen", "servo", "[gcode] pen must be one of"),
+                              ("m3_down", 1, "[gcode] m3_down must be true or false"),
+                              ("m280_up_s", [120, 100], "[gcode] m280_up_s must be [low, high]"),
+                              ("m280_up_s", 90, "[gcode] m280_up_s must be a range"),
+                              ("m280_down_s", [30, 110], "must not overlap"),
+                              ("z_down_below", 1, "unknown key [gcode] z_down_below (did you mean z_down_below_mm?)")]:
+        bad = copy.deepcopy(seed)
+        bad["gcode"][key] = value
+        with pytest.raises(ConfigError, match=re.escape(words)):
+            config.from_dict(bad)

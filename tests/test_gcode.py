@@ -583,3 +583,104 @@ def test_ij_and_r_forms_of_the_same_arc_have_the_same_centre(x0, y0, r, t, sweep
     assert ij.arc == rf.arc == (1 if code == 3 else -1)
     assert (rf.cx, rf.cy) == pytest.approx((ij.cx, ij.cy), abs=1e-7 * r + 1e-9)
     assert (ij.cx, ij.cy) == pytest.approx((cx, cy), abs=1e-9)
+
+
+# ------------------------------------------------------------------ pen dialects ([gcode])
+def dialect_parse(text: str, strict: bool = False, **kw):
+    """(pen changes as (line, down), warnings) under a dialect, mode chosen as read() does."""
+    d = gcode.PenDialect(**kw)
+    lines = text.split("\n")
+    mode = gcode.detect_pen_mode(lines, d.m280_servo) if d.pen == "auto" else gcode.PEN_MODES[d.pen]
+    warnings: list[str] = []
+    recs = list(gcode.parse_lines(lines, NAME, mode, strict, warnings.append, d))
+    return [(r.line, r.down) for r in recs if isinstance(r, Pen)], warnings
+
+
+def dialect_error(text: str, **kw) -> str:
+    with pytest.raises(InputError) as e:
+        dialect_parse(text, **kw)
+    assert "\n" not in str(e.value)
+    return str(e.value)
+
+
+def test_classic_dialect_is_todays_behaviour():
+    text = "G0 Z5\nG1 Z-1\nG1 X1\nG0 Z0\nM3\nM5"
+    assert dialect_parse(text)[0] == [(r.line, r.down) for r in records(text) if isinstance(r, Pen)]
+    assert gcode.PenDialect() == gcode.CLASSIC
+
+
+def test_z_threshold():
+    text = "G0 Z5\nG1 Z2\nG1 X1\nG0 Z3\nG1 Z-1\nG0 Z2.5"
+    assert dialect_parse(text, z_down_below_mm=2.5)[0] == [(2, True), (4, False), (5, True), (6, False)]
+    assert dialect_parse(text)[0] == [(5, True), (6, False)]
+
+
+def test_m3_m5_reversed():
+    text = "M5\nG1 X1\nM3\nG0 X0"
+    assert dialect_parse(text, m3_down=False)[0] == [(1, True), (3, False)]
+    assert dialect_parse(text)[0] == [(3, True)]
+
+
+MAKELANGELO = """; Makelangelo-style file
+G21
+G90
+M280 P0 S90 T50
+G0 X10 Y10
+M280 P0 S25 T50
+G1 X20 Y10 F3000
+M280 P0 S90
+G0 X0 Y0
+M280 P1 S10"""
+
+
+def test_m280_servo_angles_move_the_pen():
+    pens, warnings = dialect_parse(MAKELANGELO)
+    assert pens == [(6, True), (8, False)]            # the first S90 is "up": already up
+    assert warnings == [f"{NAME}: warning: ignored codes that change nothing for a pen plotter: M280 P1"]
+    # configurable up/down ranges: S90 now lowers, S25 lifts
+    pens, _ = dialect_parse(MAKELANGELO, m280_up_s=(0, 30), m280_down_s=(80, 100))
+    assert pens == [(4, True), (6, False), (8, True)]
+    # another servo number is the pen
+    pens, _ = dialect_parse(MAKELANGELO.replace("P1 S10", "P1 S10\nM280 P1 S100\nM280 P1 S0"),
+                            m280_servo=1, pen="m280")
+    assert pens == [(10, True), (11, False), (12, True)]
+
+
+def test_m280_value_neither_up_nor_down_is_an_error_at_its_place():
+    msg = dialect_error(MAKELANGELO.replace("S25 T50", "S60 T50"))
+    assert msg.startswith(f"{NAME}:6:9: error: M280 S60 is neither pen up (S 70..180) nor pen down (S 0..50)")
+    assert "m280_down_s" in msg
+    assert dialect_error("M280 P0").startswith(f"{NAME}:1:1: error: M280 needs P")
+    assert dialect_error("M280 S20").startswith(f"{NAME}:1:1: error: M280 needs P")
+    assert "cannot share" in dialect_error("G4 M280 P0 S20")
+
+
+def test_a_file_that_mixes_pen_modes():
+    mixed = "M3\nM280 P0 S20\nG1 X1 Z-1\nG1 X2 Z1\nM5\nM280 P0 S120\nG0 X0"
+    # auto: the first M280 or Z decides (here M280); Z and M3/M5 then change nothing, with a note
+    pens, warnings = dialect_parse(mixed)
+    assert pens == [(2, True), (6, False)]
+    assert "M3, M5, Z x2" in warnings[0]
+    # the config can choose another mode: the M280 lines are then ignored, S ranges unchecked
+    assert dialect_parse(mixed, pen="z")[0] == [(3, True), (4, False)]
+    assert dialect_parse(mixed.replace("S20", "S60"), pen="z")[0] == [(3, True), (4, False)]
+    assert dialect_parse(mixed, pen="m3")[0] == [(1, True), (5, False)]
+    # Z first: a Z file (today's rule), its M280 ignored
+    pens, warnings = dialect_parse("G0 Z5\n" + mixed)
+    assert pens == [(4, True), (5, False)] and "M280 P0 x2" in warnings[0]
+
+
+def test_m280_words_p_s_t_are_not_reported_as_ignored_or_dwell():
+    pens, warnings = dialect_parse("M280 P0 S30 T100\nG1 X1\nM280 P0 S100 T100")
+    assert pens == [(1, True), (3, False)] and warnings == []
+
+
+def test_read_uses_the_dialect(tmp_path):
+    p = tmp_path / "m.gcode"
+    p.write_text(MAKELANGELO)
+    pens = [(r.line, r.down) for r in gcode.read(str(p), warn=lambda m: None) if isinstance(r, Pen)]
+    assert pens == [(6, True), (8, False)]
+    rev = gcode.PenDialect(pen="m3", m3_down=False)
+    p.write_text("M5\nG1 X1\nM3")
+    assert [(r.line, r.down) for r in gcode.read(str(p), dialect=rev) if isinstance(r, Pen)] == [
+        (1, True), (3, False)]

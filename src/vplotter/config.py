@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from vplotter.errors import ConfigError
+from vplotter.inputs.gcode import PenDialect as Gcode   # [gcode]: how files move the pen
 
 DRIVES = ("half", "full", "wave")
 KINDS = ("vplotter", "polar")
@@ -195,6 +196,7 @@ class Config:
     gondola: Gondola = Gondola(0.0, 0.0)
     cords: Cords = Cords(0.0)
     serial: Serial | None = None
+    gcode: Gcode = Gcode()
     path: str = "config.toml"
     polar: Polar | None = None
 
@@ -288,14 +290,22 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "pen_below_mm": ("float", 0.0, -1e4, 1e4),
     },
     "cords": {"stretch": ("float", 0.0, 0.0, 0.5)},
+    "gcode": {
+        "pen": ("str", "auto", ("auto", "z", "m3", "m280"), None),
+        "z_down_below_mm": ("float", 0.0, -1e4, 1e4),
+        "m3_down": ("bool", True, None, None),
+        "m280_servo": ("int", 0, 0, 255),
+        "m280_up_s": ("range", (70.0, 180.0), -1e4, 1e4),
+        "m280_down_s": ("range", (0.0, 50.0), -1e4, 1e4),
+    },
 }
-OPTIONAL_SECTIONS = {"gpio", "motion", "serial", "gondola", "cords"}
+OPTIONAL_SECTIONS = {"gpio", "motion", "serial", "gondola", "cords", "gcode"}
 # sections that belong to one machine kind; [page] is optional for the polar machine (its
 # default is the square around the table's reach)
 SECTION_WHEN = {"origin": "vplotter", "polar": "polar", "gondola": "vplotter", "cords": "vplotter"}
 SECTION_CLASSES = {"machine": Machine, "origin": Origin, "polar": Polar, "page": Page,
                    "motors": Motors, "pen": Pen, "motion": Motion, "gpio": Gpio,
-                   "serial": Serial, "gondola": Gondola, "cords": Cords}
+                   "serial": Serial, "gondola": Gondola, "cords": Cords, "gcode": Gcode}
 PEN_CODES = {"output": (1, 2), "switch": (1, 2)}    # up_us, down_us of the pen rows
 # values of the V-plotter's coil keys where they do not apply (the fields have no defaults)
 NOT_USED = {"drive": "half", "steps_per_rev": 0, "spool_circumference_mm": 0.0, "left_pins": (),
@@ -334,6 +344,15 @@ def _value(where: str, kind: str, raw: Any, lo: Any, hi: Any) -> Any:
             if not lo <= p <= hi:
                 raise ConfigError(f"{where} pin {p} is not a BCM number {lo}..{hi}")
         return tuple(raw)
+    if base == "range":
+        if (not isinstance(raw, list) or len(raw) != 2
+                or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in raw)):
+            raise ConfigError(f"{where} must be a range [low, high] (got {_fmt(raw)})")
+        low, high = float(raw[0]), float(raw[1])
+        if not lo <= low <= high <= hi:
+            raise ConfigError(f"{where} must be [low, high] with {_fmt(lo)} <= low <= high <= "
+                              f"{_fmt(hi)} (got {_fmt(raw)})")
+        return (low, high)
     if base == "int":
         if isinstance(raw, bool) or not isinstance(raw, int):
             raise ConfigError(f"{where} must be a whole number (got {_fmt(raw)})")
@@ -458,6 +477,10 @@ def _check_geometry(cfg: Config) -> None:
     if pg.y_min_mm >= pg.y_max_mm:
         raise ConfigError(f"{path}: [page] y_min_mm must be below y_max_mm "
                           f"(got {pg.y_min_mm:g} and {pg.y_max_mm:g})")
+    up, down = cfg.gcode.m280_up_s, cfg.gcode.m280_down_s
+    if up[0] <= down[1] and down[0] <= up[1]:
+        raise ConfigError(f"{path}: [gcode] m280_up_s {_fmt(list(up))} and m280_down_s "
+                          f"{_fmt(list(down))} must not overlap")
     if cfg.pen.up_us == cfg.pen.down_us:
         raise ConfigError(f"{path}: [pen] up_us and down_us must differ (both {cfg.pen.up_us})")
     if cfg.polar is not None:

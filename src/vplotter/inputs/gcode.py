@@ -64,6 +64,25 @@ class Dwell:
 Record = Move | Pen | Dwell
 Warn = Callable[[str], None]
 
+
+@dataclass(frozen=True)
+class PenDialect:
+    """How a file moves the pen (config.toml [gcode]; the defaults are the classic rules).
+
+    pen: 'auto' (the first Z word or M280 P<m280_servo> decides; neither: M3/M5), 'z', 'm3' or
+    'm280'. In each mode the other pen commands change nothing."""
+
+    pen: str = "auto"
+    z_down_below_mm: float = 0.0              # Z below this is down (G-code mm)
+    m3_down: bool = True                      # M3 lowers and M5 lifts (false: the reverse)
+    m280_servo: int = 0                       # M280 P<this> is the pen servo
+    m280_up_s: tuple[float, float] = (70.0, 180.0)    # S (servo angle) in this range: up
+    m280_down_s: tuple[float, float] = (0.0, 50.0)    # S in this range: down
+
+
+CLASSIC = PenDialect()
+PEN_MODES = {"z": "z", "m3": "m", "m280": "s"}
+
 # ASCII digits only: \d would accept other scripts' digits, which float() also takes.
 _NUMBER = re.compile(r"[ \t]*([+-]?[ \t]*(?:[0-9]+\.?[0-9]*|\.[0-9]+))")
 _CHECKSUM = re.compile(r"\*[ \t]*([0-9]+)")
@@ -75,9 +94,10 @@ def _blank(text: str) -> bool:
     return not _COMMENT.sub("", text).strip()
 
 
-def detect_pen_mode(lines: Iterable[str]) -> str:
+def detect_pen_mode(lines: Iterable[str], servo: int | None = None) -> str:
     """'z' if a Z word comes before the program end (Inkscape gcodetools, CamBam), else 'm'
-    (M3/M5). A line that does not tokenize ends the search: parsing will report it."""
+    (M3/M5). With `servo`, an M280 P<servo> (Makelangelo) that comes before any Z word gives
+    's'. A line that does not tokenize ends the search: parsing will report it."""
     for raw in lines:
         low = raw.lower()
         if "z" not in low and "m" not in low:  # cheap: most lines need no tokenizing
@@ -88,6 +108,9 @@ def detect_pen_mode(lines: Iterable[str]) -> str:
             return "m"
         if any(letter == "Z" for letter, _, _ in words):
             return "z"
+        if servo is not None and any(letter == "M" and value == 280.0 for letter, value, _ in words):
+            if any(letter == "P" and value == servo for letter, value, _ in words):
+                return "s"
         if any(letter == "M" and value in END_M for letter, value, _ in words):
             return "m"
     return "m"
@@ -169,9 +192,11 @@ def tokenize(raw: str, where: str) -> list[tuple[str, float, int]]:
 class Parser:
     """Holds the modal state between lines. Use `read()` rather than this class directly."""
 
-    def __init__(self, name: str, pen_mode: str, strict: bool, warn: Warn):
+    def __init__(self, name: str, pen_mode: str, strict: bool, warn: Warn,
+                 dialect: PenDialect = CLASSIC):
         self.name = name
         self.pen_mode = pen_mode
+        self.dialect = dialect
         self.strict = strict
         self.warn = warn
         self.x = self.y = 0.0
@@ -247,10 +272,18 @@ class Parser:
         pen_change: bool | None = None
         pen_col = 0
         end_col = 0
+        servo_line = False
         for value, col in m_codes:
             if value in (3.0, 5.0):
                 if self.pen_mode == "m":  # in a Z-pen file M3/M5 drive a spindle: ignored
-                    pen_change, pen_col = value == 3.0, col
+                    pen_change, pen_col = (value == 3.0) == self.dialect.m3_down, col
+                elif self.pen_mode == "s":
+                    self._ignore(_fmt_code("M", value))
+            elif value == 280.0:
+                servo_line = True
+                change = self._servo(vals, line, col)
+                if change is not None:
+                    pen_change, pen_col = change, col
             elif value in END_M:
                 end_col = col
             elif value in IGNORED_M:
@@ -259,9 +292,10 @@ class Parser:
             else:
                 raise self._err(line, col, f"unsupported code {_fmt_code('M', value)}")
         for letter in ("S", "T"):
-            if letter in vals:
+            if letter in vals and not servo_line:
                 self.ignored[letter] = self.ignored.get(letter, 0) + 1
-        if "P" in vals and not dwell_col and not any(v == 64.0 for v, _ in g_codes):
+        if ("P" in vals and not dwell_col and not servo_line
+                and not any(v == 64.0 for v, _ in g_codes)):
             raise self._err(line, vals["P"][1], "P word without G4 (dwell)")
         if "F" in vals:
             f, col = vals["F"]
@@ -269,6 +303,8 @@ class Parser:
                 raise self._err(line, col, f"feed F must be above 0 (got {f:g})")
             self.feed_mm_s = f * self.scale / 60.0
 
+        if dwell_col and servo_line:
+            raise self._err(line, dwell_col, "G4 (dwell) and M280 cannot share a line (both use P)")
         if dwell_col:
             extra = [k for k in "XYZIJR" if k in vals]
             if extra or motion is not None:
@@ -295,7 +331,9 @@ class Parser:
             z *= self.scale
             self.z = (self.z or 0.0) + z if self.relative else z
             if self.pen_mode == "z":
-                pen_change, pen_col = self.z < 0, zcol
+                pen_change, pen_col = self.z < self.dialect.z_down_below_mm, zcol
+            elif self.pen_mode == "s":
+                self._ignore("Z")
         if pen_change is not None and pen_change != self.pen_down:
             self.pen_down = pen_change
             yield Pen(line, pen_col, pen_change)
@@ -305,6 +343,27 @@ class Parser:
             yield from self._move(vals, line, motion_col)
         if end_col:
             self.ended = True
+
+    def _ignore(self, key: str) -> None:
+        self.ignored[key] = self.ignored.get(key, 0) + 1
+
+    def _servo(self, vals: dict, line: int, col: int) -> bool | None:
+        """M280 P<servo> S<angle>: True (down) / False (up) in M280 pen mode, else None."""
+        if "P" not in vals or "S" not in vals:
+            raise self._err(line, col, "M280 needs P (servo number) and S (angle)")
+        p, s_value = vals["P"][0], vals["S"]
+        if self.pen_mode != "s" or p != self.dialect.m280_servo:
+            self._ignore(f"M280 P{p:g}")
+            return None
+        angle, scol = s_value
+        up, down = self.dialect.m280_up_s, self.dialect.m280_down_s
+        if down[0] <= angle <= down[1]:
+            return True
+        if up[0] <= angle <= up[1]:
+            return False
+        raise self._err(line, scol, f"M280 S{angle:g} is neither pen up (S {up[0]:g}..{up[1]:g}) "
+                                    f"nor pen down (S {down[0]:g}..{down[1]:g}); see [gcode] "
+                                    f"m280_up_s and m280_down_s in the config")
 
     def _move(self, vals: dict, line: int, col: int) -> Iterator[Move]:
         s = self.scale
@@ -381,21 +440,28 @@ def _stderr(msg: str) -> None:
 
 
 def parse_lines(lines: Iterable[str], name: str = "<input>", pen_mode: str = "m",
-                strict: bool = False, warn: Warn = _stderr) -> Iterator[Record]:
-    """Parse an iterable of lines. pen_mode: 'z' (Z<0 is down) or 'm' (M3 down, M5 up)."""
-    p = Parser(name, pen_mode, strict, warn)
+                strict: bool = False, warn: Warn = _stderr,
+                dialect: PenDialect = CLASSIC) -> Iterator[Record]:
+    """Parse an iterable of lines. pen_mode: 'z' (Z below the threshold is down), 'm' (M3/M5)
+    or 's' (M280 servo angles); `dialect` gives the values."""
+    p = Parser(name, pen_mode, strict, warn, dialect)
     for number, raw in enumerate(lines, 1):
         yield from p.block(raw, number)
     p.finish()
 
 
-def read(path: str, strict: bool = False, warn: Warn = _stderr) -> Iterator[Record]:
-    """Stream the records of a G-code file (two passes: pen mode first, then the records)."""
+def read(path: str, strict: bool = False, warn: Warn = _stderr,
+         dialect: PenDialect = CLASSIC) -> Iterator[Record]:
+    """Stream the records of a G-code file (two passes: pen mode first, then the records).
+    `dialect` is config.toml's [gcode] (cfg.gcode)."""
     try:
+        if dialect.pen == "auto":
+            with open(path, encoding="utf-8-sig", errors="replace") as f:
+                mode = detect_pen_mode(f, dialect.m280_servo)
+        else:
+            mode = PEN_MODES[dialect.pen]
         with open(path, encoding="utf-8-sig", errors="replace") as f:
-            mode = detect_pen_mode(f)
-        with open(path, encoding="utf-8-sig", errors="replace") as f:
-            yield from parse_lines(f, path, mode, strict, warn)
+            yield from parse_lines(f, path, mode, strict, warn, dialect)
     except FileNotFoundError:
         raise InputError(f"{path}: error: no such file") from None
     except IsADirectoryError:

@@ -1,0 +1,424 @@
+"""SVG file -> Drawing: the outline of every visible shape as strokes in G-code millimetres.
+
+The XML is walked here (expat: it gives each element's line and column for messages); path
+data and transform lists are parsed by svgelements; units, viewBox and the display/visibility
+cascade are in `svg_style.py`, curves in `svg_geom.py`. The rules (README, section "SVG"):
+
+- drawn: path, line, polyline, polygon, rect (rx/ry), circle, ellipse, and `<use>` instances,
+  whatever their stroke and fill, as outlines; each subpath is one stroke;
+- skipped: <text>/<flowRoot> (counted, one warning), <image> (counted), what sits in defs,
+  symbol, clipPath, mask, marker, pattern unless a <use> places it, and anything hidden
+  (display:none on itself or an ancestor; visibility:hidden, inherited, undone by
+  visibility:visible below): hidden drawable elements are counted;
+- default placement: the page (0..width, 0..height mm, y down) centred on G-code X0 Y0 with +Y
+  up: X = x - width/2, Y = height/2 - y.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Callable
+
+from vplotter.errors import InputError
+from vplotter.inputs.strokes import Drawing, Stroke
+
+SVG_NS = "http://www.w3.org/2000/svg"
+PREFIXES = {"http://www.inkscape.org/namespaces/inkscape": "inkscape:",
+            "http://www.w3.org/1999/xlink": "xlink:",
+            "http://sodipodi.sourceforge.net/DTD/sodipodi-0.dtd": "sodipodi:",
+            "http://www.w3.org/XML/1998/namespace": "xml:"}
+SHAPES = {"path", "rect", "circle", "ellipse", "line", "polyline", "polygon"}
+TEXT = {"text", "flowRoot"}
+CONTAINERS = {"g", "a", "svg", "switch"}
+# Not drawn where they stand (only a <use> can place a symbol or what sits in defs).
+NOT_RENDERED = {"defs", "symbol", "clipPath", "mask", "marker", "pattern", "style", "script",
+                "linearGradient", "radialGradient", "filter", "foreignObject", "metadata",
+                "title", "desc", "font", "font-face", "view", "cursor"}
+MAX_INSTANCES = 2_000_000   # elements visited, <use> instances included (nested uses explode)
+MM_PER_PX = 25.4 / 96.0
+
+Warn = Callable[[str], None]
+
+
+def _stderr(msg: str) -> None:
+    import sys
+
+    print(msg, file=sys.stderr)
+
+
+class Node:
+    __slots__ = ("tag", "svg", "attrs", "children", "text", "line", "col", "num")
+
+    def __init__(self, tag, svg, attrs, line, col, num):
+        self.tag, self.svg, self.attrs = tag, svg, attrs
+        self.children: list[Node] = []
+        self.text: list[str] = []
+        self.line, self.col, self.num = line, col, num
+
+    def src(self) -> str:
+        return self.attrs.get("id") or f"{self.tag}#{self.num}"
+
+
+def _qualify(name: str) -> tuple[str, str]:
+    """'uri local' (expat with a namespace separator) -> (uri, local)."""
+    uri, _, local = name.rpartition(" ")
+    return uri, local
+
+
+def load_tree(path: str) -> tuple[Node, dict[str, Node]]:
+    """Parse the file into Nodes (every element numbered 1, 2, ... in document order) and the
+    id table (the first element with an id wins)."""
+    import gzip
+    import zlib
+    from xml.parsers import expat
+
+    parser = expat.ParserCreate(namespace_separator=" ")
+    stack: list[Node] = []
+    ids: dict[str, Node] = {}
+    holder: list[Node] = []
+    root_uri: list[str] = []
+    numbered: list[Node] = []
+
+    def start(name, attrs):
+        uri, tag = _qualify(name)
+        if not stack:
+            root_uri.append(uri)
+        # a file without xmlns is taken as SVG throughout; otherwise only the SVG namespace
+        svg = uri == SVG_NS or (uri == "" and root_uri[0] == "")
+        plain = {}
+        for key, value in attrs.items():
+            kuri, local = _qualify(key)
+            plain[PREFIXES.get(kuri, f"{{{kuri}}}" if kuri else "") + local] = value
+        numbered.append(node := Node(tag, svg, plain, parser.CurrentLineNumber,
+                                     parser.CurrentColumnNumber + 1, len(numbered) + 1))
+        if stack:
+            stack[-1].children.append(node)
+        else:
+            holder.append(node)
+        stack.append(node)
+        ident = plain.get("id")
+        if ident and ident not in ids:
+            ids[ident] = node
+
+    def end(name):
+        stack.pop()
+
+    def chars(data):
+        if stack and stack[-1].tag == "style":
+            stack[-1].text.append(data)
+
+    parser.StartElementHandler = start
+    parser.EndElementHandler = end
+    parser.CharacterDataHandler = chars
+    try:
+        with open(path, "rb") as f:
+            if f.read(2) == b"\x1f\x8b":              # .svgz: gzip-compressed SVG
+                f.seek(0)
+                with gzip.GzipFile(fileobj=f) as z:
+                    parser.ParseFile(z)
+            else:
+                f.seek(0)
+                parser.ParseFile(f)
+    except (gzip.BadGzipFile, EOFError, zlib.error) as e:
+        raise InputError(f"{path}: error: not a valid gzip-compressed SVG (.svgz): {e}") from None
+    except expat.ExpatError as e:
+        raise InputError(f"{path}:{e.lineno}:{e.offset + 1}: error: not well-formed XML: "
+                         f"{expat.ErrorString(e.code)}") from None
+    except FileNotFoundError:
+        raise InputError(f"{path}: error: no such file") from None
+    except IsADirectoryError:
+        raise InputError(f"{path}: error: is a directory, not an SVG file") from None
+    except OSError as e:
+        raise InputError(f"{path}: error: cannot read: {e.strerror}") from None
+    root = holder[0]
+    if root.tag != "svg" or not root.svg:
+        raise InputError(f"{path}:{root.line}:{root.col}: error: not an SVG file (the root "
+                         f"element is <{root.tag}>, not <svg>)")
+    return root, ids
+
+
+@dataclass(frozen=True)
+class _Ctx:
+    """What an element inherits from where it stands."""
+
+    m: object                     # 3x3 numpy: user units here -> G-code mm
+    vp: tuple[float, float]       # viewport size in user units (for percentages)
+    none: bool = False            # display:none on an ancestor
+    vis: str = "visible"          # inherited visibility
+    layer: str | None = None      # innermost Inkscape layer (label or id)
+    selected: bool = True         # inside a layer that --layer asked for (or no --layer)
+    use: Node | None = None       # outermost <use> this instance comes from
+    stack: tuple = ()             # ids of <use> targets being expanded (cycle guard)
+
+
+class _Reader:
+    def __init__(self, path: str, tol_mm: float, layers: list[str] | None, warn: Warn):
+        from vplotter.inputs import svg_style
+
+        self.path, self.tol_mm, self.wanted, self.warn = path, tol_mm, layers, warn
+        self.style = svg_style
+        self.sheet = svg_style.StyleSheet()
+        self.strokes: list[Stroke] = []
+        self.layers: list[dict] = []
+        self.skipped = {"text": 0, "image": 0, "hidden": 0}
+        self.missing: set[str] = set()
+        self.visits = 0
+
+    def err(self, node: Node, msg: str) -> InputError:
+        return InputError(f"{self.path}:{node.line}:{node.col}: error: <{node.tag}> {msg}")
+
+    def length(self, node: Node, name: str, ref: float | None, default: float | None = 0.0):
+        try:
+            value = self.style.length(node.attrs.get(name), ref)
+        except self.style.BadValue as e:
+            raise self.err(node, f"{name}: {e}") from None
+        return default if value is None else value
+
+    # -------------------------------------------------------------- document
+    def read(self) -> Drawing:
+        import numpy as np
+
+        root, self.ids = load_tree(self.path)
+        self.collect_styles(root)
+        st = self.style
+        try:
+            vb = st.view_box(root.attrs.get("viewBox"))
+            w_mm = self.root_size(root, "width")
+            h_mm = self.root_size(root, "height")
+        except st.BadValue as e:
+            raise self.err(root, str(e)) from None
+        if w_mm is None or h_mm is None:
+            if vb is None:
+                raise self.err(root, "has no width/height (in mm, cm, in, pt, pc or px) and no "
+                                     "viewBox: the size of the drawing is unknown")
+            w_mm = vb[2] * MM_PER_PX if w_mm is None else w_mm
+            h_mm = vb[3] * MM_PER_PX if h_mm is None else h_mm
+        if not (w_mm > 0 and h_mm > 0):
+            raise self.err(root, f"width and height must be above 0 (got {w_mm:g} x {h_mm:g} mm)")
+        w_px, h_px = w_mm / MM_PER_PX, h_mm / MM_PER_PX
+        if vb is None:
+            user_to_mm = np.diag([MM_PER_PX, MM_PER_PX, 1.0])
+            vp = (w_px, h_px)
+        else:
+            try:
+                user_to_mm = st.viewport_matrix(vb, w_mm, h_mm,
+                                                root.attrs.get("preserveAspectRatio"))
+            except st.BadValue as e:
+                raise self.err(root, str(e)) from None
+            vp = (vb[2], vb[3])
+        to_gcode = np.array([[1.0, 0.0, -w_mm / 2], [0.0, -1.0, h_mm / 2], [0.0, 0.0, 1.0]])
+        ctx = _Ctx(to_gcode @ user_to_mm, vp, selected=not self.wanted)
+        try:
+            self.walk(root, ctx, root=True)
+        except RecursionError:
+            raise InputError(f"{self.path}: error: elements are nested too deeply") from None
+        self.check_layers()
+        if self.skipped["text"]:
+            n = self.skipped["text"]
+            self.warn(f"{self.path}: warning: {n} text element{'s' if n > 1 else ''} skipped: "
+                      f"convert text to paths")
+        return Drawing(self.path, self.strokes, w_mm, h_mm, self.layers, self.skipped)
+
+    def root_size(self, root: Node, name: str) -> float | None:
+        text = root.attrs.get(name)
+        if text is None or text.strip() in ("", "auto") or text.strip().endswith("%"):
+            return None
+        return self.style.length_mm(text)
+
+    def collect_styles(self, node: Node) -> None:
+        todo = [node]
+        while todo:
+            n = todo.pop()
+            if n.tag == "style" and n.svg and n.attrs.get("type", "text/css") in ("text/css", ""):
+                self.sheet.add("".join(n.text))
+            todo.extend(n.children)
+
+    def check_layers(self) -> None:
+        if not self.wanted:
+            return
+        names = {d["label"] for d in self.layers} | {d["id"] for d in self.layers if d["id"]}
+        unknown = [w for w in self.wanted if w not in names]
+        if unknown:
+            have = ", ".join(repr(d["label"]) for d in self.layers) or "none"
+            raise InputError(f"{self.path}: error: no layer {unknown[0]!r} (layers: {have})")
+        for d in self.layers:
+            if not d["visible"] and (d["label"] in self.wanted or d["id"] in self.wanted):
+                self.warn(f"{self.path}: warning: layer {d['label']!r} is hidden: nothing of "
+                          f"it is drawn")
+
+    # -------------------------------------------------------------- walking
+    def walk(self, node: Node, ctx: _Ctx, root: bool = False) -> None:
+        if not node.svg or node.tag in NOT_RENDERED:
+            return
+        self.visits += 1
+        if self.visits > MAX_INSTANCES:
+            raise InputError(f"{self.path}: error: more than {MAX_INSTANCES} elements "
+                             f"(<use> instances included)")
+        tag = node.tag
+        own = self.style.own_style(self.sheet, tag, node.attrs)
+        vis = own.get("visibility", "inherit")
+        ctx = replace(ctx, none=ctx.none or own.get("display") == "none",
+                      vis=vis if vis in ("visible", "hidden", "collapse") else ctx.vis)
+        if tag in TEXT:
+            self.skipped["text"] += ctx.selected
+            return
+        if tag == "image":
+            self.skipped["image"] += ctx.selected
+            return
+        if tag in SHAPES:
+            if ctx.selected:
+                if ctx.none or ctx.vis != "visible":
+                    self.skipped["hidden"] += 1
+                else:
+                    self.draw(node, ctx)
+            return
+        if tag == "use":
+            self.use(node, ctx)
+            return
+        if tag not in CONTAINERS:
+            return                                   # unknown elements draw nothing
+        m = ctx.m if root else ctx.m @ self.transform(node)
+        ctx = replace(ctx, m=m)
+        if tag == "svg" and not root:
+            ctx = self.nested_viewport(node, ctx)
+        if (tag == "g" and node.attrs.get("inkscape:groupmode") == "layer"
+                and ctx.use is None):
+            ctx = self.layer(node, ctx)
+        children = node.children
+        if tag == "switch":                          # the first child that can be shown
+            children = [c for c in children if c.svg and c.tag != "foreignObject"][:1]
+        for child in children:
+            self.walk(child, ctx)
+
+    def transform(self, node: Node):
+        try:
+            return self.style.transform(node.attrs.get("transform"))
+        except self.style.BadValue as e:
+            raise self.err(node, str(e)) from None
+
+    def layer(self, node: Node, ctx: _Ctx) -> _Ctx:
+        ident = node.attrs.get("id")
+        label = node.attrs.get("inkscape:label") or ident or f"layer {len(self.layers) + 1}"
+        self.layers.append({"id": ident, "label": label,
+                            "visible": not ctx.none and ctx.vis == "visible"})
+        selected = ctx.selected or label in (self.wanted or ()) or (
+            ident is not None and ident in (self.wanted or ()))
+        return replace(ctx, layer=label, selected=selected)
+
+    def viewport(self, node: Node, ctx: _Ctx, x: float, y: float, w: float, h: float,
+                 vb_node: Node) -> _Ctx:
+        st = self.style
+        try:
+            vb = st.view_box(vb_node.attrs.get("viewBox"))
+            m = ctx.m @ st.translate(x, y)
+            if vb is not None:
+                m = m @ st.viewport_matrix(vb, w, h, vb_node.attrs.get("preserveAspectRatio"))
+        except st.BadValue as e:
+            raise self.err(vb_node, str(e)) from None
+        return replace(ctx, m=m, vp=(vb[2], vb[3]) if vb is not None else (w, h))
+
+    def nested_viewport(self, node: Node, ctx: _Ctx) -> _Ctx:
+        vw, vh = ctx.vp
+        x, y = self.length(node, "x", vw), self.length(node, "y", vh)
+        w, h = self.length(node, "width", vw, vw), self.length(node, "height", vh, vh)
+        return self.viewport(node, ctx, x, y, w, h, node)
+
+    def use(self, node: Node, ctx: _Ctx) -> None:
+        href = node.attrs.get("href", node.attrs.get("xlink:href", "")).strip()
+        target = self.ids.get(href[1:]) if href.startswith("#") else None
+        if target is None:
+            if href not in self.missing:
+                self.missing.add(href)
+                self.warn(f"{self.path}:{node.line}:{node.col}: warning: <use> target "
+                          f"{href or '(none)'!r} not found: skipped")
+            return
+        if href in ctx.stack:
+            raise self.err(node, f"refers to itself through {href!r}")
+        vw, vh = ctx.vp
+        x, y = self.length(node, "x", vw), self.length(node, "y", vh)
+        inner = replace(ctx, m=ctx.m @ self.transform(node), use=ctx.use or node,
+                        stack=ctx.stack + (href,))
+        if target.tag == "symbol" and target.svg:
+            # a symbol is a viewport of the <use>'s width/height (default: its own, or 100 %)
+            w = self.length(node, "width", vw, None)
+            h = self.length(node, "height", vh, None)
+            w = self.length(target, "width", vw, vw) if w is None else w
+            h = self.length(target, "height", vh, vh) if h is None else h
+            inner = self.viewport(node, inner, x, y, w, h, target)
+            own = self.style.own_style(self.sheet, "symbol", target.attrs)
+            vis = own.get("visibility", "inherit")
+            if vis in ("visible", "hidden", "collapse"):
+                inner = replace(inner, vis=vis)
+            for child in target.children:
+                self.walk(child, inner)
+            return
+        inner = replace(inner, m=inner.m @ self.style.translate(x, y))
+        if target.tag in NOT_RENDERED:              # e.g. <use href="#defs">: nothing
+            return
+        self.walk(target, inner)
+
+    # -------------------------------------------------------------- shapes
+    def subpaths(self, node: Node, vp: tuple[float, float]):
+        from vplotter.inputs import svg_geom as geo
+
+        tag, a = node.tag, node.attrs
+        vw, vh = vp
+        diag = math.sqrt((vw * vw + vh * vh) / 2)
+        L = self.length
+        if tag == "path":
+            try:
+                return geo.path_data(a.get("d", ""))
+            except ValueError as e:
+                raise self.err(node, f"d: {e}") from None
+        if tag == "rect":
+            w, h = L(node, "width", vw), L(node, "height", vh)
+            if w < 0 or h < 0:
+                raise self.err(node, "width and height must not be negative")
+            return geo.rect(L(node, "x", vw), L(node, "y", vh), w, h,
+                            L(node, "rx", vw, None), L(node, "ry", vh, None))
+        if tag == "circle":
+            r = L(node, "r", diag)
+            if r < 0:
+                raise self.err(node, "r must not be negative")
+            return geo.ellipse(L(node, "cx", vw), L(node, "cy", vh), r, r)
+        if tag == "ellipse":
+            rx, ry = L(node, "rx", vw, None), L(node, "ry", vh, None)
+            rx, ry = (ry if rx is None else rx), (rx if ry is None else ry)  # SVG 2 auto
+            if (rx or 0) < 0 or (ry or 0) < 0:
+                raise self.err(node, "rx and ry must not be negative")
+            return geo.ellipse(L(node, "cx", vw), L(node, "cy", vh), rx or 0.0, ry or 0.0)
+        if tag == "line":
+            return [((L(node, "x1", vw), L(node, "y1", vh)),
+                     [("L", L(node, "x2", vw), L(node, "y2", vh))], False)]
+        try:
+            values = self.style.numbers(a.get("points"))
+        except self.style.BadValue as e:
+            raise self.err(node, f"points: {e}") from None
+        if len(values) % 2:
+            raise self.err(node, "points: an odd number of coordinates")
+        return geo.poly(values, tag == "polygon")
+
+    def draw(self, node: Node, ctx: _Ctx) -> None:
+        from vplotter.inputs import svg_geom as geo
+
+        m = ctx.m @ self.transform(node)
+        source = ctx.use or node
+        line, src = source.num, source.src()
+        for sub in self.subpaths(node, ctx.vp):
+            try:
+                pts = geo.flatten(sub, m, self.tol_mm)
+            except ValueError as e:
+                raise self.err(node, str(e)) from None
+            if pts is not None:
+                self.strokes.append(Stroke(pts, line, 0, None, ctx.layer, src))
+
+
+def read(path: str, tol_mm: float, layers: list[str] | None = None,
+         warn: Warn = _stderr) -> Drawing:
+    """Read an SVG file into a Drawing in G-code mm with the default placement (the page
+    centred on X0 Y0, +Y up). Curves stay within tol_mm of the true (transformed) curve.
+    `layers`: draw only these Inkscape layers (label or id). Raises InputError."""
+    if not tol_mm > 0:
+        raise ValueError("tol_mm must be above 0")
+    return _Reader(path, tol_mm, layers, warn).read()
