@@ -12,7 +12,7 @@ import argparse
 import sys
 from typing import Callable
 
-from vplotter.commands import draw, machine
+from vplotter.commands import draw, machine, pictures
 from vplotter.commands.common import eprint
 from vplotter.errors import BusyError, VplotterError
 
@@ -29,6 +29,10 @@ COMMANDS: dict[str, tuple[Callable, Callable, str]] = {
     "goto": (machine.cmd_goto, machine.add_goto, "move the pen (up) to a G-code point"),
     "home": (machine.cmd_home, machine.add_machine_options,
              "move the pen (up) to the last calibrated point"),
+    "preview": (pictures.cmd_preview, pictures.add_preview,
+                "picture (PNG/SVG) of the planned drawing: order, travel, page, anchors"),
+    "simulate": (pictures.cmd_simulate, pictures.add_simulate,
+                 "picture (PNG/SVG) of what a GPIO trace draws"),
 }
 
 
