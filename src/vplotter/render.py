@@ -76,6 +76,7 @@ class Shape:
 class Picture:
     width_px: int
     height_px: int
+    view: View
     shapes: list[Shape] = field(default_factory=list)
 
     def add(self, kind: str, pts, **kw) -> None:
@@ -98,7 +99,7 @@ def order_colours(n: int) -> list[str]:
 def _frame(view: View, kin, page, extra_mm=()) -> tuple[Picture, float]:
     """The page, the anchors, the G-code origin: what every picture shows around the drawing.
     Returns the picture and the line width unit (px) for the drawing."""
-    pic = Picture(view.width_px, view.height_px)
+    pic = Picture(view.width_px, view.height_px, view)
     u = _unit_px(view)
     pic.add("rect", [[0, 0], [view.width_px, view.height_px]], fill=WALL, colour=WALL, width=0)
     pic.add("rect", view.px([[page.x_min_mm, page.y_max_mm], [page.x_max_mm, page.y_min_mm]]),

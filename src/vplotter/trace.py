@@ -12,6 +12,7 @@ rows with equal t take effect together.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from typing import TextIO
 
@@ -130,7 +131,9 @@ def _load(path: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
                 raise InputError(f"{where} not a vplotter trace v1 (the second line must be "
                                  f"'{HEADER.splitlines()[1]}')")
             try:
-                rows = np.loadtxt(f, delimiter=",", comments="#", dtype=np.float64, ndmin=2)
+                with warnings.catch_warnings():       # "no data": reported below
+                    warnings.simplefilter("ignore", UserWarning)
+                    rows = np.loadtxt(f, delimiter=",", comments="#", dtype=np.float64, ndmin=2)
             except ValueError as e:
                 raise InputError(f"{where} not a trace v1 row: {e}") from None
     except OSError as e:
