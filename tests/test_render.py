@@ -322,3 +322,23 @@ def test_help_imports_nothing_heavy():
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip().splitlines()[-1] == "[0, 0, 0] []"
     assert "preview" in out.stdout and "--at X Y" in out.stdout
+
+
+def test_simulate_starts_at_the_stored_position(capsys, config_path, tmp_path, cfg):
+    """Without --at the trace starts where the stored position says (a dry run leaves it)."""
+    code, _, _ = run(capsys, ["--config", config_path, "calibrate", "--at", "30", "40"])
+    assert code == 0
+    t = _dry_trace(capsys, config_path, tmp_path, SAMPLES / "square.ngc")
+    view = render.preview([np.zeros((1, 2))], (0, 0), kinematics.from_config(cfg), cfg.page,
+                          "", 1600).view
+    centres = []
+    for extra in ([], ["--at", "0", "0"]):
+        code, _, _ = run(capsys, ["--config", config_path, "simulate", t, "-o",
+                                  tmp_path / "s.svg", *extra])
+        root = ET.parse(tmp_path / "s.svg").getroot()
+        down = [e for e in root.iter(f"{SVG}polyline") if e.get("class") == "down"][0]
+        p = np.array([q.split(",") for q in down.get("points").split()], float)
+        centres.append(((p.min(axis=0) + p.max(axis=0)) / 2 - view.px([(0, 0)])[0])
+                       / view.scale * [1, -1])
+    assert centres[0] == pytest.approx([0, 0], abs=0.05)           # the square where it is
+    assert centres[1] == pytest.approx([-30, -40], abs=3)          # moved with a wrong start

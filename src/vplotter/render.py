@@ -151,6 +151,11 @@ def _legend(pic: Picture, view: View, text: str, key: list[tuple[str, object, st
     kind "line" (a short line in that colour), "ring" or "order" (the order's colours)."""
     font = _font_px(view)
     u = _unit_px(view)
+    # on a narrow picture the legend's font shrinks to fit (text width estimated: sans-serif
+    # glyphs average about half the font size)
+    key_em = sum((5.0 if kind == "order" else 2.5) + 1 / 3 + 0.425 * len(label) + 1.2
+                 for kind, _, label in key)
+    font *= min(1.0, (view.width_px - 2 * view.margin_px) / (font * max(0.52 * len(text), key_em)))
     y2 = view.height_px - view.margin_px / 2
     y1 = y2 - 1.4 * font
     pic.add("text", [[view.margin_px, y1]], text=text, width=font, name="legend")
@@ -279,11 +284,18 @@ def png(pic: Picture):
                 draw.line(a + b, fill=s.colour, width=w)
         elif s.kind == "text":
             texts.append(s)
-    img = img.resize((pic.width_px, pic.height_px), Image.LANCZOS)
+    img = img.resize((pic.width_px, pic.height_px), getattr(Image, "Resampling", Image).LANCZOS)
     draw = ImageDraw.Draw(img)
     for s in texts:      # text at the final size: FreeType anti-aliases it already
-        anchor = {"start": "ls", "middle": "ms", "end": "rs"}[s.anchor]
-        draw.text(tuple(s.pts[0]), s.text, fill=s.colour, font=_pil_font(s.width), anchor=anchor)
+        font = _pil_font(s.width)
+        (x, y) = s.pts[0].tolist()
+        try:
+            draw.text((x, y), s.text, fill=s.colour, font=font,
+                      anchor={"start": "ls", "middle": "ms", "end": "rs"}[s.anchor])
+        except (ValueError, TypeError):     # Pillow < 10.1 without FreeType: a bitmap font
+            w = draw.textlength(s.text, font=font)
+            x -= {"start": 0.0, "middle": w / 2, "end": w}[s.anchor]
+            draw.text((x, y - 10), s.text, fill=s.colour, font=font)
     return img
 
 

@@ -99,22 +99,23 @@ def read_steps(path: str, motors, pen) -> Steps:
     t_us, pin, value = _load(path)
     coil = {"left": np.asarray(motors.left_pins), "right": np.asarray(motors.right_pins)}
     known = np.concatenate((coil["left"], coil["right"], [pen.pin]))
-    stray = np.setdiff1d(pin, known)
-    if len(stray):
-        raise InputError(f"{path}: error: pin {int(stray[0])} is not one of the config's pins "
-                         f"([motors] left_pins {list(coil['left'])}, right_pins "
+    stray = ~np.isin(pin, known)
+    if stray.any():
+        raise InputError(f"{path}: error: pin {int(pin[stray.argmax()])} is not one of the "
+                         f"config's pins ([motors] left_pins {list(coil['left'])}, right_pins "
                          f"{list(coil['right'])}, [pen] pin {pen.pin})")
-    missing = np.setdiff1d(known, pin)
-    if len(missing):
-        raise InputError(f"{path}: error: the trace has no rows for pin {int(missing[0])} of "
-                         f"the config (wrong config for this trace?)")
+    for k in known.tolist():
+        if not (pin == k).any():
+            raise InputError(f"{path}: error: the trace has no rows for pin {k} of the config "
+                             f"(wrong config for this trace?)")
     table = TABLES[motors.drive]
     sign = {"left": -1 if motors.left_reverse else 1, "right": -1 if motors.right_reverse else 1}
     runs = [_motor(path, t_us, pin, value, coil[m], table, m) for m in ("left", "right")]
     # the pen: only pulse widths other than 0 say where it is
     is_pen = (pin == pen.pin) & (value != 0)
     t_pen, pen_down = _last_per_time(t_us[is_pen], value[is_pen] == pen.down_us)
-    times = np.unique(np.concatenate([runs[0][0], runs[1][0], t_pen]))
+    times = np.sort(np.concatenate([runs[0][0], runs[1][0], t_pen]))
+    times = times[np.r_[True, times[1:] != times[:-1]]]
     steps = np.stack([sign[m] * _at(times, t, s, 0) for m, (t, s) in zip(("left", "right"), runs)],
                      axis=1)
     return Steps(times / 1e6, steps, _at(times, t_pen, pen_down, False).astype(bool))

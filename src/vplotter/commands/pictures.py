@@ -33,25 +33,30 @@ def cmd_preview(args, argv=None) -> int:
     import numpy as np
 
     from vplotter import kinematics, pipeline, render
-    from vplotter.inputs import gcode, strokes as stroke_input
 
     _check_picture_options(args)
     cfg = load_config(args)
     pos = position(cfg, args, True)
-    # the planned drawing: strokes in drawing order and the records the draw would play
-    strokes = stroke_input.from_records(
-        gcode.read(args.file, strict=args.strict, warn=lambda m: None),
-        cfg.motion.tolerance_mm * pipeline.CHORD_SHARE)
-    records = gcode.read(args.file, strict=args.strict)
-    summary = pipeline.validate(cfg, records, pos.counts, pos.ref_mm, args.file)
     kin = kinematics.from_config(cfg)
     start = kin.to_gcode(kin.forward(np.array([[pos.left_mm, pos.right_mm]])))[0]
+    strokes, records = _planned(args, cfg, start)
+    summary = pipeline.validate(cfg, records, pos.counts, pos.ref_mm, args.file)
     pic = render.preview([s.pts for s in strokes], start, kin, cfg.page,
                          f"{args.file}: {_legend(summary)}", args.size)
     render.write(pic, args.output)
-    say(f"{args.output}: {pic.width_px} x {pic.height_px} px, {summary.pen_downs} strokes "
+    say(f"{args.output}: {pic.width_px} x {pic.height_px} px, {len(strokes)} strokes "
         f"from red (first) to violet (last), travel in grey")
     return 0
+
+
+def _planned(args, cfg, start_xy):
+    """The strokes in drawing order and the records the draw plays (what `estimate` times)."""
+    from vplotter import pipeline
+    from vplotter.inputs import gcode, strokes
+
+    quiet = gcode.read(args.file, strict=args.strict, warn=lambda m: None)
+    return (strokes.from_records(quiet, cfg.motion.tolerance_mm * pipeline.CHORD_SHARE),
+            gcode.read(args.file, strict=args.strict))
 
 
 def _legend(summary) -> str:
