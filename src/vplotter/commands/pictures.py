@@ -44,8 +44,9 @@ def cmd_preview(args, argv=None) -> int:
     pic = render.preview([s.pts for s in strokes], start, kin, cfg.page,
                          f"{args.file}: {_legend(summary)}", args.size)
     render.write(pic, args.output)
-    say(f"{args.output}: {pic.width_px} x {pic.height_px} px, {len(strokes)} strokes "
-        f"from red (first) to violet (last), travel in grey")
+    say(f"{args.file}: {summary.text()}")
+    say(f"{args.output}: {pic.width_px} x {pic.height_px} px, strokes from red (first) to "
+        f"violet (last), travel in grey")
     return 0
 
 
