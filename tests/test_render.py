@@ -343,3 +343,32 @@ def test_simulate_starts_at_the_stored_position(capsys, config_path, tmp_path, c
     assert centres[0] == pytest.approx([0, 0], abs=0.05)           # the square where it is
     # from a wrong start the same steps draw elsewhere (and bent: the cords are not a grid)
     assert np.hypot(*centres[1]) > 40
+
+
+@given(st.binary(max_size=300) | st.text(alphabet="0123456789.,-e#\n tpinvalu", max_size=300))
+def test_read_steps_takes_anything_after_the_header(tmp_path_factory, body):
+    """Whatever follows the header, the reader gives steps or one InputError, nothing else."""
+    base = config.load(str(Path(__file__).resolve().parent.parent / "config.toml"))
+    path = tmp_path_factory.mktemp("t") / "t.csv"
+    path.write_bytes(trace.HEADER.encode() + (body.encode() if isinstance(body, str) else body))
+    try:
+        got = trace.read_steps(str(path), base.motors, base.pen)
+    except Exception as e:          # noqa: BLE001 - the property: only InputError
+        assert type(e).__name__ == "InputError" and str(path) in str(e), repr(e)
+    else:
+        assert len(got.t_s) == len(got.steps) == len(got.down)
+
+
+@given(st.tuples(st.floats(-1e4, 1e4), st.floats(-1e4, 1e4)),
+       st.tuples(st.floats(1e-3, 1e4), st.floats(1e-3, 1e4)), st.integers(100, 3000))
+def test_view_fits_the_box_on_its_long_side(lo, span, size):
+    legend = 30.0
+    hi = (lo[0] + span[0], lo[1] + span[1])
+    v = render.View.fit(lo, hi, size, legend)
+    assert max(v.width_px, v.height_px) == size
+    corners = v.px([lo, hi, (lo[0], hi[1]), (hi[0], lo[1])])
+    assert corners[:, 0].min() >= v.margin_px - 0.51 and corners[:, 0].max() <= v.width_px - v.margin_px + 0.51
+    assert corners[:, 1].min() >= v.margin_px - 0.51
+    assert corners[:, 1].max() <= v.height_px - v.margin_px - legend + 0.51
+    # +Y is up: the top edge of the box (hi Y) is above the bottom edge
+    assert v.px([(lo[0], hi[1])])[0][1] < v.px([lo])[0][1]

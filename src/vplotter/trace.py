@@ -195,4 +195,4 @@ def _motor(path, t_us, pin, value, pins, table, name) -> tuple[np.ndarray, np.nd
         i = int(np.flatnonzero(np.abs(d) > 1)[0]) + 1
         raise InputError(f"{path}: error: the {name} motor's coils jump by more than one step "
                          f"at t = {t[i] / 1e6:.6f} (wrong drive or pins?)")
-    return t, np.concatenate(([0], np.cumsum(d))).astype(np.int64)
+    return t, np.concatenate(([0], np.cumsum(d)))[:len(t)].astype(np.int64)
