@@ -119,14 +119,24 @@ def test_preview_svg_has_one_element_per_stroke_and_the_travel(capsys, config_pa
     assert "2 strokes" in legend[0] and "pen lifts" in legend[0] and "plot time" in legend[0]
 
 
-def test_preview_time_is_the_estimate(capsys, config_path, tmp_path):
-    g = SAMPLES / "square.ngc"
+def test_preview_legend_is_the_estimate_and_the_grey_is_the_travel(capsys, config_path,
+                                                                   tmp_path, cfg):
+    """The legend's figures are estimate's, and the grey lines are as long as its travel."""
+    g = SAMPLES / "car.ngc"
     code, est, _ = run(capsys, ["--config", config_path, "estimate", g])
     time = est.split("plot time ")[1].strip()
+    travel_m = float(est.split("travel ")[1].split(" m")[0])
     code, _, _ = run(capsys, ["--config", config_path, "preview", g, "-o", tmp_path / "s.svg"])
     root = ET.parse(tmp_path / "s.svg").getroot()
     legend = [e.text for e in root.iter(f"{SVG}text") if e.get("class") == "legend"][0]
-    assert code == 0 and f"plot time {time}" in legend
+    assert code == 0 and f"plot time {time}" in legend and f"travel {travel_m:.2f} m" in legend
+    d = [e.get("d") for e in root.iter(f"{SVG}path") if e.get("class") == "travel"][0]
+    seg = np.array([[q.split(",") for q in part.split(" L")] for part in d[1:].split(" M")],
+                   float)
+    view = render.preview([np.zeros((1, 2))], (0, 0), kinematics.from_config(cfg), cfg.page,
+                          "", 1600).view
+    grey_m = np.hypot(*(seg[:, 1] - seg[:, 0]).T).sum() / view.scale / 1000
+    assert grey_m == pytest.approx(travel_m, abs=0.006)
 
 
 def _dry_trace(capsys, config_path, tmp_path, gfile) -> Path:

@@ -176,22 +176,25 @@ def _legend(pic: Picture, view: View, text: str, key: list[tuple[str, object, st
         x += w + font / 3 + 0.5 * small * len(label) + 1.2 * font
 
 
-def preview(strokes, start_xy, kin, page, legend: str, size_px: int = 1600) -> Picture:
+def preview(strokes, start_xy, kin, page, legend: str, size_px: int = 1600,
+            travel=None) -> Picture:
     """The planned drawing: `strokes` (point arrays, G-code mm) in drawing order coloured from
-    red to violet, the pen-up travel from `start_xy` through each stroke's start as thin grey
-    lines, on the page with the anchors and the origin."""
+    red to violet, the pen-up travel as thin grey lines, on the page with the anchors and the
+    origin. `travel`: (K, 2, 2) pen-up line pieces in G-code mm; None: from `start_xy`
+    through each stroke's start, in order."""
     pts = [np.asarray(s, dtype=float).reshape(-1, 2) for s in strokes]
-    allpts = np.vstack([np.asarray(start_xy, float).reshape(1, 2)] + pts)
+    if travel is None:
+        ends = [np.asarray(start_xy, float)] + [p[-1] for p in pts[:-1]]
+        travel = [(a, p[0]) for a, p in zip(ends, pts)]
+    travel = np.asarray(travel, dtype=float).reshape(-1, 2)
+    allpts = np.vstack([np.asarray(start_xy, float).reshape(1, 2), travel] + pts)
     view = _view(kin, page, allpts, size_px)
     pic, u = _frame(view, kin, page)
     colours = order_colours(len(pts))
     for i, (p, c) in enumerate(zip(pts, colours)):
         pic.add("lines", view.px(p), colour=c, width=u, name="stroke")
-    if pts:
-        ends = np.array([np.asarray(start_xy, float)] + [p[-1] for p in pts[:-1]])
-        starts = np.array([p[0] for p in pts])
-        seg = np.stack((view.px(ends), view.px(starts)), axis=1).reshape(-1, 2)
-        pic.add("segments", seg, colour=TRAVEL, width=u / 2, name="travel")
+    if len(travel):
+        pic.add("segments", view.px(travel), colour=TRAVEL, width=u / 2, name="travel")
     sx, sy = view.px(start_xy)[0]
     pic.add("circle", [[sx, sy]], colour=TRAVEL, fill=None, width=3 * u, name="pen-start")
     _legend(pic, view, legend, [("order", order_colours(min(len(pts), 24)),

@@ -40,9 +40,13 @@ def cmd_preview(args, argv=None) -> int:
     kin = kinematics.from_config(cfg)
     start = kin.to_gcode(kin.forward(np.array([[pos.left_mm, pos.right_mm]])))[0]
     strokes, records = _planned(args, cfg, start)
-    summary = pipeline.validate(cfg, records, pos.counts, pos.ref_mm, args.file)
+    travel: list = []
+    tol = cfg.motion.tolerance_mm * pipeline.CHORD_SHARE
+    summary = pipeline.validate(cfg, _tap_travel(records, start, tol, travel), pos.counts,
+                                pos.ref_mm, args.file)
     pic = render.preview([s.pts for s in strokes], start, kin, cfg.page,
-                         f"{args.file}: {_legend(summary)}", args.size)
+                         f"{args.file}: {_legend(summary)}", args.size,
+                         np.concatenate(travel) if travel else np.zeros((0, 2, 2)))
     render.write(pic, args.output)
     say(f"{args.file}: {summary.text()}")
     say(f"{args.output}: {pic.width_px} x {pic.height_px} px, strokes from red (first) to "
@@ -58,6 +62,30 @@ def _planned(args, cfg, start_xy):
     quiet = gcode.read(args.file, strict=args.strict, warn=lambda m: None)
     return (strokes.from_records(quiet, cfg.motion.tolerance_mm * pipeline.CHORD_SHARE),
             gcode.read(args.file, strict=args.strict))
+
+
+def _tap_travel(records, start_xy, tol_mm: float, out: list):
+    """Pass the records on unchanged while collecting their pen-up line pieces ((K, 2, 2)
+    arrays into `out`), from where the pen starts, as the pipeline moves: the grey lines are
+    the travel the legend counts."""
+    import numpy as np
+
+    from vplotter import segment
+    from vplotter.inputs.gcode import Move, Pen
+
+    here = np.asarray(start_xy, dtype=float).reshape(1, 2)
+    down = False
+    for rec in records:
+        if isinstance(rec, Pen):
+            down = rec.down
+        elif isinstance(rec, Move):
+            pts = segment.points(rec, tol_mm)
+            if len(pts):
+                if not down:
+                    chain = np.vstack((here, pts))
+                    out.append(np.stack((chain[:-1], chain[1:]), axis=1))
+                here = pts[-1:]
+        yield rec
 
 
 def _legend(summary) -> str:
