@@ -116,7 +116,7 @@ def test_preview_svg_has_one_element_per_stroke_and_the_travel(capsys, config_pa
     assert ys[0].max() < ys[1].min()                             # the first stroke is higher
     assert strokes[0].get("stroke") != strokes[1].get("stroke")
     legend = [e.text for e in root.iter(f"{SVG}text") if e.get("class") == "legend"]
-    assert "2 strokes" in legend[0] and "pen lifts" in legend[0] and "plot time" in legend[0]
+    assert "drawn 0.29 m" in legend[0] and "2 pen lifts" in legend[0] and "plot time" in legend[0]
 
 
 def test_preview_legend_is_the_estimate_and_the_grey_is_the_travel(capsys, config_path,
@@ -298,6 +298,7 @@ def test_simulate_with_the_wrong_pins_or_drive(capsys, config_path, tmp_path):
     (["preview", "{square}", "-o", "{tmp}/no/such/dir/p.png"], "cannot write"),
     (["preview", "{square}"], "required"),
     (["simulate", "{square}", "-o", "{out}.png", "--at", "0", "nan"], "--at"),
+    (["simulate", "{square}", "-o", "{out}.png", "--at", "0", "500"], "not below the anchors"),
 ])
 def test_preview_and_simulate_argument_errors(capsys, config_path, tmp_path, argv, what):
     (tmp_path / "g.ngc").write_bytes(GARBAGE)

@@ -96,7 +96,12 @@ def order_colours(n: int) -> list[str]:
     return out
 
 
-def _frame(view: View, kin, page, extra_mm=()) -> tuple[Picture, float]:
+def _anchors(kin) -> np.ndarray:
+    """The cord anchors in G-code mm (none for a machine kind without them)."""
+    return kin.to_gcode(getattr(kin, "anchors", np.zeros((0, 2))))
+
+
+def _frame(view: View, kin, page) -> tuple[Picture, float]:
     """The page, the anchors, the G-code origin: what every picture shows around the drawing.
     Returns the picture and the line width unit (px) for the drawing."""
     pic = Picture(view.width_px, view.height_px, view)
@@ -104,10 +109,11 @@ def _frame(view: View, kin, page, extra_mm=()) -> tuple[Picture, float]:
     pic.add("rect", [[0, 0], [view.width_px, view.height_px]], fill=WALL, colour=WALL, width=0)
     pic.add("rect", view.px([[page.x_min_mm, page.y_max_mm], [page.x_max_mm, page.y_min_mm]]),
             fill=PAPER, colour="#606060", width=u / 2, name="page")
-    anchors = view.px(kin.to_gcode(kin.anchors))
-    pic.add("lines", anchors, colour="#b0b0b0", width=u / 2, name="anchor-line")
+    where = _anchors(kin)
+    anchors = view.px(where)
+    if len(anchors) > 1:
+        pic.add("lines", anchors, colour="#b0b0b0", width=u / 2, name="anchor-line")
     font = _font_px(view)
-    where = kin.to_gcode(kin.anchors)
     for (x, y), (gx, gy), side, anchor in zip(anchors, where, ("left", "right"), ("start", "end")):
         pic.add("circle", [[x, y]], colour=INK, fill=INK, width=3 * u, name="anchor")
         pic.add("text", [[x, y + 3 * u + font]], width=font, anchor=anchor,
@@ -136,7 +142,7 @@ def _font_px(view: View) -> float:
 def _view(kin, page, pts_mm, size_px: int) -> View:
     """A view that covers the page, the anchors and the drawing."""
     corners = np.array([[page.x_min_mm, page.y_min_mm], [page.x_max_mm, page.y_max_mm]])
-    pts = np.vstack([corners, kin.to_gcode(kin.anchors), np.zeros((1, 2)),
+    pts = np.vstack([corners, _anchors(kin), np.zeros((1, 2)),
                      np.asarray(pts_mm, float).reshape(-1, 2)])
     pts = pts[np.isfinite(pts).all(axis=1)]
     legend = LEGEND_LINES * max(10.0, round(size_px / 90.0))
@@ -225,7 +231,7 @@ def simulate(xy_mm: np.ndarray, down: np.ndarray, kin, page, legend: str,
 
 def _runs(p: np.ndarray, down: np.ndarray, state: bool, px: float) -> list[np.ndarray]:
     """The polylines along which the pen state is `state` (segment i runs from point i to i+1
-    with down[i]), with points closer than `px` to the one before dropped (vectorised)."""
+    with down[i]); a point in the same `px` grid cell as the one before is dropped."""
     if len(p) < 2:
         return [p] if len(p) and down[0] == state else []
     on = down[:-1] == state

@@ -55,7 +55,8 @@ def cmd_preview(args, argv=None) -> int:
 
 
 def _planned(args, cfg, start_xy):
-    """The strokes in drawing order and the records the draw plays (what `estimate` times)."""
+    """The strokes in drawing order and the records the draw plays (what `estimate` times).
+    The pen starts at start_xy (G-code mm): ordering and placement will start from there."""
     from vplotter import pipeline
     from vplotter.inputs import gcode, strokes
 
@@ -89,7 +90,7 @@ def _tap_travel(records, start_xy, tol_mm: float, out: list):
 
 
 def _legend(summary) -> str:
-    return (f"{summary.pen_downs} strokes, drawn {summary.drawn_mm / 1000:.2f} m, travel "
+    return (f"drawn {summary.drawn_mm / 1000:.2f} m, travel "
             f"{summary.travel_mm / 1000:.2f} m, {summary.pen_downs} pen lifts, plot time "
             f"{_hms(summary.time_s)} ({summary.time_s:.1f} s)")
 
@@ -117,9 +118,14 @@ def cmd_simulate(args, argv=None) -> int:
     cfg = load_config(args)
     kin = kinematics.from_config(cfg)
     if args.at is not None:
-        if not np.all(np.isfinite(args.at)):
-            raise ConfigError(f"error: --at must be two numbers (got {args.at[0]} {args.at[1]})")
-        cords0 = kin.inverse(kin.to_machine(np.array([args.at], dtype=float)))[0]
+        if not all(np.isfinite(v) and abs(v) < 1e5 for v in args.at):
+            raise ConfigError(f"error: --at {args.at[0]:g} {args.at[1]:g} is not a position on "
+                              f"a wall")
+        xy0 = kin.to_machine(np.array([args.at], dtype=float))
+        if not xy0[0, 1] > 0:
+            raise ConfigError(f"error: --at: G-code point X{args.at[0]:g} Y{args.at[1]:g} is not "
+                              f"below the anchors")
+        cords0 = kin.inverse(xy0)[0]
     else:
         pos = position(cfg, args, True)
         cords0 = np.array([pos.left_mm, pos.right_mm])
