@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import given, strategies as st
+from hypothesis import given, settings, strategies as st
 from PIL import Image
 
 from test_cli_errors import GARBAGE, run
@@ -221,18 +221,23 @@ def test_simulate_at_moves_the_drawing_by_the_offset(capsys, config_path, tmp_pa
     assert np.median(p1 - p0, axis=0) == pytest.approx([50, 20], abs=3)
 
 
-HALF = TABLES["half"]
+SEED = config.load(str(Path(__file__).resolve().parent.parent / "config.toml"))
 
 
+@settings(max_examples=40)
 @given(st.lists(st.tuples(st.integers(-1, 1), st.integers(-1, 1), st.booleans()),
                 min_size=1, max_size=60),
-       st.integers(0, 7), st.integers(0, 7), st.booleans(), st.booleans())
-def test_read_steps_inverts_the_trace_writer(tmp_path_factory, moves, ph_l, ph_r, rev_l, rev_r):
-    """Random walks of both motors and the pen, written by the real TraceWriter, read back."""
-    path = tmp_path_factory.mktemp("t") / "t.csv"
-    base = config.load(str(Path(__file__).resolve().parent.parent / "config.toml"))
+       st.integers(0, 7), st.integers(0, 7), st.booleans(), st.booleans(),
+       st.sampled_from(sorted(TABLES)))
+def test_read_steps_inverts_the_trace_writer(tmp_path_factory, moves, ph_l, ph_r, rev_l, rev_r,
+                                             drive):
+    """Random walks of both motors and the pen, written by the real TraceWriter, read back
+    (full steps change two pins in one row: rows with equal t take effect together)."""
     from dataclasses import replace
-    motors = replace(base.motors, left_reverse=rev_l, right_reverse=rev_r)
+
+    path = tmp_path_factory.mktemp("t") / "t.csv"
+    base = SEED
+    motors = replace(base.motors, left_reverse=rev_l, right_reverse=rev_r, drive=drive)
     sign = np.array([-1 if rev_l else 1, -1 if rev_r else 1])
     d = np.array([(a, b) for a, b, _ in moves])
     counts = np.vstack(([0, 0], np.cumsum(d, axis=0)))          # cord steps after each row
@@ -240,7 +245,8 @@ def test_read_steps_inverts_the_trace_writer(tmp_path_factory, moves, ph_l, ph_r
     pen = np.array([0] + [base.pen.down_us if down else base.pen.up_us for *_, down in moves])
     pen[::5] = 0                                                   # pulses off now and then
     n = len(counts)
-    rows = Rows(np.arange(n, dtype=np.int64) * 1000, coil_words(HALF, phase[:, 0], phase[:, 1]),
+    table = TABLES[drive]
+    rows = Rows(np.arange(n, dtype=np.int64) * 1000, coil_words(table, phase[:, 0], phase[:, 1]),
                 pen.astype(np.int32), np.zeros(n, np.int64), counts)
     with open(path, "w") as f:
         w = trace.TraceWriter(f, list(motors.left_pins) + list(motors.right_pins), base.pen.pin)
@@ -359,7 +365,7 @@ def test_simulate_starts_at_the_stored_position(capsys, config_path, tmp_path, c
 @given(st.binary(max_size=300) | st.text(alphabet="0123456789.,-e#\n tpinvalu", max_size=300))
 def test_read_steps_takes_anything_after_the_header(tmp_path_factory, body):
     """Whatever follows the header, the reader gives steps or one InputError, nothing else."""
-    base = config.load(str(Path(__file__).resolve().parent.parent / "config.toml"))
+    base = SEED
     path = tmp_path_factory.mktemp("t") / "t.csv"
     path.write_bytes(trace.HEADER.encode() + (body.encode() if isinstance(body, str) else body))
     try:
