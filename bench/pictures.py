@@ -7,7 +7,7 @@ trace is written first (not timed), then timed:
 - preview: read, validate (plot time), picture + PNG at 1600 px.
 Also a preview of 2,000 short strokes (many shapes in one picture).
 
-Run: python bench/pictures.py   (pictures go to a temporary directory)
+Times are CPU seconds of this process (the machine is shared). Run: python bench/pictures.py
 """
 
 from __future__ import annotations
@@ -28,12 +28,12 @@ from vplotter.cli import main  # noqa: E402
 
 
 def quiet(argv: list[str]) -> float:
-    t0 = time.perf_counter()
+    t0 = time.process_time()
     with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
         rc = main(argv)
     if rc != 0:
         raise SystemExit(f"{' '.join(argv)} failed ({rc})")
-    return time.perf_counter() - t0
+    return time.process_time() - t0
 
 
 def strokes_file(path: str, n: int = 2000) -> str:
@@ -51,16 +51,16 @@ def run() -> None:
         os.environ["XDG_STATE_HOME"] = tmp
         files = [os.path.join(ROOT, "gcode_samples", "car.ngc"),
                  big_file(os.path.join(tmp, "big.ngc"), 10_000)]
-        print("| file | trace rows | decode | rows/s | simulate 1600 px | preview 1600 px |")
+        print("| file | trace rows | decode CPU | rows/CPU s | simulate 1600 px CPU | preview 1600 px CPU |")
         print("| --- | --- | --- | --- | --- | --- |")
         for g in files:
             t = os.path.join(tmp, "t.csv")
             quiet(["--config", cfg_path, "draw", g, "--dry-run", "--trace", t])
             with open(t) as f:
                 rows = sum(1 for line in f if not line.startswith(("#", "t,")))
-            t0 = time.perf_counter()
+            t0 = time.process_time()
             trace.read_steps(t, cfg.motors, cfg.pen)
-            dec = time.perf_counter() - t0
+            dec = time.process_time() - t0
             sim = quiet(["--config", cfg_path, "simulate", t, "-o", os.path.join(tmp, "s.png")])
             pre = quiet(["--config", cfg_path, "preview", g, "-o", os.path.join(tmp, "p.png")])
             print(f"| {os.path.basename(g)} | {rows:,} | {dec:.2f} s | {rows / dec / 1e6:.1f} M "
