@@ -51,7 +51,8 @@ def run() -> None:
         os.environ["XDG_STATE_HOME"] = tmp
         files = [os.path.join(ROOT, "gcode_samples", "car.ngc"),
                  big_file(os.path.join(tmp, "big.ngc"), 10_000)]
-        print("| file | trace rows | decode CPU | rows/CPU s | simulate 1600 px CPU | preview 1600 px CPU |")
+        print("| file | trace rows | decode CPU | rows/CPU s | simulate 1600 px CPU "
+              "| preview 1600 px CPU |")
         print("| --- | --- | --- | --- | --- | --- |")
         for g in files:
             t = os.path.join(tmp, "t.csv")

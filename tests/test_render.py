@@ -384,7 +384,8 @@ def test_view_fits_the_box_on_its_long_side(lo, span, size):
     v = render.View.fit(lo, hi, size, legend)
     assert max(v.width_px, v.height_px) == size
     corners = v.px([lo, hi, (lo[0], hi[1]), (hi[0], lo[1])])
-    assert corners[:, 0].min() >= v.margin_px - 0.51 and corners[:, 0].max() <= v.width_px - v.margin_px + 0.51
+    assert corners[:, 0].min() >= v.margin_px - 0.51
+    assert corners[:, 0].max() <= v.width_px - v.margin_px + 0.51
     assert corners[:, 1].min() >= v.margin_px - 0.51
     assert corners[:, 1].max() <= v.height_px - v.margin_px - legend + 0.51
     # +Y is up: the top edge of the box (hi Y) is above the bottom edge
