@@ -34,14 +34,15 @@ def cfg(config_path):
 
 
 def _rgb(img, xy) -> np.ndarray:
-    x, y = np.rint(xy).astype(int)
+    """The pixel that holds picture point xy (pixel i spans i..i+1, as in SVG)."""
+    x, y = np.floor(xy).astype(int)
     return np.asarray(img.convert("RGB"))[y, x].astype(int)
 
 
 def _inked(img, xy, r: int = 1) -> bool:
     """Something darker or more saturated than the paper within r px of xy."""
     a = np.asarray(img.convert("RGB")).astype(int)
-    x, y = np.rint(xy).astype(int)
+    x, y = np.floor(xy).astype(int)
     patch = a[y - r:y + r + 1, x - r:x + r + 1]
     return bool(((patch.max(axis=2) - patch.min(axis=2) > 60) | (patch.max(axis=2) < 140)).any())
 
@@ -69,7 +70,7 @@ def test_preview_png_geometry(capsys, config_path, tmp_path, cfg):
         assert tuple(_rgb(img, view.px([p])[0])) == (255, 255, 255), p
     # the pen-up travel from the first stroke's end to the second's start: grey
     grey = np.asarray(img.convert("RGB")).astype(int)
-    x, y = np.rint(view.px([(-55, -25)])[0]).astype(int)
+    x, y = np.floor(view.px([(-55, -25)])[0]).astype(int)
     patch = grey[y - 1:y + 2, x - 1:x + 2].reshape(-1, 3)
     darkest = patch[patch.sum(axis=1).argmin()]
     assert darkest.max() < 230 and darkest.max() - darkest.min() < 10
@@ -93,8 +94,8 @@ def test_preview_right_way_up_and_order_colours(capsys, config_path, tmp_path):
     code, out, _, _ = _preview(capsys, config_path, tmp_path, size=600)
     a = np.asarray(Image.open(out).convert("RGB")).astype(int)
     r, g, b = a[..., 0], a[..., 1], a[..., 2]
-    red = (r > 180) & (g < 90) & (b < 90)
-    violet = (b > 150) & (r > 90) & (g < 80)
+    red = (r - np.maximum(g, b) > 80) & (np.abs(g - b) < 30)
+    violet = (b - g > 80) & (r - g > 40)
     assert red.sum() > 50 and violet.sum() > 10
     ry, rx = np.nonzero(red)
     vy, vx = np.nonzero(violet)
@@ -390,3 +391,20 @@ def test_view_fits_the_box_on_its_long_side(lo, span, size):
     assert corners[:, 1].max() <= v.height_px - v.margin_px - legend + 0.51
     # +Y is up: the top edge of the box (hi Y) is above the bottom edge
     assert v.px([(lo[0], hi[1])])[0][1] < v.px([lo])[0][1]
+
+
+def test_preview_draws_a_dot_where_the_pen_only_touches(capsys, config_path, tmp_path, cfg):
+    """A pen down and up at one point (stipple art) is a dot in both PNG and SVG."""
+    content = b"G0 X-100 Y100\nM3\nM5\nG0 X100 Y-100\nM3\nG1 X120 Y-100\nM5\n"
+    code, out, _, _ = _preview(capsys, config_path, tmp_path, content=content, size=600)
+    assert code == 0
+    view = render.preview([np.zeros((1, 2))], (0, 0), kinematics.from_config(cfg), cfg.page,
+                          "", 600).view
+    img = Image.open(out)
+    assert _inked(img, view.px([(-100, 100)])[0], r=0)
+    assert not _inked(img, view.px([(-100, 104)])[0], r=1)
+    code, out, _, _ = _preview(capsys, config_path, tmp_path, content=content, out="p.svg")
+    dots = [e for e in ET.parse(out).getroot().iter(f"{SVG}polyline")
+            if e.get("class") == "stroke"]
+    first = np.array([q.split(",") for q in dots[0].get("points").split()], float)
+    assert len(dots) == 2 and np.ptp(first, axis=0).max() == 0 and len(first) == 2

@@ -271,7 +271,7 @@ def png(pic: Picture):
     draw = ImageDraw.Draw(img)
     texts = []
     for s in pic.shapes:
-        p = s.pts * k
+        p = s.pts * k - 0.5      # Pillow's integer coordinates are pixel centres
         w = max(1, int(round(s.width * k)))
         if s.kind == "rect":
             (x0, y0), (x1, y1) = np.sort(p, axis=0)
