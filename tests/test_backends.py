@@ -128,25 +128,24 @@ def player(clock: SimClock, **kw):
     return Player(rec.coils_out, rec.pen_out, clock.now, clock.sleep, **kw), rec
 
 
-def test_player_outputs_every_row_on_time(parts):
+def test_player_outputs_every_row_never_sooner_than_planned(parts):
     clock = SimClock(tick_ns=1000, oversleep_ns=80_000)
     p, rec = player(clock, spin_us=200)
     for part in parts:
         assert p.play(part, lambda: False) == len(part)
     rows = concat(parts)
-    anchor = rec.log[0][0] - int(rows.t_us[0]) * 1000
     expect = row_changes(parts)
-    got = [((t - anchor) // 1000, w) for i, (t, w, _) in enumerate(rec.log)
+    got = [(t // 1000, w) for i, (t, w, _) in enumerate(rec.log)
            if w != (rec.log[i - 1][1] if i else 0)]
     assert [w for _, w in got] == [w for _, w in expect]
-    assert max(abs(a[0] - b[0]) for a, b in zip(got, expect)) <= 50   # clock ticks
-    pens = [(round((t - anchor) / 1000), p) for i, (t, _, p) in enumerate(rec.log)
+    gaps = np.diff([t for t, _ in got]) - np.diff([t for t, _ in expect])
+    assert gaps.min() >= -1 and gaps.max() <= 10      # planned intervals, give or take ticks
+    pens = [(t // 1000, p) for i, (t, _, p) in enumerate(rec.log)
             if p != (rec.log[i - 1][2] if i else 0)]
     assert [p for _, p in pens] == [p for _, p in pen_changes(parts)]
-    assert max(abs(a[0] - b[0]) for a, b in zip(pens, pen_changes(parts))) <= 50
     s = p.lateness.stats()
     changed = (np.diff(rows.coils, prepend=0) != 0) | (np.diff(rows.pen_us, prepend=0) != 0)
-    assert s["n"] == changed.sum() and s["max_ms"] < 0.01
+    assert s["n"] == changed.sum() and s["max_ms"] < 0.01 and s["shifts"] == 0
 
 
 def test_player_does_not_drift_when_sleep_overshoots(parts):
@@ -164,19 +163,6 @@ def steady(n=400, gap_us=1500) -> Rows:
     t = np.arange(n, dtype=np.int64) * gap_us
     words = np.array([1, 3, 2, 6, 4, 12, 8, 9] * (n // 8 + 1), np.uint8)[:n]
     return make_rows(t, words, np.zeros(n))
-
-
-def test_player_catches_up_at_most_a_third_faster():
-    clock = SimClock(tick_ns=1000, oversleep_ns=50_000)
-    clock.at(1_000_000_000 + 100_000_000, lambda: setattr(clock, "ns", clock.ns + 20_000_000))
-    p, rec = player(clock, spin_us=200)
-    rows = steady()
-    p.play(rows, lambda: False)
-    times = np.array([t for t, _, _ in rec.log])
-    gaps = np.diff(times) / 1000
-    assert gaps.min() >= 0.75 * 1500 - 5           # never more than 4/3 of the planned rate
-    late = np.frombuffer(p.lateness.ns, dtype=np.int64) / 1e6
-    assert late.max() > 19 and late[-100:].max() < 0.01   # the 20 ms stall was made up
 
 
 def test_player_pauses_instead_of_racing_when_the_motors_stand_still():
@@ -435,6 +421,30 @@ def coil_words_from_log(cfg, log, start_ns):
     return [c for i, c in enumerate(out) if c[1] != (out[i - 1][1] if i else 0)]
 
 
+def motor_patterns(words: list[int], motor: int) -> list[int]:
+    """Distinct successive coil patterns of one motor from successive coil words."""
+    out = [0]
+    for w in words:
+        if (w >> 4 * motor & 15) != out[-1]:
+            out.append(w >> 4 * motor & 15)
+    return out
+
+
+def same_but_passing(pins: list[int], plan: list[int]) -> bool:
+    """Is `pins` the planned pattern sequence plus only the one-coil patterns that a release
+    or an energise of two coils, written one pin at a time, passes through (next to 0000)?"""
+    j = 0
+    for i, p in enumerate(pins):
+        if j < len(plan) and p == plan[j]:
+            j += 1
+            continue
+        passing = bin(p).count("1") == 1 and (
+            (i > 0 and pins[i - 1] == 0) or (i + 1 < len(pins) and pins[i + 1] == 0))
+        if not passing:
+            return False
+    return j == len(plan)
+
+
 def test_gpiozero_on_mock_pins_plays_what_the_fake_records(cfg, parts):
     fake = create("fake", cfg, record=True)
     fake.open()
@@ -449,8 +459,10 @@ def test_gpiozero_on_mock_pins_plays_what_the_fake_records(cfg, parts):
         assert b.play(part) == len(part)
     got = coil_words_from_log(cfg, LogPin.log, start)
     expect = row_changes(fake.recorded)
-    assert [w for _, w in got] == [w for _, w in expect]            # the same coil sequence
-    assert max(abs(g[0] - e[0]) for g, e in zip(got, expect)) <= 20  # at the planned times
+    for m in (0, 1):                                                 # the same coil sequence
+        assert same_but_passing(motor_patterns([w for _, w in got], m),
+                                motor_patterns([w for _, w in expect], m))
+    assert got[-1][0] - expect[-1][0] < 0.01 * expect[-1][0]        # about the plot time
     pens = [(t, v) for t, name, v in LogPin.log if name == f"GPIO{cfg.pen.pin}"]
     widths = [round(v * 20_000) for _, v in pens]
     assert widths == [w for _, w in pen_changes(parts)]              # 500, 0, 1500, 0, ...

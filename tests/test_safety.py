@@ -202,18 +202,40 @@ def test_crash_leaves_an_unclean_stop_with_a_bound_that_holds(config_path, tmp_p
     assert tc.distances_to_polylines(pts, tc.reference_path(CIRCLES)).max() <= 0.02
 
 
+HOLD = r"""
+import sys
+from vplotter import lock
+lock.acquire(sys.argv[1])
+print("held", flush=True)
+sys.stdin.read()
+"""
+
+
+def hold_lock(command):
+    """Another process holding the plotter lock until its stdin closes."""
+    proc = subprocess.Popen([sys.executable, "-c", HOLD, command], stdin=subprocess.PIPE,
+                            stdout=subprocess.PIPE, text=True, env=dict(os.environ))
+    assert proc.stdout.readline() == "held\n"
+    return proc
+
+
 def test_second_process_is_refused_with_exit_3(config_path, capsys):
     assert run(config_path, "calibrate", "--at", "0", "0") == 0
-    held = lock.acquire("vplotter draw car.ngc")
+    holder = hold_lock("vplotter draw car.ngc")
     try:
         before = (state.state_dir() / "state.json").read_text()
         assert run(config_path, "draw", str(CIRCLES), "--backend", "fake") == 3
         err = capsys.readouterr().err.strip()
-        assert err.startswith(f"plotter busy: pid {os.getpid()} (vplotter draw car.ngc) since ")
+        assert err.startswith(f"plotter busy: pid {holder.pid} (vplotter draw car.ngc) since ")
         assert (state.state_dir() / "state.json").read_text() == before
-        assert run(config_path, "pen", "up", "--backend", "fake") == 3
+        for argv in (["pen", "up"], ["jog", "--dx", "1"], ["goto", "1", "1"], ["home"],
+                     ["calibrate", "--at", "1", "1"], ["calibrate", "steps", "--motor", "left"]):
+            assert run(config_path, *argv, "--backend", "fake") == 3
+            assert "plotter busy" in capsys.readouterr().err
+        assert (state.state_dir() / "state.json").read_text() == before
     finally:
-        held.release()
+        holder.stdin.close()
+        holder.wait()
     assert run(config_path, "pen", "up", "--backend", "fake") == 0
 
 

@@ -12,7 +12,7 @@ import argparse
 import sys
 from typing import Callable
 
-from vplotter.commands import draw, machine, pictures
+from vplotter.commands import draw, live, machine, pictures
 from vplotter.commands.common import eprint
 from vplotter.errors import BusyError, VplotterError
 
@@ -22,7 +22,11 @@ COMMANDS: dict[str, tuple[Callable, Callable, str]] = {
     "estimate": (draw.cmd_estimate, draw.add_estimate, "validate a file and print the plot time"),
     "calibrate": (machine.cmd_calibrate, machine.add_calibrate,
                   "tell vplotter where the pen is, or measure steps/mm"),
-    "status": (machine.cmd_status, machine.add_status, "print the stored position"),
+    "status": (live.cmd_status, live.add_status,
+               "where the pen is, whether the last stop was clean, the running draw"),
+    "stop": (live.cmd_stop, live.add_stop,
+             "pause the running draw: pen up, position stored, ready to --resume"),
+    "log": (live.cmd_log, live.add_log, "print the output of the background draw (--detach)"),
     "pen": (machine.cmd_pen, machine.add_pen, "lift, lower or cycle the pen"),
     "jog": (machine.cmd_jog, machine.add_jog,
             "move the pen by hand (arrow keys) or by --dx/--dy, --left/--right"),
@@ -59,7 +63,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     handler = COMMANDS[args.command][0]
     try:
-        return handler(args, argv)
+        return _run(handler, args, argv)
     except VplotterError as e:
         msg = str(e)
         if isinstance(e, BusyError) or "error:" in msg:
@@ -77,6 +81,15 @@ def main(argv: list[str] | None = None) -> int:
             raise
         eprint(f"vplotter: internal error: {type(e).__name__}: {e} (rerun with --debug for details)")
         return 1
+
+
+def _run(handler, args, argv) -> int:
+    from vplotter import lock
+
+    try:
+        return handler(args, argv)
+    finally:
+        lock.release_all()      # movers take the lock before reading the position
 
 
 def run() -> None:

@@ -94,6 +94,8 @@ class Session:
         self.resume_info: dict | None = None
         self._writer: _Writer | None = None
         self.drawing: dict | None = None     # {"file", "sha256"} while a draw runs
+        self.live = None                     # live.Publisher while a draw runs
+        self.ignore_hangup = False           # a background draw goes on when SIGHUP comes
 
     @property
     def saves_state(self) -> bool:
@@ -114,7 +116,8 @@ class Session:
                 self._trace_file = open(self.trace_path, "w", encoding="utf-8")
                 self.tracer = TraceWriter(self._trace_file, self.backend.coil_pins, self.backend.pen_pin)
             for s in SIGNALS:
-                self._old_handlers[s] = signal.signal(s, self._on_signal)
+                ignore = s == signal.SIGHUP and self.ignore_hangup
+                self._old_handlers[s] = signal.signal(s, signal.SIG_IGN if ignore else self._on_signal)
         except BaseException:
             self._cleanup()
             raise
@@ -147,7 +150,19 @@ class Session:
             self._cleanup()
         return False
 
+    def hand_over_pins(self):
+        """`draw --detach`: before anything moved, give up the pins, the trace and the signal
+        handlers, but not the lock, which is returned: the caller passes it on to the process
+        that goes on from here and then closes it with Lock.hand_over() (never unlocking)."""
+        assert not self._moved
+        held, self._lock = self._lock, None
+        self._cleanup()
+        return held
+
     def _cleanup(self) -> None:
+        if self.live is not None:
+            self.live.close()
+            self.live = None
         for s, h in self._old_handlers.items():
             try:
                 signal.signal(s, h)
@@ -197,6 +212,8 @@ class Session:
                 self._played(cur, n)
                 if progress is not None:
                     progress(self.t_us, self.line)
+                if self.live is not None:
+                    self._publish()
                 if n < len(cur):
                     break
                 cur = nxt
@@ -211,14 +228,22 @@ class Session:
             self.stop = Stop(signum, self.counts, self.line)
             raise Interrupted(f"stopped by {signal.Signals(signum).name}", signum)
 
+    def _publish(self, force: bool = False) -> None:
+        shifts, lost_ns = self.backend.shifts()
+        self.live.update(self.t_us / 1e6, self.line, shifts, lost_ns / 1e9, force)
+
     def _played(self, part: Rows, n: int) -> None:
         if n <= 0:
             return
         done = part[:n]
-        if self._writer is not None:
-            self._writer.trace(done)
-        elif self.tracer is not None:
-            self.tracer.write(done)
+        if self.tracer is not None:
+            written = self.backend.written_us()
+            shown = done if written is None or len(written) < n else \
+                Rows(written[:n], done.coils, done.pen_us, done.line, done.steps)
+            if self._writer is not None:
+                self._writer.trace(shown)
+            else:
+                self.tracer.write(shown)
         self.counts = (int(done.steps[-1, 0]), int(done.steps[-1, 1]))
         self.t_us = int(done.t_us[-1])
         self.line = int(done.line[-1])

@@ -48,6 +48,19 @@ class Backend:
         change times; None when timing is simulated."""
         return None
 
+    def written_us(self):
+        """Real-time backends: when each row of the last play() call was actually written
+        (microseconds on the trace's clock), so that a trace shows what happened; None when
+        timing is simulated (the rows' own times are what happened)."""
+        player = getattr(self, "_player", None)
+        return None if player is None else player.written_us
+
+    def shifts(self) -> tuple[int, int]:
+        """Real-time backends: how often lateness moved the timeline (by more than 0.1 ms) and
+        the total time it moved (ns); (0, 0) when timing is simulated."""
+        player = getattr(self, "_player", None)
+        return (0, 0) if player is None else (player.shifts, player.lost_ns)
+
     def __enter__(self):
         self.open()
         return self

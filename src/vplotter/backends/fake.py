@@ -27,6 +27,7 @@ class FakeBackend(Backend):
         self.pen_us = 0
         self._player = None
         if realtime:
+            timing = {"min_step_us": 1e6 / cfg.motors.max_step_rate, **timing}
             self._player = Player(self._write_coils, self._write_pen, clock, sleep, **timing)
 
     def _write_coils(self, word: int, changed: int) -> None:

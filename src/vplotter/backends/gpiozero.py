@@ -26,14 +26,17 @@ class GpiozeroBackend(Backend):
     def __init__(self, cfg, pin_factory=None, realtime: bool = True, clock=None, sleep=None,
                  **timing):
         """pin_factory: a gpiozero pin factory (default: gpiozero's own choice, or
-        GPIOZERO_PIN_FACTORY); clock, sleep and timing options (spin_us, poll_us, catchup) go to
-        `realtime.Player`; realtime is accepted and ignored (always real time)."""
+        GPIOZERO_PIN_FACTORY); clock, sleep and timing options (spin_us, poll_us, ...) go to
+        `realtime.Player`; realtime is accepted and ignored (always real time). The player
+        writes one pin at a time in a legal order and keeps 1 / max_step_rate between two
+        coil changes of one motor."""
         super().__init__(cfg)
         self.pin_factory = pin_factory
         self._coils = []
         self._servo = None
         lo, hi = sorted((cfg.pen.up_us, cfg.pen.down_us))
         self._pen_range = (lo, hi)
+        timing = {"min_step_us": 1e6 / cfg.motors.max_step_rate, "pin_at_a_time": True, **timing}
         self._player = Player(self._write_coils, self._write_pen, clock, sleep, **timing)
 
     # -- outputs

@@ -1,25 +1,29 @@
-"""Software timing shared by the real-time backends (gpiozero, fake with realtime=True).
+"""Software timing shared by the real-time backends (gpiozero, fake with realtime=True, and any
+other backend that writes its outputs from Python).
 
-`Player` plays rows against absolute deadlines: the first row it ever plays fixes the anchor
-(wall clock = anchor + t_us), every later row is due at anchor + t_us, so sleep overshoot never
-adds up. It sleeps until `spin_us` before a deadline (in slices of at most `poll_us`, checking
-the stop flag) and spins the rest: sleeping overshoots by ~0.1 ms on an idle machine, by
-milliseconds under load. Two refinements keep a late row from hurting the motors:
+`Player` plays rows against a timeline: row t_us is due at anchor + t_us on the wall clock. It
+sleeps until `spin_us` before a deadline (in slices of at most `poll_us`, checking the stop flag)
+and spins the rest: sleeping overshoots by ~0.1 ms on an idle machine, by milliseconds under
+load. Whatever the load, it guarantees:
 
-- catching up: a late row still waits `catchup` (0.75) of its planned gap after the previous
-  change, so catching up raises the step rate by a third at most instead of firing a burst
-  of steps that the motor would lose;
-- standstill: when a row is late while the coils are released, or releases them (the motors
-  stand unpowered: the caller was computing the next stroke, a pen change follows), the anchor
-  moves by the lateness. A pause there is harmless and keeps the pen's settle time whole;
-  racing through the start of the next stroke is not.
-- stalls: a row more than `stall_us` (0.5 ms) late means the process did not run for a while
-  (on a loaded machine, or a virtual one whose host takes the CPU away); the motors have
-  stopped meanwhile, so the anchor moves too and they go on at the planned speed, instead of
-  racing to make up time they cannot make up safely. Smaller lateness is made up as above.
+- lateness is never made up: a row written late moves the anchor by its lateness, so the rest of
+  the timeline keeps its planned intervals from the row as it actually happened (the plot takes
+  longer; the motors never race). `shifts` counts the moves of more than SHIFT_NS, `lost_ns` is
+  the total (the plot took that much longer than planned);
+- no two changes of one motor's coils closer than planned (start to start), nor than
+  `min_step_us` (1 / max_step_rate) measured from the END of the earlier write to the START of
+  the later one, so that the pins themselves can never show a shorter interval, even when the
+  process is stopped in the middle of a write;
+- a pen change never sooner than planned after the change before it, and the change after a pen
+  change never sooner than planned after it (the settle time is kept whole).
 
-Lateness (actual minus planned time of each output change, measured after the write) is
-collected in `Lateness`. The clock and sleep are injectable so tests run on a simulated clock.
+pin_at_a_time: the backend sets one pin per call (gpiozero): every coil transition is written one
+bit at a time in an order whose every intermediate pattern is a legal one (`bit_order`), so a
+stall between two bit writes never leaves a two-phase jump on a motor.
+
+The clock and sleep are injectable so tests run on a simulated clock. `written_us` gives, for the
+rows of the last play() call, when each was actually written (microseconds since the first row
+ever played: the real-time trace is what happened, not the plan).
 """
 
 from __future__ import annotations
@@ -33,12 +37,17 @@ import numpy as np
 
 from vplotter.schedule import Rows
 
+SHIFT_NS = 100_000     # a move of the timeline by more than 0.1 ms counts as a shift
+
 
 class Lateness:
-    """Lateness samples in nanoseconds -> {"p50_ms", "p99_ms", "max_ms", "n"}."""
+    """Lateness samples in nanoseconds (start of each write minus its due time) and the shifts
+    of the timeline -> {"p50_ms", "p99_ms", "max_ms", "n", "shifts", "lost_ms"}."""
 
     def __init__(self):
         self.ns = array("q")
+        self.shifts = 0
+        self.lost_ns = 0
 
     def add(self, late_ns: int, count: int = 1) -> None:
         if count == 1:
@@ -52,63 +61,133 @@ class Lateness:
         ms = np.frombuffer(self.ns, dtype=np.int64) / 1e6
         p50, p99 = np.percentile(ms, [50, 99])
         return {"p50_ms": float(p50), "p99_ms": float(p99), "max_ms": float(ms.max()),
-                "n": len(ms)}
+                "n": len(ms), "shifts": self.shifts, "lost_ms": self.lost_ns / 1e6}
+
+
+def _first_coil(pattern: int) -> int:
+    """Of two neighbouring coils i and i+1 (mod 4), i."""
+    bits = [b for b in range(4) if pattern >> b & 1]
+    return bits[1] if bits == [0, 3] else bits[0]
+
+
+def bit_order(old: int, new: int) -> tuple[int, ...]:
+    """The 4-bit coil patterns to write, one bit at a time, to go from `old` to `new` (the last
+    one is `new`). Every pattern in between is one a stepper (and tests/tracecheck.py) accepts:
+
+    - release of two neighbouring coils i, i+1: i+1 goes first, so the pattern left for a moment
+      is coil i alone (a neighbour in the half-step table), and
+    - energising two coils i, i+1: coil i first: the same pattern the release left, so release
+      and energise at one phase pass through the same half-step neighbour;
+    - a step: new coils on before old coils off (half steps change one bit anyway).
+    """
+    on = [b for b in range(4) if new >> b & 1 and not old >> b & 1]
+    off = [b for b in range(4) if old >> b & 1 and not new >> b & 1]
+    if new == 0 and len(off) == 2:
+        off.sort(key=lambda b: b == _first_coil(old))
+    if old == 0 and len(on) == 2:
+        on.sort(key=lambda b: b != _first_coil(new))
+    out, x = [], old
+    for b in on:
+        x |= 1 << b
+        out.append(x)
+    for b in off:
+        x &= ~(1 << b)
+        out.append(x)
+    return tuple(out)
+
+
+ORDER = [[bit_order(a, b) for b in range(16)] for a in range(16)]
 
 
 class Player:
     """Plays rows in real time through two callables:
-    write_coils(word, changed_bits) and write_pen(pulse_us) (0 = pulses off)."""
+    write_coils(word, changed_bits) and write_pen(pulse_us) (0 = pulses off).
+
+    min_step_us: the shortest time between two coil changes of one motor (0: only the planned
+    intervals are kept); pin_at_a_time: write one coil bit per write_coils call, in a legal order.
+    catchup and stall_us (the old rules for making up lateness) are accepted and ignored:
+    lateness is never made up.
+    """
 
     def __init__(self, write_coils: Callable[[int, int], None], write_pen: Callable[[int], None],
                  clock: Callable[[], int] | None = None,
                  sleep: Callable[[float], None] | None = None,
-                 spin_us: int = 2000, poll_us: int = 2000, catchup: float = 0.75,
-                 stall_us: int = 500):
+                 spin_us: int = 2000, poll_us: int = 2000, min_step_us: float = 0,
+                 pin_at_a_time: bool = False, catchup: float | None = None,
+                 stall_us: int | None = None):
         self.write_coils = write_coils
         self.write_pen = write_pen
         self.clock = clock or time.perf_counter_ns
         self.sleep = sleep or time.sleep
         self.spin_ns = spin_us * 1000
         self.poll_ns = poll_us * 1000
-        self.catchup_ns = int(round(catchup * 1000))  # per planned microsecond of gap
-        self.stall_ns = stall_us * 1000
-        self.anchor_ns: int | None = None
+        self.min_step_ns = int(np.ceil(min_step_us * 1000))
+        self.pin_at_a_time = pin_at_a_time
+        self.anchor_ns: int | None = None    # wall clock of schedule time 0 (moves on shifts)
+        self.origin_ns = 0                   # the first anchor: time 0 of written_us
         self.coils = 0
         self.pen_us = 0
+        # per motor: when its last coil write started and ended, and the schedule time of that row
+        self.motor_start_ns = [-(1 << 62), -(1 << 62)]
+        self.motor_end_ns = [-(1 << 62), -(1 << 62)]
+        self.motor_t_us = [0, 0]
+        self.last_end_ns = 0                 # the last row written: end of its writes, its time
         self.last_t_us = 0
-        self.last_out_ns = 0
+        self.last_pen = False                # did it change the pen?
         self.lateness = Lateness()
+        self.written_us = np.zeros(0, np.int64)
+
+    @property
+    def shifts(self) -> int:
+        return self.lateness.shifts
+
+    @property
+    def lost_ns(self) -> int:
+        return self.lateness.lost_ns
 
     def play(self, rows: Rows, stop: Callable[[], bool]) -> int:
         """Output each row at its time; return the rows played (fewer when stop() turned true).
         The garbage collector is off meanwhile (a full collection can take milliseconds)."""
         if len(rows) == 0:
+            self.written_us = np.zeros(0, np.int64)
             return 0
         enabled = gc.isenabled()
         gc.disable()
+        written = array("q")
         try:
-            return self._play(rows, stop)
+            return self._play(rows, stop, written)
         finally:
+            self.written_us = np.maximum.accumulate(np.frombuffer(written, dtype=np.int64)) \
+                if len(written) else np.zeros(0, np.int64)
             if enabled:
                 gc.enable()
 
-    def _play(self, rows: Rows, stop: Callable[[], bool]) -> int:
+    def _play(self, rows: Rows, stop: Callable[[], bool], written: array) -> int:
         n = len(rows)
-        clock, sleep, late = self.clock, self.sleep, self.lateness.ns
-        spin, poll, catchup = self.spin_ns, self.poll_ns, self.catchup_ns
+        clock, sleep, late = self.clock, self.sleep, self.lateness
+        spin, poll, min_step = self.spin_ns, self.poll_ns, self.min_step_ns
         ts, words, pens = rows.t_us.tolist(), rows.coils.tolist(), rows.pen_us.tolist()
         if self.anchor_ns is None:
-            self.anchor_ns = clock() - ts[0] * 1000
-            self.last_t_us, self.last_out_ns = ts[0], self.anchor_ns + ts[0] * 1000
+            self.anchor_ns = self.origin_ns = clock() - ts[0] * 1000
+            self.last_t_us, self.last_end_ns = ts[0], self.anchor_ns + ts[0] * 1000
+        motor_start, motor_end, motor_t = self.motor_start_ns, self.motor_end_ns, self.motor_t_us
         for i in range(n):
             if stop():
                 return i
             t, word, pen = ts[i], words[i], pens[i]
             changed = word ^ self.coils
-            if not changed and pen == self.pen_us:
+            pen_changed = pen != self.pen_us
+            plan = self.anchor_ns + t * 1000
+            if not changed and not pen_changed:
+                written.append((plan - self.origin_ns) // 1000)
                 continue
-            due = self.anchor_ns + t * 1000
-            due = max(due, self.last_out_ns + (t - self.last_t_us) * catchup)
+            due = plan
+            for m in (0, 1):
+                if changed >> (4 * m) & 15:
+                    due = max(due, motor_start[m] + (t - motor_t[m]) * 1000,
+                              motor_end[m] + min_step)
+            if pen_changed or self.last_pen:
+                due = max(due, self.last_end_ns + (t - self.last_t_us) * 1000)
             now = clock()
             while due - now > spin:
                 sleep(min(due - now - spin, poll) / 1e9)
@@ -117,15 +196,42 @@ class Player:
                 now = clock()
             while now < due:
                 now = clock()
+            start = now
+            late.ns.append(start - due)
+            if start > plan:                  # never made up: the rest of the timeline moves
+                shift = start - plan
+                self.anchor_ns += shift
+                late.lost_ns += shift
+                if shift > SHIFT_NS:
+                    late.shifts += 1
+            written.append((start - self.origin_ns) // 1000)
             if changed:
-                self.write_coils(word, changed)
-            if pen != self.pen_us:
+                self._write(word, changed, clock)
+            if pen_changed:
                 self.write_pen(pen)
-            out = clock()
-            late_ns = out - (self.anchor_ns + t * 1000)
-            late.append(late_ns)
-            if late_ns > self.stall_ns or late_ns > 0 and (self.coils == 0 or word == 0):
-                self.anchor_ns += late_ns  # the motors stand (or stood) still: pause, never race
-            self.coils, self.pen_us = word, pen
-            self.last_t_us, self.last_out_ns = t, out
+                self.pen_us = pen
+            self.last_end_ns = clock()
+            self.last_t_us, self.last_pen = t, pen_changed
+            for m in (0, 1):
+                if changed >> (4 * m) & 15:
+                    motor_t[m] = t
+                    if not self.pin_at_a_time:
+                        motor_start[m], motor_end[m] = start, self.last_end_ns
         return n
+
+    def _write(self, word: int, changed: int, clock) -> None:
+        if not self.pin_at_a_time:
+            self.write_coils(word, changed)
+            self.coils = word
+            return
+        for m in (0, 1):
+            shift = 4 * m
+            if not changed >> shift & 15:
+                continue
+            old, cur = self.coils >> shift & 15, self.coils
+            self.motor_start_ns[m] = clock()
+            for pattern in ORDER[old][word >> shift & 15]:
+                nxt = cur & ~(15 << shift) | pattern << shift
+                self.write_coils(nxt, nxt ^ cur)
+                cur = self.coils = nxt
+            self.motor_end_ns[m] = clock()

@@ -42,6 +42,10 @@ def calibrate_steps(args, cfg, command: str) -> int:
         raise ConfigError("error: calibrate steps needs --motor left|right")
     if not 0 < args.steps <= 100_000:
         raise ConfigError(f"error: --steps must be 1..100000 (got {args.steps})")
+    if not args.dry_run:            # the plotter first: a busy one fails before any question
+        from vplotter import lock
+
+        lock.acquire(command)
     m = 0 if args.motor == "left" else 1
     spu = cfg.motors.steps_per_unit
     expected = args.steps / spu[m]

@@ -30,15 +30,41 @@ def load_config(args):
 
 
 def position(cfg, args, dry_run: bool):
-    """The position to start from. A dry run without a stored position assumes X0 Y0."""
-    from vplotter import job, kinematics, state
+    """The position to start from. Anything that will move or store the machine takes the
+    plotter lock first (a second mover fails here, exit 3, before reading a position that the
+    running one is changing); the session shares it, and it is released when the command ends.
+    A dry run takes no lock; without a stored position it assumes X0 Y0, after an unclean stop
+    it goes on but says how uncertain the stored position is."""
+    from vplotter import job, kinematics, lock, state
 
+    if not dry_run:
+        lock.acquire(lock_command(args))
     if dry_run and state.load() is None:
         kin = kinematics.from_config(cfg)
         cords = kin.inverse(kin.to_machine([[0.0, 0.0]]))[0]
         eprint("note: no calibrated position stored; the dry run assumes the pen at X0 Y0")
         return state.Position.at_cords(cords[0], cords[1], cfg.motors.steps_per_unit)
-    return job.load_position(cfg, getattr(args, "trust_position", False), dry_run)
+    pos = job.load_position(cfg, getattr(args, "trust_position", False), dry_run)
+    if dry_run and not pos.clean:
+        holder = lock.holder()
+        if holder is not None:
+            eprint(f"note: pid {holder['pid']} ({holder.get('command', 'vplotter')}) is moving "
+                   f"the plotter; the dry run starts from the position stored last")
+        else:
+            eprint(f"warning: the last stop was not clean (crash or power cut): the stored "
+                   f"position is uncertain by up to {job.uncertainty_mm(cfg, pos):.2f} mm; the "
+                   f"dry run starts from it (`vplotter calibrate --at X Y` makes it exact)")
+    return pos
+
+
+def lock_command(args) -> str:
+    """What the lock file says the holder does: `vplotter draw car.ngc`."""
+    words = ["vplotter", getattr(args, "command", None) or ""]
+    for name in ("file", "action", "what"):
+        v = getattr(args, name, None)
+        if isinstance(v, str):
+            words.append(v)
+    return " ".join(w for w in words if w)
 
 
 def add_machine_options(p: argparse.ArgumentParser) -> None:

@@ -21,6 +21,10 @@ def add_draw(p: argparse.ArgumentParser) -> None:
                    help="go on from where the last interrupted draw of FILE stopped")
     g.add_argument("--from-line", type=int, metavar="N", help="start at line N of FILE")
     p.add_argument("--force", action="store_true", help="--resume even if FILE changed since")
+    p.add_argument("--detach", action="store_true",
+                   help="after validation, draw in the background (survives the end of the SSH "
+                        "session; follow with `vplotter status --watch` or `vplotter log -f`)")
+    p.add_argument("--detached", action="store_true", help=argparse.SUPPRESS)
 
 
 def start_at(args, pos):
@@ -56,11 +60,16 @@ def cmd_draw(args, argv=None) -> int:
     from vplotter.inputs import gcode
     from vplotter.errors import Interrupted
 
+    from vplotter import live
+
     cfg = load_config(args)
+    if args.detach and args.dry_run:
+        raise ConfigError("error: --detach draws on the machine; a --dry-run has nothing to detach")
     pos = position(cfg, args, args.dry_run)
     begin = start_at(args, pos)
     sess = session(args, cfg, command_line(argv), pos)
     sess.drawing = {"file": os.path.abspath(args.file), "sha256": file_hash(args.file)}
+    sess.ignore_hangup = args.detached
     # the session (lock, pins, signal handlers) is open first, so that a signal at any moment
     # ends the same way; nothing is output before the whole file has been validated
     with sess as s:
@@ -68,8 +77,14 @@ def cmd_draw(args, argv=None) -> int:
         records = gcode.read(args.file, strict=args.strict)
         summary = pipeline.validate(cfg, records, pos.counts, pos.ref_mm, args.file, begin,
                                     lambda: s.stop_pending)
+        if summary is not None and not s.dry_run and not args.detach:
+            # published before the summary is printed: whoever sees the summary finds it
+            s.live = live.Publisher(command_line(argv), os.path.abspath(args.file), summary.time_s)
+            s.live.update(0.0, 0, force=True)
         if summary is not None:
             say(f"{args.file}: {summary.text()}")
+        if args.detach and summary is not None:
+            return _detach(args, argv, s)
         quiet = gcode.read(args.file, strict=args.strict, warn=lambda m: None)
         if s.tracer is not None:
             s.tracer.comment(f"file {os.path.abspath(args.file)}")
@@ -102,10 +117,43 @@ def cmd_draw(args, argv=None) -> int:
                     "p99 {p99_ms:.3f} ms, max {max_ms:.3f} ms over {n} changes").format(**stats)
             if stats.get("underruns"):
                 text += f", {stats['underruns']} queue underruns"
+            if "shifts" in stats:
+                text += (f"; the timeline moved {stats['shifts']} times by more than 0.1 ms, "
+                         f"{stats['lost_ms'] / 1e3:.3f} s lost in total")
             if s.tracer is not None:
                 s.tracer.comment(text)
             if args.verbose:
                 say(text)
+        if args.detached:
+            import time
+
+            say(f"{args.file}: finished at {time.strftime('%H:%M:%S')}")
+    return 0
+
+
+def _detach(args, argv, s) -> int:
+    """Go on in a new process in its own session (setsid: no terminal, no SIGHUP from it),
+    output to the log file; the lock passes to it (it inherits the open lock file)."""
+    import os
+    import subprocess
+
+    from vplotter import live
+
+    rest = [a for a in (argv if argv is not None else sys.argv[1:]) if a != "--detach"]
+    held = s.hand_over_pins()
+    log = live.log_path()
+    log.parent.mkdir(parents=True, exist_ok=True)
+    env = dict(os.environ, VPLOTTER_LOCK_FD=str(held.fd))
+    try:
+        with open(log, "w", encoding="utf-8") as out:
+            child = subprocess.Popen([sys.executable, "-m", "vplotter", *rest, "--detached"],
+                                     stdin=subprocess.DEVNULL, stdout=out, stderr=subprocess.STDOUT,
+                                     env=env, pass_fds=(held.fd,), start_new_session=True)
+        held.write_info(pid=child.pid)
+    finally:
+        held.hand_over()
+    say(f"drawing in the background: pid {child.pid}; its output goes to {log}")
+    say("follow it: vplotter status --watch (or vplotter log -f); pause it: vplotter stop")
     return 0
 
 

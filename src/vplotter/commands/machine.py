@@ -1,4 +1,4 @@
-"""The machine commands: calibrate, status, pen, jog, goto, home."""
+"""The machine commands: calibrate, pen, jog, goto, home (status is in commands/live.py)."""
 
 from __future__ import annotations
 
@@ -76,50 +76,6 @@ def _describe(cfg, pos) -> str:
     return (f"pen at X{xy[0]:.3f} Y{xy[1]:.3f}  "
             f"cords left {pos.left_mm:.3f} mm ({pos.left_steps} steps) "
             f"right {pos.right_mm:.3f} mm ({pos.right_steps} steps)  pen {pos.pen}")
-
-
-def add_status(p) -> None:
-    p.add_argument("--json", action="store_true", help="machine-readable output")
-
-
-def cmd_status(args, argv=None) -> int:
-    import json
-
-    from vplotter import job, state
-
-    cfg = load_config(args)
-    stored = state.load()
-    if stored is None:
-        if args.json:
-            print(json.dumps({"calibrated": False}))
-        else:
-            print("position unknown: run `vplotter calibrate --at X Y`")
-        return 0
-    pos = state.recovered(stored).rebased(cfg.motors.steps_per_unit)
-    off = job.uncertainty_mm(cfg, pos)
-    xy = _pen_xy(cfg, pos)
-    resume = pos.extra.get("resume")
-    if args.json:
-        print(json.dumps({
-            "calibrated": True, "x_mm": round(float(xy[0]), 4), "y_mm": round(float(xy[1]), 4),
-            "left_mm": pos.left_mm, "right_mm": pos.right_mm,
-            "left_steps": pos.left_steps, "right_steps": pos.right_steps, "pen": pos.pen,
-            "clean": pos.clean, "last_stop": "clean" if pos.clean else "unclean",
-            "uncertainty_mm": round(off, 4),
-            "resume": resume or None, "state_file": str(state.state_path())}))
-        return 0
-    print(_describe(cfg, pos))
-    if pos.clean:
-        print("last stop: clean")
-    else:
-        print(f"last stop: UNCLEAN (crash or power cut): the position may be off by up to "
-              f"{off:.2f} mm; check it and run `vplotter calibrate`, or draw with --trust-position")
-    if resume:
-        where = (f"at X{resume['xy'][0]:.3f} Y{resume['xy'][1]:.3f}" if resume.get("xy")
-                 else "from its start")
-        print(f"resume: {resume['file']} line {resume['line']} {where} (vplotter draw FILE --resume)")
-    print(f"state file: {state.state_path()}")
-    return 0
 
 
 def add_pen(p) -> None:

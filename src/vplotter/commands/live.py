@@ -1,0 +1,213 @@
+"""status, stop and log: what people use while a draw runs (over SSH, from a phone).
+
+None of them takes the plotter lock: they read the stored position, the lock file's holder and
+what the running draw publishes (vplotter.live).
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+from vplotter.commands.common import load_config, say
+from vplotter.errors import VplotterError
+
+POLL_S = 0.05        # stop and log -f look this often (product code, not a test)
+WATCH_S = 0.5        # status --watch redraws this often
+
+
+def add_status(p) -> None:
+    p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.add_argument("--watch", action="store_true",
+                   help="a live progress line until the running draw ends, then the status")
+
+
+def _snapshot(cfg):
+    """(stored position or None, lock holder or None, running draw or None)."""
+    from vplotter import live, lock, state
+
+    holder = lock.holder()
+    drawing = live.read(holder) if holder else None
+    stored = state.load()
+    pos = state.recovered(stored).rebased(cfg.motors.steps_per_unit) if stored else None
+    return pos, holder, drawing
+
+
+def cmd_status(args, argv=None) -> int:
+    cfg = load_config(args)
+    if args.watch and not args.json:
+        _watch()
+    pos, holder, drawing = _snapshot(cfg)
+    if args.json:
+        _print_json(cfg, pos, holder, drawing)
+    else:
+        _print_text(cfg, pos, holder, drawing)
+    return 0
+
+
+def _busy(holder):
+    if holder is None:
+        return None
+    return {"pid": holder["pid"], "command": holder.get("command", ""),
+            "since": time.strftime("%H:%M", time.localtime(holder.get("since", time.time())))}
+
+
+def _print_json(cfg, pos, holder, drawing) -> None:
+    import json
+
+    from vplotter import job, state
+    from vplotter.commands.machine import _pen_xy
+
+    if pos is None:
+        print(json.dumps({"calibrated": False, "busy": _busy(holder), "drawing": drawing}))
+        return
+    xy = _pen_xy(cfg, pos)
+    running = holder is not None
+    print(json.dumps({
+        "calibrated": True, "x_mm": round(float(xy[0]), 4), "y_mm": round(float(xy[1]), 4),
+        "left_mm": pos.left_mm, "right_mm": pos.right_mm,
+        "left_steps": pos.left_steps, "right_steps": pos.right_steps, "pen": pos.pen,
+        # a process that holds the lock is moving the machine: its stop is still to come
+        "clean": None if running else pos.clean,
+        "last_stop": "running" if running else ("clean" if pos.clean else "unclean"),
+        "uncertainty_mm": round(job.uncertainty_mm(cfg, pos), 4),
+        "resume": None if running else pos.extra.get("resume") or None, "state_file": str(state.state_path()),
+        "busy": _busy(holder), "drawing": drawing}))
+
+
+def _print_text(cfg, pos, holder, drawing) -> None:
+    from vplotter import job, live, state
+    from vplotter.commands.machine import _describe
+
+    if holder is not None:
+        busy = _busy(holder)
+        print(f"{'drawing now' if drawing else 'busy'}: pid {busy['pid']} ({busy['command']}) "
+              f"since {busy['since']}")
+        if drawing:
+            print(f"  {drawing['file']} line {drawing['line']}: {drawing['percent']:.1f} % of the "
+                  f"plot time done, {live.clock_text(drawing['elapsed_s'])} elapsed, "
+                  f"{live.clock_text(drawing['remaining_s'])} left, finish at {drawing['finish']}")
+            if drawing["shifts"]:
+                print(f"  the timeline moved {drawing['shifts']} times "
+                      f"({drawing['lost_s']:.2f} s lost to lateness)")
+    if pos is None:
+        print("position unknown: run `vplotter calibrate --at X Y`")
+        return
+    if holder is not None:
+        off = job.uncertainty_mm(cfg, pos)
+        print(f"{_describe(cfg, pos)}  (moving: where the journal had it, within {off:.2f} mm)")
+    else:
+        print(_describe(cfg, pos))
+        if pos.clean:
+            print("last stop: clean")
+        else:
+            off = job.uncertainty_mm(cfg, pos)
+            print(f"last stop: UNCLEAN (crash or power cut): the position may be off by up to "
+                  f"{off:.2f} mm; check it and run `vplotter calibrate`, or draw with "
+                  f"--trust-position")
+    resume = pos.extra.get("resume")
+    if resume and holder is None:
+        where = (f"at X{resume['xy'][0]:.3f} Y{resume['xy'][1]:.3f}" if resume.get("xy")
+                 else "from its start")
+        print(f"resume: {resume['file']} line {resume['line']} {where} "
+              f"(vplotter draw FILE --resume)")
+    print(f"state file: {state.state_path()}")
+
+
+def _watch() -> None:
+    """One live line (progress bar, line, times) until no draw runs any more."""
+    from vplotter import live, lock
+
+    shown = False
+    while True:
+        holder = lock.holder()
+        d = live.read(holder) if holder else None
+        if holder is None:
+            break
+        if d is not None:
+            text = (f"\r[{live.bar(d['percent'])}] {d['percent']:5.1f} %  line {d['line']}  "
+                    f"{live.clock_text(d['elapsed_s'])} elapsed  "
+                    f"{live.clock_text(d['remaining_s'])} left  finish {d['finish']} ")
+        else:
+            text = f"\rbusy: pid {holder['pid']} ({holder.get('command', '')}) "
+        say(text, sys.stderr, end="")
+        shown = True
+        time.sleep(WATCH_S)
+    if shown:
+        say("", sys.stderr)
+    else:
+        say("no draw is running", sys.stderr)
+
+
+def add_stop(p) -> None:
+    p.add_argument("--timeout", type=float, default=60.0,
+                   help="seconds to wait for the pen to be up and the position stored (default 60)")
+
+
+def cmd_stop(args, argv=None) -> int:
+    """Pause the running draw: SIGINT to the lock holder, wait until it has lifted the pen,
+    released the coils and stored the position (it lets go of the lock then), say where."""
+    import os
+    import signal
+
+    from vplotter import lock, state
+
+    cfg = load_config(args)
+    holder = lock.holder()
+    if holder is None:
+        say("nothing to stop: no vplotter is driving the plotter")
+        return 0
+    pid = holder["pid"]
+    try:
+        os.kill(pid, signal.SIGINT)
+    except ProcessLookupError:
+        say("nothing to stop: it has just ended")
+        return 0
+    except PermissionError:
+        raise VplotterError(f"cannot stop pid {pid} ({holder.get('command', '')}): it belongs to "
+                            f"another user (sudo vplotter stop)") from None
+    deadline = time.monotonic() + args.timeout
+    while lock.alive(pid) and (lock.holder() or {}).get("pid") == pid:
+        if time.monotonic() > deadline:
+            raise VplotterError(f"pid {pid} has not stopped within {args.timeout:g} s")
+        time.sleep(POLL_S)
+    pos = state.load()
+    if pos is None:
+        say(f"stopped pid {pid}")
+        return 0
+    from vplotter.commands.machine import _describe
+
+    say(f"stopped pid {pid} ({holder.get('command', '')}): {_describe(cfg, pos)}"
+        f"{'' if pos.clean else ' (not a clean stop: see vplotter status)'}")
+    resume = pos.extra.get("resume")
+    if resume:
+        say(f"resume with: vplotter draw {resume['file']} --resume")
+    return 0
+
+
+def add_log(p) -> None:
+    p.add_argument("-f", "--follow", action="store_true",
+                   help="keep printing what the background draw writes until it ends")
+
+
+def cmd_log(args, argv=None) -> int:
+    """Print the log of the last background draw (`draw --detach`)."""
+    from vplotter import live, lock
+
+    path = live.log_path()
+    try:
+        f = open(path, encoding="utf-8", errors="replace")
+    except FileNotFoundError:
+        say(f"no log yet: `vplotter draw FILE --detach` writes one ({path})")
+        return 0
+    with f:
+        while True:
+            text = f.read()
+            if text:
+                say(text, end="")
+            if not args.follow or lock.holder() is None:
+                text = f.read()          # what came between the last read and the end
+                if text:
+                    say(text, end="")
+                return 0
+            time.sleep(POLL_S)

@@ -1,0 +1,125 @@
+"""What a running draw publishes for status, stop and log: $XDG_STATE_HOME/vplotter/live.json,
+replaced atomically (temporary file + rename) a few times a second while the motors run, and
+removed when the draw ends. Nobody reads the running process's internals: only this file, and
+the lock file for whether its writer is still alive.
+
+    {"pid", "command", "file", "started", "updated", "line", "done_s", "total_s",
+     "shifts", "lost_s"}
+
+done_s is the plot time played so far, total_s the plot time of the whole draw (what the
+summary printed), both on the schedule's clock; lost_s the time the real-time player has lost
+to lateness (the plot takes that much longer).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+import time
+
+from vplotter.state import state_dir
+
+EVERY_S = 0.25
+
+
+def live_path():
+    return state_dir() / "live.json"
+
+
+def log_path():
+    """Where a background draw (`draw --detach`) writes what it prints."""
+    return state_dir() / "draw.log"
+
+
+class Publisher:
+    """Writes live.json for one draw, at most every EVERY_S seconds (and always on force)."""
+
+    def __init__(self, command: str, file: str, total_s: float, clock=time.time):
+        self.clock = clock
+        self.info = {"pid": os.getpid(), "command": command, "file": file,
+                     "started": clock(), "updated": 0.0, "line": 0, "done_s": 0.0,
+                     "total_s": float(total_s), "shifts": 0, "lost_s": 0.0}
+        self.last = -1e9
+
+    def update(self, done_s: float, line: int, shifts: int = 0, lost_s: float = 0.0,
+               force: bool = False) -> None:
+        now = self.clock()
+        self.info.update(done_s=float(done_s), line=int(line), shifts=int(shifts),
+                         lost_s=float(lost_s))
+        if force or now - self.last >= EVERY_S:
+            self.last = now
+            self.info["updated"] = now
+            _write(self.info)
+
+    def close(self) -> None:
+        try:
+            with open(live_path(), encoding="utf-8") as f:
+                mine = json.load(f).get("pid") == self.info["pid"]
+        except (OSError, ValueError, AttributeError):
+            return
+        if mine:
+            try:
+                os.unlink(live_path())
+            except OSError:
+                pass
+
+
+def _write(info: dict) -> None:
+    path = live_path()
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".live.", suffix=".tmp")
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            json.dump(info, f)
+        os.replace(tmp, path)
+    except OSError:
+        pass          # status is a convenience: never stop a drawing for it
+
+
+def read(holder: dict | None = None, now: float | None = None) -> dict | None:
+    """The running draw as status shows it: {"pid", "command", "file", "line", "percent",
+    "elapsed_s", "remaining_s", "finish"}, or None when no draw is running. `holder` is the
+    lock holder (lock.holder()); a live.json whose writer does not hold the lock is left over
+    from a crash and means nothing."""
+    if holder is None:
+        from vplotter import lock
+
+        holder = lock.holder()
+    if holder is None:
+        return None
+    try:
+        with open(live_path(), encoding="utf-8") as f:
+            info = json.load(f)
+        if info.get("pid") != holder.get("pid"):
+            return None
+        now = time.time() if now is None else now
+        total, done = float(info["total_s"]), min(float(info["done_s"]), float(info["total_s"]))
+        remaining = max(0.0, total - done)
+        return {"pid": int(info["pid"]), "command": str(info.get("command", "")),
+                "file": str(info.get("file", "")), "line": int(info["line"]),
+                "percent": round(100.0 * done / total, 1) if total > 0 else 0.0,
+                "elapsed_s": round(now - float(info["started"]), 1),
+                "remaining_s": round(remaining, 1),
+                "finish": time.strftime("%H:%M", time.localtime(now + remaining)),
+                "shifts": int(info.get("shifts", 0)), "lost_s": float(info.get("lost_s", 0.0))}
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return None
+
+
+def describe(d: dict) -> str:
+    """One line: drawing car.ngc line 120, 35.2 % done, 12:04 elapsed, 20:30 left (finish 14:35)."""
+    return (f"drawing {os.path.basename(d['file'])} line {d['line']}, {d['percent']:.1f} % done, "
+            f"{clock_text(d['elapsed_s'])} elapsed, {clock_text(d['remaining_s'])} left "
+            f"(finish {d['finish']})")
+
+
+def clock_text(seconds: float) -> str:
+    s = int(round(seconds))
+    h, m = divmod(s // 60, 60)
+    return f"{h}:{m:02d}:{s % 60:02d}" if h else f"{m}:{s % 60:02d}"
+
+
+def bar(percent: float, width: int = 25) -> str:
+    full = int(width * min(max(percent, 0.0), 100.0) / 100)
+    return "#" * full + "-" * (width - full)
