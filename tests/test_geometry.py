@@ -50,7 +50,7 @@ def test_crossing_solves_the_cord_length(x0, y0, x1, y1, frac):
         s_true = end * min(frac, 99.0) / 100.0
         q = KIN.inverse(p0 + e * s_true)[0, motor]
         rising = KIN.slope(p0, e)[0, motor] > 0
-        s = KIN.crossing(p0, e, np.array([motor]), np.array([q]), np.array([rising]))[0]
+        s = KIN.crossing(p0, e, motor, np.array([0]), np.array([q]), np.array([rising]))[0]
         assert abs(s - s_true) < 1e-6
 
 

@@ -1,6 +1,7 @@
 """Planner and schedule: the limits hold piece by piece, and streaming keeps memory flat."""
 
 import numpy as np
+import pytest
 
 from vplotter import config, kinematics
 from vplotter.planner import RATE_MARGIN, Planner
@@ -83,3 +84,117 @@ def test_cord_move_rest_to_rest():
     assert rows.coils[-1] == 0                      # released at the end
     t = rows.t_us[rows.steps[:, 0] != np.roll(rows.steps[:, 0], 1)]
     assert np.diff(t).min() >= 1e6 / CFG.motors.max_step_rate
+
+
+# ---------------------------------------------------------------- plan once, draw as planned
+from hypothesis import given, strategies as st  # noqa: E402
+
+from vplotter import pipeline, segment  # noqa: E402
+from vplotter.inputs import gcode  # noqa: E402
+
+STROKES = REPO / "gcode_samples" / "strokes.ngc"
+
+
+def _start():
+    return (0, 0), KIN.inverse(KIN.to_machine([[0.0, 0.0]]))[0]
+
+
+def test_replayed_plan_gives_the_rows_of_a_fresh_stream():
+    counts, ref = _start()
+    for path in (STROKES, REPO / "gcode_samples" / "car.ngc"):
+        summary = pipeline.validate(CFG, gcode.read(str(path), warn=lambda m: None), counts, ref)
+        assert summary.plan is not None
+        a = pipeline.Rows.concat(list(pipeline.replay(CFG, summary.plan, counts, ref)))
+        b = pipeline.Rows.concat(list(pipeline.stream(CFG, gcode.read(str(path), warn=lambda m: None),
+                                                      counts, ref)))
+        for f in ("t_us", "coils", "pen_us", "line", "steps"):
+            assert np.array_equal(getattr(a, f), getattr(b, f)), f
+        assert summary.time_s == a.t_us[-1] / 1e6
+
+
+def test_a_plan_too_long_to_keep_is_planned_again(monkeypatch):
+    monkeypatch.setattr(pipeline, "PLAN_LIMIT", 100)
+    counts, ref = _start()
+    summary = pipeline.validate(CFG, gcode.read(str(STROKES), warn=lambda m: None), counts, ref)
+    assert summary.plan is None and summary.pieces > 100
+
+
+def test_pen_changes_are_stops_inside_the_look_ahead(monkeypatch):
+    from vplotter.planner import Planner as P
+
+    rounds = []
+    orig = P._profile
+    monkeypatch.setattr(P, "_profile", lambda self, *a: rounds.append(1) or orig(self, *a))
+    counts, ref = _start()
+    ops = list(pipeline.plan(CFG, gcode.read(str(STROKES), warn=lambda m: None), counts, ref,
+                             "strokes", pipeline.Summary()))
+    pens = [op for op in ops if op[0] == "pen"]
+    recs = [r for r in gcode.read(str(STROKES), warn=lambda m: None) if isinstance(r, gcode.Pen)]
+    assert [(p[1], p[2]) for p in pens] == [(r.down, r.line) for r in recs]   # all, in order
+    assert len(rounds) < len(pens) / 4          # many strokes planned in one look-ahead round
+    for op, nxt in zip(ops, ops[1:]):
+        if op[0] == "motion" and nxt[0] in ("pen", "dwell"):
+            assert op[1].v1[-1] == 0.0 and op[1].stop[-1]       # standing still at a pen change
+        if op[0] == "pen" and nxt[0] == "motion":
+            assert nxt[1].v0[0] == 0.0
+
+
+@given(st.lists(st.tuples(st.floats(-100, 100), st.floats(-100, 100), st.floats(-100, 100),
+                          st.floats(-100, 100), st.sampled_from([-1, 0, 1]),
+                          st.floats(-3, 3), st.floats(-3, 3)), min_size=1, max_size=20),
+       st.sampled_from([0.0075, 0.05, 1.0]))
+def test_cutting_many_moves_at_once_equals_one_by_one(raw, tol):
+    moves = []
+    for x0, y0, x1, y1, arc, i, j in raw:
+        if arc:   # centre near the start; the end put on the same circle or not (spirals)
+            moves.append(gcode.Move(1, 1, x0, y0, x1, y1, arc, x0 + i, y0 + j))
+        else:
+            moves.append(gcode.Move(1, 1, x0, y0, x1 if i > 0 else x0, y1 if i > 0 else y0))
+    pts, n = segment.points_many(moves, tol)
+    one = [segment.points(m, tol) for m in moves]
+    assert n.tolist() == [len(p) for p in one]
+    if len(pts):
+        assert np.abs(pts - np.concatenate([p for p in one if len(p)])).max() < 1e-9
+
+
+def test_corners_and_ramps_share_the_acceleration_budget():
+    """On every piece, what the ramps use plus the corner at either end stays within the
+    budget: |slope| x a + jump x v x max(1/TAU, v/ds) <= max_accel (per motor, steps/s^2)."""
+    from vplotter.planner import ACCEL_MARGIN, TAU_S
+
+    counts, ref = _start()
+    acc = CFG.motors.max_accel * ACCEL_MARGIN / SPM
+    ops = pipeline.plan(CFG, gcode.read(str(STROKES), warn=lambda m: None), counts, ref,
+                        "strokes", pipeline.Summary())
+    for b in (op[1] for op in ops if op[0] == "motion"):
+        e = b.e
+        k0, k1 = KIN.slope(b.verts[:-1], e), KIN.slope(b.verts[1:], e)
+        kmax = np.maximum(np.maximum(np.abs(k0), np.abs(k1)), 0.25)
+        ramp = kmax * b.a[:, None]
+        if len(b.d) > 1:
+            jump = np.abs(k0[1:] - k1[:-1])
+            v = b.v1[:-1, None]
+            ds = np.minimum(b.d[1:], b.d[:-1])[:, None]
+            corner = jump * v * np.maximum(1 / TAU_S, v / ds)
+            assert (corner <= acc * (1 + 1e-9)).all()
+            assert (ramp[1:] + corner <= acc * (1 + 1e-6)).all()     # corner at a piece's start
+            assert (ramp[:-1] + corner <= acc * (1 + 1e-6)).all()    # and at its end
+        assert (ramp <= acc * (1 + 1e-6)).all()
+
+
+@pytest.mark.parametrize("name", ["strokes.ngc", "circles.ngc", "square.ngc"])
+def test_plot_time_is_close_to_time_optimal(name):
+    """bench/topp.py computes the time-optimal parameterisation of the same path under the
+    same motor limits (the pen within tolerance_mm at corners); the plan is within 5 %."""
+    import sys
+
+    sys.path.insert(0, str(REPO / "bench"))
+    try:
+        import topp
+    finally:
+        sys.path.pop(0)
+    path = str(REPO / "gcode_samples" / name)
+    counts, ref = _start()
+    planned = pipeline.validate(CFG, gcode.read(path, warn=lambda m: None), counts, ref).time_s
+    best = topp.reference(CFG, path)
+    assert best <= planned <= 1.05 * best

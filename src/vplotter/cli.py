@@ -12,7 +12,7 @@ import argparse
 import sys
 from typing import Callable
 
-from vplotter.commands import draw, live, machine, pictures
+from vplotter.commands import draw, live, machine, pictures, serial
 from vplotter.commands.common import eprint
 from vplotter.errors import BusyError, VplotterError
 
@@ -33,6 +33,8 @@ COMMANDS: dict[str, tuple[Callable, Callable, str]] = {
     "goto": (machine.cmd_goto, machine.add_goto, "move the pen (up) to a G-code point"),
     "home": (machine.cmd_home, machine.add_machine_options,
              "move the pen (up) to the last calibrated point"),
+    "serial": (serial.cmd_serial, serial.add_serial,
+               "a grbl controller on [serial] port: check its settings, or a console"),
     "preview": (pictures.cmd_preview, pictures.add_preview,
                 "picture (PNG/SVG) of the planned drawing: order, travel, page, anchors"),
     "simulate": (pictures.cmd_simulate, pictures.add_simulate,

@@ -77,6 +77,18 @@ class Gpio:
 
 
 @dataclass(frozen=True)
+class Serial:
+    port: str
+    baud: int
+    rx_buffer: int
+    pen_down: str
+    pen_up: str
+    axes: str
+    feed_scale: float
+    timeout_s: float
+
+
+@dataclass(frozen=True)
 class Config:
     machine: Machine
     origin: Origin
@@ -85,6 +97,7 @@ class Config:
     pen: Pen
     motion: Motion
     gpio: Gpio
+    serial: Serial | None = None
     path: str = "config.toml"
 
 
@@ -125,10 +138,20 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "backend": ("str", "lgpio", ("lgpio", "gpiozero", "fake"), None),
         "chip": ("int", 0, 0, 64),
     },
+    "serial": {     # a grbl-style controller on a serial port (--backend serial)
+        "port": ("text", "/dev/ttyUSB0", None, None),
+        "baud": ("int+", 115200, 0, 10**7),
+        "rx_buffer": ("int", 128, 64, 1 << 20),
+        "pen_down": ("text", "M3 S1000", None, None),
+        "pen_up": ("text", "M5", None, None),
+        "axes": ("str", "motors", ("motors", "xy"), None),
+        "feed_scale": ("float+", 1.0, 0.0, 1e3),
+        "timeout_s": ("float+", 5.0, 0.0, 3600.0),
+    },
 }
-OPTIONAL_SECTIONS = {"gpio", "motion"}
+OPTIONAL_SECTIONS = {"gpio", "motion", "serial"}
 SECTION_CLASSES = {"machine": Machine, "origin": Origin, "page": Page, "motors": Motors,
-                   "pen": Pen, "motion": Motion, "gpio": Gpio}
+                   "pen": Pen, "motion": Motion, "gpio": Gpio, "serial": Serial}
 
 
 def _fmt(v: Any) -> str:
@@ -151,6 +174,10 @@ def _value(where: str, kind: str, raw: Any, lo: Any, hi: Any) -> Any:
             choices = " | ".join(lo)
             raise ConfigError(f"{where} must be one of {choices} (got {_fmt(raw)})")
         return raw
+    if base == "text":      # one line of text sent to a controller as it is
+        if not isinstance(raw, str) or not raw.strip() or any(c in raw for c in "\r\n?!~\x18"):
+            raise ConfigError(f"{where} must be one line of text without ? ! ~ (got {_fmt(raw)})")
+        return raw.strip()
     if base == "pins":
         if (not isinstance(raw, list) or len(raw) != 4
                 or not all(isinstance(p, int) and not isinstance(p, bool) for p in raw)):

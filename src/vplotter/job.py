@@ -190,8 +190,10 @@ class Session:
         the trace are written on another, so that the thread driving the outputs does nothing
         else while the motors run.
         """
-        ahead = _Ahead(chunks)
-        self._writer = _Writer(self.tracer)
+        # a simulated machine (the fake backend, not in real time) needs no helper threads
+        threaded = self.realtime or self.backend_name != "fake"
+        ahead = _Ahead(chunks, split=self.saves_state, threaded=threaded)
+        self._writer = _Writer(self.tracer, threaded=threaded)
         switch = sys.getswitchinterval()
         sys.setswitchinterval(0.0005)     # hand the interpreter back to the player quickly
         try:
@@ -324,9 +326,18 @@ class _Failure:
 class _Ahead:
     """Computes the schedule's parts on a helper thread, a bounded number ahead."""
 
-    def __init__(self, chunks: Iterable[Rows], depth: int = 8):
+    def __init__(self, chunks: Iterable[Rows], depth: int = 8, split: bool = True,
+                 threaded: bool = True):
+        """split: cut the rows into journal stretches (only a run that stores the position
+        journals; a dry run plays whole chunks); threaded=False: compute each part when it
+        is asked for (a simulated machine waits for nobody)."""
+        self.split = split
         self.q: queue.Queue = queue.Queue(maxsize=depth)
         self.stopped = threading.Event()
+        self.thread = None
+        if not threaded:
+            self.parts = (p for rows in chunks for p in (_split(rows) if split else (rows,)))
+            return
         self.thread = threading.Thread(target=self._run, args=(chunks,), daemon=True,
                                        name="vplotter-plan")
         self.thread.start()
@@ -343,7 +354,7 @@ class _Ahead:
     def _run(self, chunks) -> None:
         try:
             for rows in chunks:
-                for part in _split(rows):
+                for part in (_split(rows) if self.split else (rows,)):
                     if not self._put(part):
                         return
             self._put(_END)
@@ -351,6 +362,8 @@ class _Ahead:
             self._put(_Failure(e))
 
     def get(self) -> Rows | None:
+        if self.thread is None:
+            return next(self.parts, None)
         item = self.q.get()
         if isinstance(item, _Failure):
             self.q.put(item)            # later calls see it too
@@ -362,48 +375,60 @@ class _Ahead:
 
     def close(self) -> None:
         self.stopped.set()
-        self.thread.join(timeout=5)
+        if self.thread is not None:
+            self.thread.join(timeout=5)
 
 
 class _Writer:
     """Writes journal records and trace rows in order on a helper thread (fsync and text
     formatting stay off the thread that drives the outputs)."""
 
-    def __init__(self, tracer):
+    def __init__(self, tracer, threaded: bool = True):
+        """threaded=False: write at once, on the calling thread."""
         self.tracer = tracer
         self.q: queue.Queue = queue.Queue(maxsize=64)   # a dry run must not outrun it unbounded
         self.landed = 0
         self.cond = threading.Condition()
         self.error: BaseException | None = None
-        self.thread = threading.Thread(target=self._run, daemon=True, name="vplotter-write")
-        self.thread.start()
+        self.thread = None
+        if threaded:
+            self.thread = threading.Thread(target=self._run, daemon=True, name="vplotter-write")
+            self.thread.start()
 
     def _run(self) -> None:
         while True:
             item = self.q.get()
             if item is None:
                 return
-            kind, args = item
             try:
-                if kind == "journal":
-                    journal, *rest = args
-                    journal.record(*rest)
-                    with self.cond:
-                        self.landed += 1
-                        self.cond.notify_all()
-                elif self.tracer is not None:
-                    self.tracer.write(args)
+                self._do(*item)
             except BaseException as e:  # noqa: BLE001 - reported by close()
                 self.error = e
                 with self.cond:
                     self.landed = 1 << 62
                     self.cond.notify_all()
 
+    def _do(self, kind: str, args) -> None:
+        if kind == "journal":
+            journal, *rest = args
+            journal.record(*rest)
+            with self.cond:
+                self.landed += 1
+                self.cond.notify_all()
+        elif self.tracer is not None:
+            self.tracer.write(args)
+
+    def _put(self, item) -> None:
+        if self.thread is None:
+            self._do(*item)
+        else:
+            self.q.put(item)
+
     def journal(self, journal, counts, dev, line: int, pen: str) -> None:
-        self.q.put(("journal", (journal, tuple(counts), tuple(int(d) for d in dev), line, pen)))
+        self._put(("journal", (journal, tuple(counts), tuple(int(d) for d in dev), line, pen)))
 
     def trace(self, rows: Rows) -> None:
-        self.q.put(("trace", rows))
+        self._put(("trace", rows))
 
     def wait_journal(self, records: int) -> None:
         with self.cond:
@@ -411,7 +436,8 @@ class _Writer:
                 self.cond.wait()
 
     def close(self) -> None:
-        self.q.put(None)
-        self.thread.join()
+        if self.thread is not None:
+            self.q.put(None)
+            self.thread.join()
         if self.error is not None:
             raise self.error

@@ -16,7 +16,7 @@ from vplotter import kinematics, segment
 from vplotter.inputs import gcode
 from vplotter.config import Config
 from vplotter.errors import InputError
-from vplotter.planner import Block, Planner
+from vplotter.planner import Block, Planner, _slice
 from vplotter.schedule import Rows, Scheduler
 
 
@@ -35,6 +35,7 @@ class Summary:
     travel_mm: float = 0.0
     time_s: float = 0.0
     pen_downs: int = 0
+    plan: list | None = None     # the validated plan, for `replay` (None: plan again)
 
     def text(self) -> str:
         m, s = divmod(int(round(self.time_s)), 60)
@@ -55,44 +56,131 @@ class StartAt:
     xy: tuple[float, float] | None = None
 
 
+PLAN_LIMIT = 100_000   # pieces (about 11 MB): a validated plan up to this size is kept for the draw
+
+
 def stream(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str = "<input>",
            emit: bool = True, summary: Summary | None = None,
-           start_at: StartAt | None = None, pen_down: bool | None = None) -> Iterator[Rows]:
+           start_at: StartAt | None = None, pen_down: bool | None = None,
+           keep: Kept | None = None, scheduler=Scheduler) -> Iterator[Rows]:
     """Rows for drawing `records` starting from the given step counts (cords = ref + counts / steps per unit).
 
     With `start_at`, records before that line are skipped (their pen changes still count), the
     pen travels up to the resume point and goes down again if the file has it down there.
+    With `keep` (a Kept list), the plan (pen events and planned blocks) is appended to it, so that
+    `replay` can make the same rows later without parsing and planning again.
+    `scheduler` makes what is played from the plan (Rows for GPIO; the serial backend's
+    `linestream.LineScheduler` makes G-code lines); its `chord_share` cuts arcs.
     """
+    summary = summary if summary is not None else Summary()
+    ops = plan(cfg, records, counts, ref_mm, name, summary, start_at, pen_down,
+               getattr(scheduler, "chord_share", CHORD_SHARE))
+    if keep is not None:
+        ops = _keeping(ops, keep)
+    yield from _schedule(cfg, ops, counts, ref_mm, emit, summary, scheduler)
+
+
+def replay(cfg: Config, ops: list, counts, ref_mm) -> Iterator[Rows]:
+    """The rows of a plan kept by `validate`; the same rows `stream` makes."""
+    yield from _schedule(cfg, iter(ops), counts, ref_mm, True, Summary())
+
+
+class Kept(list):
+    """A plan being kept; `full` once it grew past PLAN_LIMIT pieces (then it is dropped)."""
+
+    full = False
+    pieces = 0
+
+
+def _keeping(ops, keep: Kept):
+    for op in ops:
+        if not keep.full:
+            keep.append(op)
+            if op[0] == "motion":
+                keep.pieces += len(op[1].d)
+                if keep.pieces > PLAN_LIMIT:      # too long to keep: the draw plans it again
+                    keep.clear()
+                    keep.full = True
+        yield op
+
+
+def _schedule(cfg, ops, counts, ref_mm, emit: bool, summary: Summary,
+              scheduler=Scheduler) -> Iterator[Rows]:
+    kin = kinematics.from_config(cfg)
+    sched = scheduler(cfg, kin, counts, ref_mm)
+    for op in ops:
+        kind = op[0]
+        if kind == "motion":
+            rows = sched.motion(op[1], emit)
+        elif kind == "pen":
+            rows = sched.pen(op[1], op[2])
+        elif kind == "dwell":
+            rows = sched.dwell(op[1], op[2])
+        elif kind == "start":
+            rows = sched.start(op[1])
+        else:
+            rows = sched.finish(lift=op[1])
+        if rows is not None and emit:
+            yield rows
+    summary.steps = sched.steps_total.copy()
+    summary.time_s = sched.t_us / 1e6
+
+
+def plan(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str,
+         summary: Summary, start_at: StartAt | None = None,
+         pen_down: bool | None = None, chord_share: float = CHORD_SHARE) -> Iterator[tuple]:
+    """The plan: ("start", pen_down), ("motion", Block), ("pen", down, line),
+    ("dwell", seconds, line) and ("finish", lift) in the order the machine does them.
+
+    Pen changes and dwells are stops inside the planner's look-ahead, so that many short
+    strokes are planned together: they travel with the planned pieces as the events of the
+    stop they happen at, and come out right after the block that ends there."""
     kin = kinematics.from_config(cfg)
     spu = np.asarray(cfg.motors.steps_per_unit)
-    summary = summary if summary is not None else Summary()
     cords = np.asarray(ref_mm, dtype=float) + np.asarray(counts, dtype=float) / spu
     start = kin.forward(cords[None, :])[0]
     planner = Planner(kin, cfg.motors.max_step_rate, cfg.motors.max_accel, spu, start)
-    sched = Scheduler(cfg, kin, counts, ref_mm)
     page = cfg.page
-    tol = cfg.motion.tolerance_mm * CHORD_SHARE
+    tol = cfg.motion.tolerance_mm * chord_share
     mo = cfg.motion
     file_xy = (0.0, 0.0)
 
-    def blocks(bs: Iterator[Block]) -> Iterator[Rows]:
+    def blocks(bs: Iterator[Block]) -> Iterator[tuple]:
         for b in bs:
             summary.pieces += len(b.d)
             drawn = float(b.d[b.drawing].sum())
             summary.drawn_mm += drawn
             summary.travel_mm += float(b.d.sum()) - drawn
-            rows = sched.motion(b, emit)
-            if rows is not None:
-                yield rows
+            i = 0
+            for j, events in zip(np.flatnonzero(b.stop).tolist(), b.events):
+                yield ("motion", _slice(b, i, j + 1))
+                yield from events
+                i = j + 1
+            if i < len(b.d):
+                yield ("motion", _slice(b, i, len(b.d)) if i else b)
 
-    # Moves are batched so that page checks and coordinate maps are vector operations.
-    batch: list[np.ndarray] = []
-    meta: list[tuple[int, float, int, int, bool]] = []   # points, cap, line, col, drawing
+    # Moves are batched so that segmenting, page checks and coordinate maps are vector
+    # operations. A batch holds moves (cut all at once) or, after a resume, points already cut;
+    # each with its cap, line, column, pen, and the events of a stop right after it.
+    batch: list[gcode.Move | np.ndarray] = []
+    meta: list[tuple[float, int, int, bool]] = []
+    after: dict[int, list] = {}          # batch entry -> events at the stop after it
 
-    def flush(stop: bool) -> Iterator[Rows]:
+    def stop_for(op: tuple) -> Iterator[tuple]:
+        """A pen change or a dwell: after the motion so far, at a standstill."""
         if batch:
-            pts = np.concatenate(batch)
-            n, cap, line, col, draw = (np.array(v) for v in zip(*meta))
+            after.setdefault(len(batch) - 1, []).append(op)
+        elif not planner.mark_stop([op]):
+            yield op                     # standing already
+
+    def flush(stop: bool) -> Iterator[tuple]:
+        if batch:
+            if all(isinstance(b, gcode.Move) for b in batch):
+                pts, n = segment.points_many(batch, tol)
+            else:
+                parts = [segment.points(b, tol) if isinstance(b, gcode.Move) else b for b in batch]
+                pts, n = np.concatenate(parts), np.array([len(p) for p in parts])
+            cap, line, col, draw = (np.array(v) for v in zip(*meta))
             bad = segment.first_outside(pts, page.x_min_mm, page.x_max_mm, page.y_min_mm, page.y_max_mm)
             if bad >= 0:
                 move = int(np.searchsorted(np.cumsum(n), bad, side="right"))
@@ -101,18 +189,29 @@ def stream(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: s
                     f"{name}:{line[move]}:{col[move]}: error: point X{x:.3f} Y{y:.3f} is outside "
                     f"the page (X {page.x_min_mm:g}..{page.x_max_mm:g}, "
                     f"Y {page.y_min_mm:g}..{page.y_max_mm:g})")
+            mpts = kin.to_machine(pts)
+            keep = planner.nonzero(mpts)
+            cap, line, draw = (np.repeat(v, n)[keep] for v in (cap, line, draw))
+            # the events after entry i go to the last point kept up to the end of entry i
+            last = np.cumsum(keep) - 1
+            ends = np.cumsum(n) - 1
+            stops: dict[int, list] = {}
+            for i, events in after.items():
+                at = int(last[ends[i]]) if ends[i] >= 0 else -1
+                if at < 0 and not planner.mark_stop(events):
+                    yield from events    # before anything of the batch moved, standing still
+                elif at >= 0:
+                    stops.setdefault(at, []).extend(events)
             batch.clear()
             meta.clear()
-            yield from blocks(planner.add(kin.to_machine(pts), np.repeat(cap, n),
-                                          np.repeat(line, n), np.repeat(draw, n)))
+            after.clear()
+            yield from blocks(planner.add(mpts[keep], cap, line, draw, stops))
         if stop:
             yield from blocks(planner.stop())
 
     keep_pen = pen_down is not None
-    first = sched.start(pen_down)
+    yield ("start", pen_down)
     pen_down = bool(pen_down)
-    if emit and first is not None:
-        yield first
     for rec in records:
         pts = None
         if start_at is not None:
@@ -131,17 +230,13 @@ def stream(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: s
                     there, pts = segment.cut(np.vstack(([[rec.x0, rec.y0]], pts)), start_at.xy)
             start_at = None
             batch.append(np.array([there], dtype=float))
-            meta.append((1, mo.travel_speed_mm_s, rec.line, rec.col, False))
+            meta.append((mo.travel_speed_mm_s, rec.line, rec.col, False))
             yield from flush(True)
             if pen_down:
-                rows = sched.pen(True, rec.line)
-                if rows is not None and emit:
-                    yield rows
+                yield ("pen", True, rec.line)
         if isinstance(rec, gcode.Move):
             summary.moves += 1
-            if pts is None:
-                pts = segment.points(rec, tol)
-            if len(pts) == 0:
+            if pts is not None and len(pts) == 0:
                 continue
             if pen_down:
                 cap = mo.draw_speed_mm_s
@@ -149,38 +244,44 @@ def stream(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: s
                     cap = min(cap, rec.feed_mm_s)
             else:
                 cap = mo.travel_speed_mm_s
-            batch.append(pts)
-            meta.append((len(pts), cap, rec.line, rec.col, pen_down))
+            batch.append(rec if pts is None else pts)
+            meta.append((cap, rec.line, rec.col, pen_down))
             if len(meta) >= BATCH:
                 yield from flush(False)
         elif isinstance(rec, gcode.Pen):
-            yield from flush(True)
-            rows = sched.pen(rec.down, rec.line)
-            pen_down = rec.down
             summary.pen_downs += int(rec.down)
-            if rows is not None and emit:
-                yield rows
+            yield from stop_for(("pen", rec.down, rec.line))
+            pen_down = rec.down
         elif isinstance(rec, gcode.Dwell):
-            yield from flush(True)
-            rows = sched.dwell(rec.seconds, rec.line)
-            if rows is not None and emit:
-                yield rows
+            yield from stop_for(("dwell", rec.seconds, rec.line))
     if start_at is not None:
         raise InputError(f"{name}: error: line {start_at.line} is past the last move of the file")
     yield from flush(True)
-    rows = sched.finish(lift=not keep_pen)
-    if rows is not None and emit:
-        yield rows
-    summary.steps = sched.steps_total.copy()
-    summary.time_s = sched.t_us / 1e6
+    yield ("finish", not keep_pen)
 
 
 def validate(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str = "<input>",
-             start_at: StartAt | None = None, stop=lambda: False) -> Summary | None:
+             start_at: StartAt | None = None, stop=lambda: False,
+             scheduler=Scheduler) -> Summary | None:
     """The validation pass: every record checked, planned and timed, no step computed.
     Returns the summary, or None if stop() turned true first."""
     summary = Summary()
-    for _ in stream(cfg, records, counts, ref_mm, name, False, summary, start_at):
-        if stop():
-            return None
+    kept = Kept()
+    ops = _keeping(plan(cfg, records, counts, ref_mm, name, summary, start_at,
+                        chord_share=getattr(scheduler, "chord_share", CHORD_SHARE)), kept)
+    stopped = False
+
+    def watched():
+        nonlocal stopped
+        for op in ops:
+            if stop():
+                stopped = True
+                return
+            yield op
+
+    for _ in _schedule(cfg, watched(), counts, ref_mm, False, summary, scheduler):
+        pass
+    if stopped:
+        return None
+    summary.plan = None if kept.full else kept
     return summary

@@ -6,21 +6,31 @@ acceleration (a trapezoid in path distance), such that for each motor
 
 - the step rate never exceeds `max_step_rate` (x RATE_MARGIN): the motor's cord speed is
   |slope| x pen speed, slope = d(cord)/d(path) from the kinematics;
-- the cord acceleration stays within `max_accel`: (1 - BEND_SHARE) of it is spent on speeding
-  up and slowing down along the path (|slope| x path acceleration), BEND_SHARE on the bending
-  of the path (d2 cord/ds2 x v^2 along a straight piece, and the jump of slope at a corner).
+- the cord acceleration stays within `max_accel` (x ACCEL_MARGIN). It is q'' v^2 + q' a along a
+  piece (q' = slope, q'' = bend, a = path acceleration), plus the jumps of q' v at corners.
+  Each piece is bounded with its own bend (largest of its ends and middle) at its speed cap
+  (at most BEND_SHARE of the budget, which lowers the cap on a tightly bending piece), and
+  with what the corners at its two ends take; its ramps get the rest: no fixed reserve.
 
 Junction rule (our "deviation" rule, in cord space): at a vertex the cord speeds change at
 once by v x |slope change|. A change that lands inside one measurement window TAU counts as an
-acceleration of jump / min(TAU, dt) where dt is the time to the next corner; the vertex speed
-is the largest v for which that stays within BEND_SHARE x max_accel for both motors. On a
-smooth curve cut into short chords this becomes the centripetal limit v^2 x curvature, on a
-sharp corner it is a near stop, and where a cord turns round (passes through zero speed) it
-costs nothing because the slope changes continuously there.
+acceleration of jump / min(TAU, dt) where dt is the time to the next corner. A corner takes
+what that is at the highest speed its pieces allow, but at most CORNER_SHARE of the budget on
+a curve (the next corner comes within TAU: the pen goes round at that speed, hardly speeding
+up or slowing down) and SHARP_SHARE at a lone sharp corner (passed slowly anyway, so the
+pieces around it keep most of the budget to brake and speed up); the vertex speed is the
+largest v within that for both motors. After the passes the corners give back what they do
+not use at the speeds planned (those speeds become limits) and the ramps are planned again
+with it. On a smooth curve cut into short chords this is the centripetal limit
+v^2 x curvature, on a sharp corner a near stop, and where a cord turns round (passes through
+zero speed) it costs nothing because the slope changes continuously there.
 
 Look-ahead: pieces are buffered (at most 2 x WINDOW); the buffer is planned with a stop at its
-end (backward pass, then forward pass, both vectorised), and the first half is committed. So
-memory stays flat however long the file is, and the machine can always stop in what it knows.
+end (backward pass, then forward pass, both vectorised), and the first half is committed. Pen
+changes and dwells are stops inside the buffer (`mark_stop`: speed 0 there, the events ride on
+the piece that ends there), so a drawing of many short strokes is planned a window at a time,
+not stroke by stroke. Memory stays flat however long the file is, and the machine can always
+stop in what it knows.
 """
 
 from __future__ import annotations
@@ -30,9 +40,13 @@ from typing import Iterator
 
 import numpy as np
 
-RATE_MARGIN = 0.99     # of max_step_rate: the trace rounds times to microseconds
-ACCEL_MARGIN = 0.95    # of max_accel
-BEND_SHARE = 0.35      # of the acceleration budget kept for corners and bending
+RATE_MARGIN = 0.998    # of max_step_rate: step times are rounded to microseconds
+ACCEL_MARGIN = 0.96    # of max_accel
+CORNER_SHARE = 0.75    # most of the acceleration budget a corner on a curve may take
+SHARP_SHARE = 0.25     # most of it a lone sharp corner may take
+BEND_SHARE = 0.4       # most of it the bending along a piece may take at the speed cap
+MIN_SLOPE = 0.25       # path acceleration is at most budget / MIN_SLOPE
+
 TAU_S = 0.1            # acceleration measurement window for speed jumps at corners
 WINDOW = 2048          # pieces committed per planning round
 
@@ -51,6 +65,8 @@ class Block:
     line: np.ndarray       # (N,) G-code line of each piece
     drawing: np.ndarray    # (N,) pen down?
     cap: np.ndarray        # (N,) pen speed cap from the G-code and config (mm/s)
+    stop: np.ndarray       # (N,) the machine stops at the end of this piece (pen, dwell)
+    events: list           # what happens at each stop, in order (one list per True in stop)
 
     @property
     def e(self) -> np.ndarray:
@@ -77,20 +93,32 @@ class Block:
         t_acc, t_cru, t_dec = self.phase_times()
         return t_acc + t_cru + t_dec
 
-    def time_at(self, piece: np.ndarray, s: np.ndarray) -> np.ndarray:
-        """Time since the piece started at which the pen has gone s mm along it."""
-        v0, vp, a = self.v0[piece], self.vp[piece], self.a[piece]
-        d_acc, d_dec, d = self.d_acc[piece], self.d_dec[piece], self.d[piece]
-        d_cru = np.maximum(d - d_acc - d_dec, 0.0)
-        t_acc = (vp - v0) / a
-        t_cru = d_cru / vp
-        s_acc = np.minimum(s, d_acc)
-        t = 2 * s_acc / np.maximum(v0 + np.sqrt(v0 * v0 + 2 * a * s_acc), 1e-300)
-        s_cru = np.clip(s - d_acc, 0.0, d_cru)
-        t = np.where(s > d_acc, t_acc + s_cru / vp, t)
-        sig = np.clip(s - d_acc - d_cru, 0.0, d_dec)
-        t_d = 2 * sig / np.maximum(vp + np.sqrt(np.maximum(vp * vp - 2 * a * sig, 0.0)), 1e-300)
-        return np.where(s > d_acc + d_cru, t_acc + t_cru + t_d, t)
+    def phase_table(self, t_start: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
+        """Per piece and phase (row 3 * piece + phase: accelerate, cruise, decelerate): the
+        time the phase starts (from t_start of each piece, default 0), the path distance it
+        starts at, the speed it starts with and its path acceleration; and per piece the
+        distances where cruising and decelerating start."""
+        n = len(self.d)
+        t_acc, t_cru, t_dec = self.phase_times()
+        d_acc = self.d_acc
+        d_cru = np.maximum(self.d - d_acc - self.d_dec, 0.0)
+        t0 = np.zeros(n) if t_start is None else t_start
+        T = np.column_stack((t0, t0 + t_acc, t0 + t_acc + t_cru)).ravel()
+        S = np.column_stack((np.zeros(n), d_acc, d_acc + d_cru)).ravel()
+        V = np.column_stack((self.v0, self.vp, self.vp)).ravel()
+        A = np.column_stack((self.a, np.zeros(n), -self.a)).ravel()
+        return T, S, V, A, d_acc, d_acc + d_cru
+
+    def time_at(self, piece: np.ndarray, s: np.ndarray, table=None) -> np.ndarray:
+        """Time since the piece started (or since the table's t_start) at which the pen has
+        gone s mm along it: t = T + 2 sigma / (v + sqrt(v^2 + 2 a sigma)), sigma = s - S, in the
+        phase that holds s (one formula for the three phases; a = 0 while cruising)."""
+        T, S, V, A, s_cru, s_dec = table if table is not None else self.phase_table()
+        k = 3 * piece + (s > s_cru[piece]) + (s > s_dec[piece])
+        sig = s - S[k]
+        v = V[k]
+        return T[k] + 2.0 * sig / np.maximum(v + np.sqrt(np.maximum(v * v + 2.0 * A[k] * sig, 0.0)),
+                                              1e-300)
 
 
 class Planner:
@@ -110,6 +138,7 @@ class Planner:
         self._cap: list[np.ndarray] = []
         self._line: list[np.ndarray] = []
         self._draw: list[np.ndarray] = []
+        self._stops: dict[int, list] = {}   # buffered input piece -> what happens after it
         self._count = 0
         self._start = self.last.copy()
         self._u_entry = 0.0
@@ -118,12 +147,17 @@ class Planner:
     def position(self) -> np.ndarray:
         return self.last
 
-    def add(self, pts: np.ndarray, cap_mm_s, line, drawing) -> Iterator[Block]:
+    def add(self, pts: np.ndarray, cap_mm_s, line, drawing,
+            stops: dict[int, list] | None = None) -> Iterator[Block]:
         """Append pieces from the current position through pts (K, 2) machine mm; cap, line and
-        drawing are scalars or one value per point."""
+        drawing are scalars or one value per point; stops {i: events}: the machine stands
+        still at point i, where the events (pen changes, dwells) happen (see `mark_stop`).
+        No piece may be shorter than 1 nm (see `nonzero`)."""
         k = len(pts)
         if k == 0:
             return
+        for i, events in (stops or {}).items():
+            self._stops.setdefault(self._count + i, []).extend(events)
         self._pts.append(pts)
         self._cap.append(np.broadcast_to(np.asarray(cap_mm_s, dtype=float), (k,)))
         self._line.append(np.broadcast_to(np.asarray(line, dtype=np.int64), (k,)))
@@ -138,25 +172,52 @@ class Planner:
         if self._count:
             yield from self._plan(final=True)
 
+    def mark_stop(self, events: list) -> bool:
+        """The machine stops where the pieces added so far end, and the events happen there:
+        the block holding that piece has `stop` set on it and carries the events. False if
+        nothing is buffered (the machine is standing already: the events can happen now)."""
+        if not self._count:
+            return False
+        self._stops.setdefault(self._count - 1, []).extend(events)
+        return True
+
+    def nonzero(self, pts: np.ndarray) -> np.ndarray:
+        """Which of pts (K, 2) to keep so that no piece from the current position on is
+        shorter than 1 nm."""
+        step = np.diff(np.vstack((self.last[None, :], pts)), axis=0)
+        keep = np.hypot(step[:, 0], step[:, 1]) > 1e-9
+        if keep.all():
+            return keep
+        last = self.last                    # rare: against the last point kept, one by one
+        for i, p in enumerate(pts):
+            keep[i] = bool(np.hypot(*(p - last)) > 1e-9)
+            if keep[i]:
+                last = p
+        return keep
+
     def _take(self):
         pts = np.concatenate(self._pts)
         cap = np.concatenate(self._cap)
         line = np.concatenate(self._line)
         draw = np.concatenate(self._draw)
-        return pts, cap, line, draw
+        stop = np.zeros(len(pts), dtype=bool)
+        stop[list(self._stops)] = True
+        return pts, cap, line, draw, stop
 
     def _plan(self, final: bool) -> Iterator[Block]:
-        pts, raw_cap, raw_line, raw_draw = self._take()
+        pts, raw_cap, raw_line, raw_draw, raw_stop = self._take()
         verts = np.vstack((self._start[None, :], pts))
-        verts, cap, line, draw, origin = self._pieces(verts, raw_cap, raw_line, raw_draw)
+        verts, cap, line, draw, stop, origin = self._pieces(verts, raw_cap, raw_line, raw_draw,
+                                                            raw_stop)
+        events = [self._stops[int(i)] for i in origin[stop]]
         if len(verts) < 2 or final:
             entry = self._u_entry
             self._reset(pts[:0], raw_cap[:0], raw_line[:0], raw_draw[:0], pts[-1])
             self._u_entry = 0.0 if final else entry
             if len(verts) >= 2:
-                yield self._profile(verts, cap, line, draw, entry)[0]
+                yield self._profile(verts, cap, line, draw, stop, entry, events)[0]
             return
-        block, u = self._profile(verts, cap, line, draw, self._u_entry)
+        block, u = self._profile(verts, cap, line, draw, stop, self._u_entry, events)
         # commit the pieces that come from the first `window` input pieces
         n = int(np.searchsorted(origin, self.window, side="left"))
         n = max(n, 1)
@@ -172,25 +233,22 @@ class Planner:
         self._cap = [cap] if len(pts) else []
         self._line = [line] if len(pts) else []
         self._draw = [draw] if len(pts) else []
+        cut = self._count - len(pts)
+        self._stops = {i - cut: ev for i, ev in self._stops.items() if i >= cut}
         self._count = len(pts)
         self._start = np.asarray(start, dtype=float).copy()
 
-    def _pieces(self, verts, cap, line, draw):
-        """Drop zero-length pieces and cut pieces where a motor turns round.
+    def _pieces(self, verts, cap, line, draw, stop):
+        """Cut pieces where a motor turns round (`add` keeps no zero-length pieces).
 
         Returns the vertices, per-piece attributes and, per piece, the index of the input
-        piece it came from.
+        piece it came from. A stop stays at the end of the last part of its piece.
         """
         diff = np.diff(verts, axis=0)
         d = np.hypot(diff[:, 0], diff[:, 1])
-        keep = d > 1e-9
-        origin = np.flatnonzero(keep)
-        verts = np.vstack((verts[:1], verts[1:][keep]))
-        diff = np.diff(verts, axis=0)
-        d = np.hypot(diff[:, 0], diff[:, 1])
-        cap, line, draw = cap[keep], line[keep], draw[keep]
+        origin = np.arange(len(d))
         if len(d) == 0:
-            return verts, cap, line, draw, origin
+            return verts, cap, line, draw, stop, origin
         e = diff / d[:, None]
         ext = self.kin.extrema(verts[:-1], e, d)                  # (N, M) or NaN
         cuts = np.concatenate((ext, d[:, None]), axis=1)
@@ -209,9 +267,9 @@ class Planner:
         end = s == d[piece]
         new[end] = verts[1:][piece[end]]
         verts = np.vstack((verts[:1], new))
-        return verts, cap[piece], line[piece], draw[piece], origin[piece]
+        return verts, cap[piece], line[piece], draw[piece], stop[piece] & end, origin[piece]
 
-    def _profile(self, verts, cap, line, draw, u_entry):
+    def _profile(self, verts, cap, line, draw, stop, u_entry, events):
         kin = self.kin
         diff = np.diff(verts, axis=0)
         d = np.hypot(diff[:, 0], diff[:, 1])
@@ -219,43 +277,78 @@ class Planner:
         k0 = kin.slope(verts[:-1], e)
         k1 = kin.slope(verts[1:], e)
         kmax = np.maximum(np.abs(k0), np.abs(k1))
-        bend = np.maximum(np.abs(kin.bend(verts[:-1], e)), np.abs(kin.bend(verts[1:], e)))
+        # the bend is largest at an end or (for other machine kinds) inside: ends and middle
+        mid = 0.5 * (verts[:-1] + verts[1:])
+        bend = np.maximum(np.maximum(np.abs(kin.bend(verts[:-1], e)), np.abs(kin.bend(verts[1:], e))),
+                          np.abs(kin.bend(mid, e)))
+        acc = self.a_cord                                         # (M,)
         v_rate = (self.v_cord / np.maximum(kmax, 1e-9)).min(axis=1)
-        bend_budget = BEND_SHARE * self.a_cord                    # (M,)
-        v_bend = np.sqrt(bend_budget / np.maximum(bend, 1e-12)).min(axis=1)
+        v_bend = np.sqrt(BEND_SHARE * acc / np.maximum(bend, 1e-12)).min(axis=1)
         vcap = np.minimum(np.minimum(cap, v_rate), v_bend)
-        a = ((1.0 - BEND_SHARE) * self.a_cord / np.maximum(kmax, 0.25)).min(axis=1)
-        # vertex limits
         n = len(d)
+        # corners: the budget each one takes, at most CORNER_SHARE, and the vertex speed
+        corner = np.zeros((n + 1, len(acc)))
         u_lim = np.empty(n + 1)
         u_lim[0] = u_entry
-        u_lim[n] = 0.0
         if n > 1:
             jump = np.abs(k0[1:] - k1[:-1])                       # (n-1, M)
             ds = np.minimum(d[1:], d[:-1])[:, None]
-            # jump * v <= budget * min(TAU, ds / v)  <=>  both limits below, for every motor
-            with np.errstate(divide="ignore", invalid="ignore"):
-                v_tau = np.where(jump > 0, bend_budget * TAU_S / jump, np.inf).min(axis=1)
-                v_ds = np.where(jump > 0, np.sqrt(bend_budget * ds / jump), np.inf).min(axis=1)
-            v_vert = np.minimum(np.minimum(v_tau, v_ds), np.minimum(vcap[1:], vcap[:-1]))
-            u_lim[1:n] = v_vert ** 2
+            vc = np.minimum(vcap[1:], vcap[:-1])
+            # what the corner takes passed at the highest speed its pieces allow
+            use = jump * vc[:, None] * np.maximum(1.0 / TAU_S, vc[:, None] / ds)
+
+            def corner_speed(budget):
+                # jump * v * max(1/TAU, v/ds) <= budget  <=>  both limits, for every motor
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    v_tau = np.where(jump > 0, budget * TAU_S / jump, np.inf).min(axis=1)
+                    v_ds = np.where(jump > 0, np.sqrt(budget * ds / jump), np.inf).min(axis=1)
+                return np.minimum(np.minimum(v_tau, v_ds), vc)
+
+            # A corner on a curve (the next one follows within TAU) may take much of the
+            # budget: the pen goes round at that speed without speeding up or slowing down.
+            # A lone sharp corner is passed slowly anyway; the pieces around it get more.
+            v_hi = corner_speed(CORNER_SHARE * acc)
+            curve = v_hi * TAU_S >= ds[:, 0]
+            share = np.where(curve, CORNER_SHARE, SHARP_SHARE)[:, None] * acc
+            corner[1:n] = np.minimum(use, share)
+            corner[1:n][stop[:-1]] = 0.0                         # passed standing still
+            u_lim[1:n] = corner_speed(corner[1:n]) ** 2
+        # speeding up and slowing down gets what bending and the corners at its ends leave
+        bent = bend * (vcap ** 2)[:, None]
+        a = ((acc - np.maximum(corner[:-1], corner[1:]) - bent) / np.maximum(kmax, MIN_SLOPE)).min(axis=1)
         u_lim[0] = min(u_lim[0], vcap[0] ** 2)
+        u_lim[1:][stop] = 0.0
+        u_lim[n] = 0.0
+        u = _passes(u_lim, 2.0 * a * d)
+        if n > 1:
+            # the corners take what they need at the speeds just planned (no more: those
+            # speeds become limits), and the pieces next to them get the rest
+            v = np.sqrt(u[1:n])[:, None]
+            corner[1:n] = np.minimum(corner[1:n], jump * v * np.maximum(1.0 / TAU_S, v / ds))
+            a = ((acc - np.maximum(corner[:-1], corner[1:]) - bent)
+                 / np.maximum(kmax, MIN_SLOPE)).min(axis=1)
+            u = _passes(np.minimum(u_lim, u), 2.0 * a * d)
         inc = 2.0 * a * d
-        # backward pass: u[j] <= u[j+1] + inc[j]
-        r = np.concatenate((np.cumsum(inc[::-1])[::-1], [0.0]))   # r[j] = sum inc[j:]
-        u = r + np.minimum.accumulate((u_lim - r)[::-1])[::-1]
-        # forward pass: u[j+1] <= u[j] + inc[j]
-        f = np.concatenate(([0.0], np.cumsum(inc)))
-        u = f + np.minimum.accumulate(u - f)
-        u = np.maximum(u, 0.0)
         u0, u1 = u[:-1], u[1:]
         up = np.minimum(vcap ** 2, (u0 + u1 + inc) / 2.0)
         up = np.maximum(up, np.maximum(u0, u1))
         cords = kin.inverse(verts)
-        block = Block(verts, cords, d, np.sqrt(u0), np.sqrt(up), np.sqrt(u1), a, line, draw, cap)
+        block = Block(verts, cords, d, np.sqrt(u0), np.sqrt(up), np.sqrt(u1), a, line, draw, cap,
+                      stop, events)
         return block, u
+
+
+def _passes(u_lim: np.ndarray, inc: np.ndarray) -> np.ndarray:
+    """Largest squared vertex speeds within u_lim that the pieces can speed up and slow down
+    between (u[j+1] - u[j] <= inc[j] both ways): a backward and a forward pass."""
+    r = np.concatenate((np.cumsum(inc[::-1])[::-1], [0.0]))   # r[j] = sum inc[j:]
+    u = r + np.minimum.accumulate((u_lim - r)[::-1])[::-1]
+    f = np.concatenate(([0.0], np.cumsum(inc)))
+    u = f + np.minimum.accumulate(u - f)
+    return np.maximum(u, 0.0)
 
 
 def _slice(b: Block, i: int, j: int) -> Block:
     return Block(b.verts[i:j + 1], b.cords[i:j + 1], b.d[i:j], b.v0[i:j], b.vp[i:j], b.v1[i:j],
-                 b.a[i:j], b.line[i:j], b.drawing[i:j], b.cap[i:j])
+                 b.a[i:j], b.line[i:j], b.drawing[i:j], b.cap[i:j], b.stop[i:j],
+                 b.events[int(b.stop[:i].sum()):int(b.stop[:j].sum())])

@@ -127,60 +127,77 @@ class Scheduler:
         targets = self.targets(block)
         dur = block.durations
         self.steps_total += np.abs(np.diff(targets, axis=0)).sum(axis=0)
-        rows = []
-        if not self.energized:
+        hold = not self.energized
+        hold_t, hold_word = self.t_us, None
+        if hold:
             if emit:
-                rows.append(self._row(self.t_us, self._hold_word(), 0))
+                hold_word = self._hold_word()
             self.energized = True
             self.t_us += self.hold_us
         t0 = self.t_us
         starts = np.concatenate(([0.0], np.cumsum(dur)[:-1]))
         self.t_us = t0 + int(round(float(dur.sum()) * 1e6))
         if not emit:
-            self.counts = targets[-1].copy()
-            self.phase = (self.phase + (targets[-1] - targets[0]) * self.sign) % len(self.table)
-            self.line = int(block.line[-1])
+            self._advance(targets, block)
             return None
         e = block.e
-        times, motors, dirs, pieces = [], [], [], []
+        T, S, V, A, s_cru, s_dec = block.phase_table(starts)
+        table = (T * 1e6 + t0, S, V * 1e-6, A * 1e-12, s_cru, s_dec)   # in microseconds
+        times, dirs, pieces = [], [], []
         for m in (0, 1):
             ns, ne = targets[:-1, m], targets[1:, m]
             c = np.abs(ne - ns)
             total = int(c.sum())
             if total == 0:
+                times.append(np.zeros(0, np.int64))
+                dirs.append(np.zeros(0, np.int8))
+                pieces.append(np.zeros(0, np.intp))
                 continue
             piece = np.repeat(np.arange(len(c)), c)
             j = np.arange(total) - np.repeat(np.cumsum(c) - c, c)
-            rising = (ne > ns)[piece]
-            q = self.ref[m] + (ns[piece] + np.where(rising, j + 0.5, -j - 0.5)) / self.spu[m]
-            s = self.kin.crossing(block.verts[piece], e[piece], np.full(total, m), q, rising)
-            s = np.clip(s, 0.0, block.d[piece])
-            t_us = t0 + np.rint((starts[piece] + block.time_at(piece, s)) * 1e6).astype(np.int64)
-            t_us, dirn, piece = self._spaced(m, t_us, np.where(rising, 1, -1).astype(np.int8), piece)
+            step = np.sign(ne - ns)                                # per piece: +1 / -1
+            rising = step[piece] > 0
+            # step k of a piece crosses half-way to the next count: ns + step (k + 1/2)
+            q = ((self.ref[m] + (ns + 0.5 * step) / self.spu[m])[piece]
+                 + (step / self.spu[m])[piece] * j)
+            s = self.kin.crossing(block.verts[:-1], e, m, piece, q, rising)
+            np.clip(s, 0.0, block.d[piece], out=s)
+            t_us = np.rint(block.time_at(piece, s, table)).astype(np.int64)
+            t_us, dirn, piece = self._spaced(m, t_us, step[piece].astype(np.int8), piece)
             times.append(t_us)
-            motors.append(np.full(len(t_us), m, dtype=np.int8))
             dirs.append(dirn)
             pieces.append(piece)
-        if times:
-            t_us = np.concatenate(times)
-            order = np.argsort(t_us, kind="stable")
-            t_us = t_us[order]
-            self.t_us = max(self.t_us, int(t_us[-1]) if len(t_us) else 0)
-            motor = np.concatenate(motors)[order]
-            dirn = np.concatenate(dirs)[order]
-            piece = np.concatenate(pieces)[order]
-            dl = np.where(motor == 0, dirn, 0).astype(np.int64)
-            dr = np.where(motor == 1, dirn, 0).astype(np.int64)
-            cl, cr = np.cumsum(dl), np.cumsum(dr)
-            words = coil_words(self.table, self.phase[0] + cl * self.sign[0],
-                               self.phase[1] + cr * self.sign[1])
-            steps = np.column_stack((self.counts[0] + cl, self.counts[1] + cr))
-            rows.append(Rows(t_us, words, np.zeros(len(t_us), dtype=np.int32),
-                             block.line[piece].astype(np.int64), steps))
+        n_l, n_r = len(times[0]), len(times[1])
+        n = n_l + n_r
+        if n:
+            t_all = np.concatenate(times)
+            order = np.argsort(t_all, kind="stable")
+            t_all = t_all[order]
+            self.t_us = max(self.t_us, int(t_all[-1]))
+            is_l = order < n_l                                     # left motor's rows
+            d_all = np.concatenate(dirs)[order].astype(np.int64)
+            cl = np.cumsum(np.where(is_l, d_all, 0))
+            cr = np.cumsum(np.where(is_l, 0, d_all))
+        k = int(hold)
+        rows = Rows(np.empty(n + k, np.int64), np.empty(n + k, np.uint8), np.zeros(n + k, np.int32),
+                    np.empty(n + k, np.int64), np.empty((n + k, 2), np.int64))
+        if hold:
+            rows.t_us[0], rows.coils[0], rows.line[0] = hold_t, hold_word, self.line
+            rows.steps[0] = self.counts
+        if n:
+            rows.t_us[k:] = t_all
+            rows.coils[k:] = coil_words(self.table, self.phase[0] + cl * self.sign[0],
+                                        self.phase[1] + cr * self.sign[1])
+            rows.line[k:] = block.line[np.concatenate(pieces)[order]]
+            rows.steps[k:, 0] = self.counts[0] + cl
+            rows.steps[k:, 1] = self.counts[1] + cr
+        self._advance(targets, block)
+        return rows if n + k else None
+
+    def _advance(self, targets: np.ndarray, block: Block) -> None:
         self.counts = targets[-1].copy()
         self.phase = (self.phase + (targets[-1] - targets[0]) * self.sign) % len(self.table)
         self.line = int(block.line[-1])
-        return Rows.concat(rows) if rows else None
 
     def _spaced(self, m: int, t_us, dirn, piece):
         """Keep one motor's steps at least one step interval apart.

@@ -64,6 +64,54 @@ def points(move: Move, tol_mm: float) -> np.ndarray:
     return out
 
 
+def points_many(moves: list[Move], tol_mm: float) -> tuple[np.ndarray, np.ndarray]:
+    """`points` of many moves at once (vectorised): all their piece end points (K, 2) and how
+    many each move has (a zero-length line has none)."""
+    n_moves = len(moves)
+    if not n_moves:
+        return _EMPTY, np.zeros(0, dtype=np.int64)
+    m = np.array([(mv.x0, mv.y0, mv.x1, mv.y1, mv.cx, mv.cy, mv.arc) for mv in moves], dtype=float)
+    x0, y0, x1, y1, cx, cy, arc = m.T
+    is_arc = arc != 0
+    count = np.where((x1 != x0) | (y1 != y0), 1, 0)
+    if not is_arc.any():
+        keep = count > 0
+        return m[keep][:, 2:4], count
+    a = np.flatnonzero(is_arc)
+    ax0, ay0, ax1, ay1, acx, acy, adir = (v[a] for v in (x0, y0, x1, y1, cx, cy, arc))
+    a0 = np.arctan2(ay0 - acy, ax0 - acx)
+    a1 = np.arctan2(ay1 - acy, ax1 - acx)
+    sweep = np.where(adir > 0, (a1 - a0) % TWO_PI, (a0 - a1) % TWO_PI)
+    closed = (sweep == 0.0) | (np.hypot(ax1 - ax0, ay1 - ay0) <= 1e-9)
+    sweep = adir * np.where(closed, TWO_PI, sweep)
+    r0 = np.hypot(ax0 - acx, ay0 - acy)
+    r1 = np.hypot(ax1 - acx, ay1 - acy)
+    dr = (r1 - r0) / np.abs(sweep)
+    r_eff = np.sqrt(np.maximum(r0, r1) ** 2 + 4.0 * dr * dr)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        step = np.where(r_eff <= tol_mm, math.pi / 2,
+                        2.0 * np.arccos(1.0 - tol_mm / np.maximum(r_eff, tol_mm)))
+    n = np.maximum(1, np.ceil(np.abs(sweep) / step - 1e-9)).astype(np.int64)
+    count[a] = n
+    total = int(count.sum())
+    out = np.empty((total, 2))
+    end = np.cumsum(count)
+    # lines: one point each
+    lines = np.flatnonzero(~is_arc & (count > 0))
+    out[end[lines] - 1] = m[lines][:, 2:4]
+    # arcs: n points each, the last exactly the end point
+    which = np.repeat(np.arange(len(a)), n)
+    k = np.arange(len(which)) - np.repeat(np.cumsum(n) - n, n) + 1
+    f = k / n[which]
+    ang = a0[which] + sweep[which] * f
+    rad = r0[which] + (r1 - r0)[which] * f
+    pos = np.repeat(end[a] - n, n) + k - 1
+    out[pos, 0] = acx[which] + rad * np.cos(ang)
+    out[pos, 1] = acy[which] + rad * np.sin(ang)
+    out[end[a] - 1] = np.column_stack((ax1, ay1))
+    return out, count
+
+
 def first_outside(pts: np.ndarray, x_min: float, x_max: float, y_min: float, y_max: float) -> int:
     """Index of the first point outside the rectangle, or -1."""
     bad = (pts[:, 0] < x_min) | (pts[:, 0] > x_max) | (pts[:, 1] < y_min) | (pts[:, 1] > y_max)

@@ -23,6 +23,6 @@ TABLES = {
 
 def coil_words(table: np.ndarray, phase_left: np.ndarray, phase_right: np.ndarray) -> np.ndarray:
     """Coil words for per-row phase indices of both motors."""
-    n = len(table)
-    return table[phase_left % n] | (table[phase_right % n] << np.uint8(4))
+    n = len(table)          # 8 or 4: a power of two
+    return table[phase_left & (n - 1)] | (table[phase_right & (n - 1)] << np.uint8(4))
 

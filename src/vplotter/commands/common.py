@@ -70,8 +70,9 @@ def lock_command(args) -> str:
 def add_machine_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--dry-run", action="store_true",
                    help="simulate with the fake backend: nothing moves, no state is saved")
-    p.add_argument("--backend", choices=("lgpio", "gpiozero", "fake"),
-                   help="GPIO backend (default: [gpio] backend in config.toml)")
+    p.add_argument("--backend", choices=("lgpio", "gpiozero", "fake", "serial"),
+                   help="GPIO backend (default: [gpio] backend in config.toml); serial: stream "
+                        "the drawing to a grbl controller on [serial] port (draw only)")
     p.add_argument("--trace", metavar="OUT.csv", help="write every GPIO change to a CSV trace")
     p.add_argument("--trust-position", action="store_true",
                    help="go on from the stored position after an unclean stop")
@@ -83,6 +84,8 @@ def session(args, cfg, command: str, pos):
     from vplotter.job import Session
 
     dry = getattr(args, "dry_run", False)
+    if args.backend == "serial":
+        raise MachineError("error: --backend serial streams drawings: use it with `vplotter draw`")
     name = "fake" if dry else (args.backend or cfg.gpio.backend)
     # --backend fake is a simulated machine (lock, stored position); --dry-run touches nothing
     return Session(cfg, command, name, dry, args.trace, args.realtime, pos)
@@ -129,8 +132,9 @@ def run_records(args, cfg, command: str, pos, records) -> int:
     """Validate, then play records on the machine (used by jog, goto and home)."""
     from vplotter import pipeline
 
-    pipeline.validate(cfg, records, pos.counts, pos.ref_mm, command)
+    summary = pipeline.validate(cfg, records, pos.counts, pos.ref_mm, command)
     with session(args, cfg, command, pos) as s:
-        s.play(stream_rows(cfg, records, pos, command))
+        s.play(pipeline.replay(cfg, summary.plan, pos.counts, pos.ref_mm) if summary.plan is not None
+               else stream_rows(cfg, records, pos, command))
     return 0
 

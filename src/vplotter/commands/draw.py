@@ -21,6 +21,8 @@ def add_draw(p: argparse.ArgumentParser) -> None:
                    help="go on from where the last interrupted draw of FILE stopped")
     g.add_argument("--from-line", type=int, metavar="N", help="start at line N of FILE")
     p.add_argument("--force", action="store_true", help="--resume even if FILE changed since")
+    p.add_argument("--save-stream", metavar="OUT.gcode",
+                   help="with --backend serial: write the G-code lines streamed to the controller")
     p.add_argument("--detach", action="store_true",
                    help="after validation, draw in the background (survives the end of the SSH "
                         "session; follow with `vplotter status --watch` or `vplotter log -f`)")
@@ -67,6 +69,10 @@ def cmd_draw(args, argv=None) -> int:
         raise ConfigError("error: --detach draws on the machine; a --dry-run has nothing to detach")
     pos = position(cfg, args, args.dry_run)
     begin = start_at(args, pos)
+    if args.backend == "serial" or args.save_stream:
+        from vplotter.commands import serial
+
+        return serial.draw(args, argv, cfg, pos, begin)
     sess = session(args, cfg, command_line(argv), pos)
     sess.drawing = {"file": os.path.abspath(args.file), "sha256": file_hash(args.file)}
     sess.ignore_hangup = args.detached
@@ -85,13 +91,17 @@ def cmd_draw(args, argv=None) -> int:
             say(f"{args.file}: {summary.text()}")
         if args.detach and summary is not None:
             return _detach(args, argv, s)
-        quiet = gcode.read(args.file, strict=args.strict, warn=lambda m: None)
+        if summary is not None and summary.plan is not None:     # planned once, drawn as planned
+            rows = pipeline.replay(cfg, summary.plan, pos.counts, pos.ref_mm)
+        else:
+            quiet = gcode.read(args.file, strict=args.strict, warn=lambda m: None)
+            rows = stream_rows(cfg, quiet, pos, args.file, start_at=begin)
         if s.tracer is not None:
             s.tracer.comment(f"file {os.path.abspath(args.file)}")
         progress = (_Progress(summary.time_s) if summary and sys.stderr.isatty() and not s.dry_run
                     else None)
         try:
-            s.play(stream_rows(cfg, quiet, pos, args.file, start_at=begin), progress)
+            s.play(rows, progress)
         except Interrupted:
             kin = kinematics.from_config(cfg)
             cords = np.asarray(pos.ref_mm) + np.asarray(s.counts) / np.asarray(cfg.motors.steps_per_unit)

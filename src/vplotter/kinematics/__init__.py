@@ -8,8 +8,10 @@ A machine kind is an object with these methods (all vectorised over rows, machin
 - `bend(xy, e) -> (N, M)`: second derivative d2(motor)/ds2 along a straight line;
 - `extrema(p0, e, d) -> (N, M)`: path distance in (0, d) where a motor turns round on a straight
   piece (NaN where it does not), so that pieces can be cut into monotonic ones;
-- `crossing(p0, e, motor, q, rising) -> s`: path distance along the piece at which the motor
-  coordinate reaches q (the step solver).
+- `crossing(p0, e, motor, piece, q, rising) -> s`: for pieces p0 + s e (N rows) and steps of
+  one motor (piece index, target coordinate q, rising or not: one row each), the path distance
+  along its piece at which the motor coordinate reaches q (the step solver; work per piece is
+  done once per piece, not per step).
 """
 
 from __future__ import annotations

@@ -56,11 +56,12 @@ class TwoCord:
         inside = (s > 1e-9) & (s < d[:, None] - 1e-9)
         return np.where(inside, s, np.nan)
 
-    def crossing(self, p0: np.ndarray, e: np.ndarray, motor: np.ndarray, q: np.ndarray,
-                 rising: np.ndarray) -> np.ndarray:
-        """Distance s along p0 + s e at which cord `motor` has length q (rows broadcast)."""
+    def crossing(self, p0: np.ndarray, e: np.ndarray, motor: int, piece: np.ndarray,
+                 q: np.ndarray, rising: np.ndarray) -> np.ndarray:
+        """Distance s along p0[piece] + s e[piece] at which cord `motor` has length q."""
         rel = p0 - self.anchors[motor]
-        b = np.einsum("nk,nk->n", rel, e)
-        c = np.einsum("nk,nk->n", rel, rel)
-        root = np.sqrt(np.maximum(b * b - c + q * q, 0.0))
-        return np.where(rising, -b + root, -b - root)
+        b = rel[:, 0] * e[:, 0] + rel[:, 1] * e[:, 1]           # per piece
+        c = b * b - (rel[:, 0] ** 2 + rel[:, 1] ** 2)
+        b, c = b[piece], c[piece]                                # per step
+        root = np.sqrt(np.maximum(c + q * q, 0.0))
+        return np.where(rising, root - b, -b - root)

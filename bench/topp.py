@@ -1,0 +1,200 @@
+"""A time-optimal reference for the planner: how fast could the same path be drawn?
+
+The path is the planner's own pieces (arcs already cut within tolerance), sampled every
+DS_MM. At every sample the squared pen speed u = v^2 is bounded by the feed cap and each
+motor's step rate (|q'| v <= rate), and the path acceleration a = u'/2 by each motor's
+acceleration limit, exactly: -A <= q'' u + q' a <= A (q' = slope, q'' = bend). A forward
+pass and a backward pass on u give the classic time-optimal parameterisation (as toppra
+computes it). Corners between pieces are passed on a blend that keeps the pen within
+tolerance_mm: a circle of radius tol / (1 / cos(turn / 2) - 1), whose centripetal
+acceleration is bounded in cord space like any other. Pen changes, dwells and the end are
+full stops; pen settle times and the coil hold before moving are added as the planner has them.
+
+Run: python bench/topp.py FILE [...]   (prints reference time, planned time and their ratio)
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+
+import numpy as np
+
+from vplotter import config, kinematics, pipeline
+from vplotter.inputs import gcode
+
+DS_MM = 0.1
+
+
+def strokes_of(cfg, path):
+    """Runs of the true path between full stops, sampled every DS_MM: tuples of arrays
+    (points (S, 2) machine mm, unit tangents (S, 2), signed curvature (S,), cap (S,),
+    corner (S,) True where a move starts), and the pen, dwell and hold time to add."""
+    from vplotter import segment
+
+    kin = kinematics.from_config(cfg)
+    mo = cfg.motion
+    hold_s = math.ceil(1e6 / cfg.motors.max_step_rate) / 1e6
+    runs, cur = [], []
+    extra_s = cfg.pen.settle_s            # the pen is lifted at the start
+    down = False
+
+    def close():
+        nonlocal cur
+        if cur:
+            runs.append(tuple(np.concatenate(x) for x in zip(*cur)))
+            cur = []
+
+    for rec in gcode.read(path, warn=lambda m: None):
+        if isinstance(rec, gcode.Pen):
+            if rec.down != down:
+                close()
+                extra_s += cfg.pen.settle_s + hold_s
+                down = rec.down
+            continue
+        if isinstance(rec, gcode.Dwell):
+            close()
+            extra_s += rec.seconds + hold_s
+            continue
+        cap = mo.draw_speed_mm_s if down else mo.travel_speed_mm_s
+        if down and rec.feed_mm_s is not None and not rec.rapid:
+            cap = min(cap, rec.feed_mm_s)
+        if rec.arc == 0:
+            dx, dy = rec.x1 - rec.x0, rec.y1 - rec.y0
+            length = math.hypot(dx, dy)
+            if length < 1e-9:
+                continue
+            n = max(1, math.ceil(length / DS_MM))
+            f = np.arange(n) / n
+            p = np.column_stack((rec.x0 + f * dx, rec.y0 + f * dy))
+            t = np.tile([dx / length, dy / length], (n, 1))
+            kappa = np.zeros(n)
+        else:
+            sweep = segment.arc_sweep(rec)
+            r0 = math.hypot(rec.x0 - rec.cx, rec.y0 - rec.cy)
+            r1 = math.hypot(rec.x1 - rec.cx, rec.y1 - rec.cy)
+            length = abs(sweep) * (r0 + r1) / 2
+            n = max(2, math.ceil(length / DS_MM))
+            f = np.arange(n) / n
+            a0 = math.atan2(rec.y0 - rec.cy, rec.x0 - rec.cx)
+            ang = a0 + sweep * f
+            rad = r0 + (r1 - r0) * f
+            p = np.column_stack((rec.cx + rad * np.cos(ang), rec.cy + rad * np.sin(ang)))
+            sgn = 1.0 if sweep > 0 else -1.0
+            t = np.column_stack((-np.sin(ang), np.cos(ang))) * sgn
+            kappa = sgn / np.maximum(rad, 1e-9)
+        # G-code frame (+Y up) -> machine frame (+y down): y flips, and so does the curvature
+        cur.append((kin.to_machine(p), t * np.array([1.0, -1.0]), -kappa, np.full(n, cap),
+                    np.arange(n) == 0))
+    close()
+    return runs, extra_s, kin
+
+
+def run_time(kin, run, rate_u, acc_u, tol):
+    """Time-optimal time along one run (rest to rest)."""
+    pts, t, kappa, capv, starts = run
+    seg = np.diff(pts, axis=0)
+    ds = np.append(np.hypot(seg[:, 0], seg[:, 1]), 0.0)
+    nrm = np.column_stack((-t[:, 1], t[:, 0]))                 # left normal
+    k = kin.slope(pts, t)                                      # (S, M) d cord / d path
+    b = kin.bend(pts, t) + kappa[:, None] * kin.slope(pts, nrm)   # d2 cord / d path2
+    u_max = np.minimum(capv ** 2, ((rate_u / np.maximum(np.abs(k), 1e-12)) ** 2).min(axis=1))
+    # corners where a move starts with a turn: a blend within tol
+    idx = np.flatnonzero(starts[1:]) + 1
+    if len(idx):
+        e0, e1 = t[idx - 1], t[idx]
+        turn = np.arccos(np.clip((e0 * e1).sum(axis=1), -1.0, 1.0))
+        c = np.cos(turn / 2)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            r = np.where(turn > 1e-6, tol / np.maximum(1.0 / c - 1.0, 1e-300), np.inf)
+            nv = e1 - e0
+            nn = np.linalg.norm(nv, axis=1)
+            nv = np.where(nn[:, None] > 0, nv / np.maximum(nn, 1e-300)[:, None], 0.0)
+            grad = kin.slope(pts[idx], nv)
+            ucorner = (acc_u * r[:, None] / np.maximum(np.abs(grad), 1e-12)).min(axis=1)
+        ucorner = np.where(turn > math.pi * 0.999, 0.0, ucorner)
+        u_max[idx] = np.minimum(u_max[idx], ucorner)
+    u_max = np.minimum(u_max, _curve_limit(k, b, acc_u, u_max))
+    u_max[0] = u_max[-1] = 0.0
+    S = len(u_max)
+    kk, bb, u_lim = k.tolist(), b.tolist(), u_max.tolist()
+    A = acc_u.tolist()
+    M = len(A)
+
+    def a_bounds(u, i):
+        hi, lo = math.inf, -math.inf
+        for m in range(M):
+            km, bm = kk[i][m], bb[i][m]
+            if abs(km) < 1e-12:
+                continue
+            x1, x2 = (-A[m] - bm * u) / km, (A[m] - bm * u) / km
+            if x1 > x2:
+                x1, x2 = x2, x1
+            hi, lo = min(hi, x2), max(lo, x1)
+        return lo, hi
+
+    u = [0.0] * S
+    for i in range(S - 1):            # forward
+        lo, hi = a_bounds(u[i], i)
+        u[i + 1] = min(u_lim[i + 1], u[i] + 2 * max(hi, 0.0) * ds[i])
+    for i in range(S - 1, 0, -1):     # backward
+        lo, hi = a_bounds(u[i], i)
+        u[i - 1] = min(u[i - 1], u[i] - 2 * min(lo, 0.0) * ds[i - 1])
+    v = np.sqrt(np.maximum(np.array(u), 0.0))
+    vm = (v[:-1] + v[1:]) / 2
+    return float((ds[:-1] / np.maximum(vm, 1e-9)).sum())
+
+
+def _feasible(u, k, b, acc_u):
+    """Is there one path acceleration a with -A <= b u + k a <= A for every motor?"""
+    lo = np.full(len(u), -np.inf)
+    hi = np.full(len(u), np.inf)
+    for m in range(k.shape[1]):
+        km, bm, am = k[:, m], b[:, m], acc_u[m]
+        small = np.abs(km) < 1e-12
+        ks = np.where(small, 1.0, km)
+        x1, x2 = (-am - bm * u) / ks, (am - bm * u) / ks
+        ok_small = np.abs(bm * u) <= am
+        lo = np.maximum(lo, np.where(small, np.where(ok_small, -np.inf, np.inf), np.minimum(x1, x2)))
+        hi = np.minimum(hi, np.where(small, np.where(ok_small, np.inf, -np.inf), np.maximum(x1, x2)))
+    return lo <= hi
+
+
+def _curve_limit(k, b, acc_u, u_hi):
+    """Largest u <= u_hi at which the path can be followed at all (bisection per sample)."""
+    out = u_hi.copy()
+    bad = ~_feasible(u_hi, k, b, acc_u)
+    lo, hi = np.zeros(int(bad.sum())), u_hi[bad]
+    kb, bb = k[bad], b[bad]
+    for _ in range(50):
+        mid = 0.5 * (lo + hi)
+        ok = _feasible(mid, kb, bb, acc_u)
+        lo, hi = np.where(ok, mid, lo), np.where(ok, hi, mid)
+    out[bad] = lo
+    return out
+
+
+def reference(cfg, path):
+    runs, extra, kin = strokes_of(cfg, path)
+    spu = np.asarray(cfg.motors.steps_per_unit)
+    rate_u = cfg.motors.max_step_rate / spu
+    acc_u = cfg.motors.max_accel / spu
+    tol = cfg.motion.tolerance_mm
+    return extra + sum(run_time(kin, run, rate_u, acc_u, tol) for run in runs)
+
+
+def main(argv):
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    cfg = config.load(os.path.join(root, "config.toml"))
+    kin = kinematics.from_config(cfg)
+    cords = kin.inverse(kin.to_machine([[0.0, 0.0]]))[0]
+    for path in argv:
+        ref = reference(cfg, path)
+        plan = pipeline.validate(cfg, gcode.read(path, warn=lambda m: None), (0, 0), cords, path)
+        print(f"{os.path.basename(path):<20} reference {ref:9.1f} s  planned {plan.time_s:9.1f} s"
+              f"  ratio {plan.time_s / ref:.3f}")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
