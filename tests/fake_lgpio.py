@@ -1,11 +1,24 @@
-"""A stand-in for the `lgpio` module: records every call and simulates lgpio's C thread.
+"""A stand-in for the `lgpio` module: records every call and simulates lgpio 0.2.2's tx thread,
+as unkind as the real one (read from lgpio's src/lgPthTx.c, lgGpio.c, lgpio.py):
 
-It follows lgpio 0.2's documented Python API and the behaviour of its C library (lgPthTx.c):
-a group's waves play back to back from a queue of 10 (tx_room = 10 - waves not finished, the
-playing one included); a wave submitted to an idle group starts at the next tick of the thread
-(`start_latency_us`); each pulse sets the group bits selected by its mask, then waits its delay;
-the queue is busy until the last delay of the last wave has passed; tx_servo(0) stops pulses
-(and fails when none are running, as lgpio's does).
+- catch-up: the thread keeps a timeline of its own. `stall(us)` stops it (and the process) for a
+  while: every wave edge and servo edge due meanwhile is played back to back at the end of the
+  stall (a servo pulse whose edges both fall in the stall gets width 0);
+- retained buffers: a wave that finishes while another is queued behind it keeps its pulse
+  buffer (24 bytes a pulse) forever: counted in `retained_bytes`;
+- the head-free fault: jobs live in one list, newest first; freeing the job at the head while
+  others are behind it (tx_servo(pin, 0), a finished train or wave) makes the thread skip the rest
+  of the list; here the thread then hangs for good (`hung`; the real one does in ~2 % of such
+  frees): nothing it times changes any more, tx_busy stays true;
+- tx_servo(pin, 0) cuts the pulse in flight (`truncated` counts them) and fails when no pulses
+  run; finite trains (pulse_cycles) end after their last whole pulse, the pin low; a train
+  starts on the thread's 20 ms grid;
+- tx_pwm takes the duty cycle as given (gpiozero's lgpio pin rounds it to whole percent before);
+- `import lgpio` makes the notify FIFO `.lgd-nfy0` in LG_WD (the C library chdirs the process
+  there) or the working directory, and fails with FileNotFoundError('.lgd-nfy-3') when it
+  cannot (`importer()`);
+- gpiochip_open fails with "can not open gpiochip" for a missing chip and for a denied one
+  alike; `chip_errno()` is what the device itself would say.
 
 Everything runs on a `SimClock` that the backend under test shares (its clock and sleep), so
 nothing really sleeps. Outputs are logged as (t_us, gpio or "group", value) in time order.
@@ -13,11 +26,17 @@ nothing really sleeps. Outputs are logged as (t_us, gpio or "group", value) in t
 
 from __future__ import annotations
 
+import errno
+import os
+from types import SimpleNamespace
+
 import numpy as np
 
 TX_PWM = 0
 TX_WAVE = 1
 GROUP_ALL = 2**64 - 1
+FRAME_GRID_US = 20_000
+CATCHUP_US = 15                 # one pass of lgpio's tx thread while it catches up
 
 
 class SimClock:
@@ -61,14 +80,29 @@ class pulse:
         self.pulse_delay = pulse_delay
 
 
-class Wave:
-    def __init__(self, start: int, pulses: list[tuple[int, int, int]]):
-        self.start = start
-        self.pulses = pulses
-        self.times = (start + np.concatenate(([0], np.cumsum([d for _, _, d in pulses])[:-1]))
-                      ).astype(np.int64).tolist()
-        self.end = start + sum(d for _, _, d in pulses)
-        self.emitted = 0
+class WaveJob:
+    """The group's wave job: waves play back to back."""
+
+    kind = TX_WAVE
+
+    def __init__(self, gpio: int, start: int):
+        self.gpio = gpio
+        self.waves: list[list[tuple[int, int, int]]] = []
+        self.next_t = start              # thread time of the next pulse
+        self.pos = 0                     # next pulse in waves[0]
+        self.active = True
+
+
+class PulseJob:
+    """A servo or PWM job on one pin: entries (on_us, off_us, cycles; -1 = forever)."""
+
+    kind = TX_PWM
+
+    def __init__(self, gpio: int, start: int, entry):
+        self.gpio = gpio
+        self.entries = [list(entry)]
+        self.next_t = start              # thread time of the next cycle start
+        self.active = True
 
 
 class FakeLgpio:
@@ -77,42 +111,136 @@ class FakeLgpio:
     TX_PWM = TX_PWM
     TX_WAVE = TX_WAVE
     GROUP_ALL = GROUP_ALL
+    SET_PULL_NONE = 0
+    BOTH_EDGES = 3
+    RISING_EDGE = 1
+    FALLING_EDGE = 2
     error = error
     pulse = pulse
 
-    def __init__(self, clock: SimClock, chips=(0,), queue_size: int = 10,
-                 start_latency_us: int = 0):
+    def __init__(self, clock: SimClock, chips=(0,), denied=(), queue_size: int = 10):
         self.clock = clock
         self.chips = set(chips)
+        self.denied = set(denied)
         self.queue_size = queue_size
-        self.start_latency_us = start_latency_us
         self.calls: list[tuple] = []          # (name, args...)
-        self.submitted: list[Wave] = []       # every wave, in submission order
-        self.queue: list[Wave] = []           # waves not finished
         self.log: list[tuple[int, object, int]] = []   # (t_us, gpio | "group", value)
-        self.servo: list[tuple[int, int]] = []  # (t_us, pulse width) tx_servo calls
-        self.servo_on = 0                     # current servo width (0 = off)
+        self.pulses: list[tuple[int, int, int]] = []   # (gpio, rise t_us, width us) played
+        self.jobs: list = []                  # the tx thread's list, newest first
         self.levels: dict[int, int] = {}
         self.group: list[int] = []
         self.claimed: set[int] = set()
+        self.outputs: set[int] = set()
         self.open_handles: set[int] = set()
+        self.stalls: list[tuple[int, int]] = []  # (from, to) us: the thread did not run
+        self.retained_bytes = 0
+        self.truncated = 0
+        self.skips = 0
+        self.hung = False
+        self._late_emit: int | None = None    # the last change made late (catching up)
+        self._notify_thread = SimpleNamespace(_notify=0)
 
-    # -- time and the simulated C thread
+    # -- `import lgpio`
+    def importer(self):
+        """A stand-in for `import lgpio` (load_lgpio(importer=...)): the notify FIFO."""
+        def do_import():
+            where = os.environ.get("LG_WD") or os.getcwd()
+            os.chdir(where)                          # the C library's lguGetWorkDir()
+            try:
+                os.mkfifo(os.path.join(where, ".lgd-nfy0"), 0o664)
+            except OSError:
+                self._notify_thread._notify = -3
+                raise FileNotFoundError(errno.ENOENT, "No such file or directory",
+                                        ".lgd-nfy-3") from None
+            return self
+        return do_import
+
+    def chip_errno(self, chip: int) -> int:
+        if chip in self.denied:
+            return errno.EACCES
+        return 0 if chip in self.chips else errno.ENOENT
+
+    # -- time and the simulated tx thread
     def _us(self) -> int:
         return self.clock.ns // 1000
 
-    def _advance(self) -> None:
+    def stall(self, us: int) -> None:
+        """The process (the tx thread with it) does not run for us microseconds."""
+        self._advance()
         now = self._us()
-        while self.queue:
-            w = self.queue[0]
-            while w.emitted < len(w.pulses) and w.times[w.emitted] <= now:
-                bits, mask, _ = w.pulses[w.emitted]
-                self._write_group(w.times[w.emitted], bits, mask)
-                w.emitted += 1
-            if w.end <= now and w.emitted == len(w.pulses):
-                self.queue.pop(0)
-            else:
+        self.stalls.append((now, now + us))
+        self.clock.ns += us * 1000
+
+    def _when(self, t: int) -> int:
+        """When the thread really makes a change due at thread time t: the ones a stall made
+        late come back to back (CATCHUP_US apart) from its end until lgpio has caught up."""
+        late = next((b for a, b in self.stalls if a < t <= b), None)
+        if late is None and (self._late_emit is None or t > self._late_emit):
+            return t
+        t = max(late or t, (self._late_emit or 0) + CATCHUP_US)
+        self._late_emit = t
+        return t
+
+    def _advance(self) -> None:
+        """Play everything due by now, in time order, job by job."""
+        if self.hung:
+            return
+        now = self._us()
+        while True:
+            due = [j for j in self.jobs if j.active and j.next_t <= now]
+            if not due:
                 break
+            job = min(due, key=lambda j: j.next_t)
+            (self._step_wave if job.kind == TX_WAVE else self._step_pulse)(job)
+            if not job.active:
+                self._free(job)
+                if self.hung:
+                    return
+
+    def _step_wave(self, job: WaveJob) -> None:
+        if job.pos >= len(job.waves[0]):
+            if len(job.waves) > 1:
+                done = job.waves.pop(0)
+                self.retained_bytes += 24 * len(done)   # lgpio never frees it
+                job.pos = 0
+            else:
+                job.active = False
+                return
+        bits, mask, delay = job.waves[0][job.pos]
+        self._write_group(self._when(job.next_t), bits, mask)
+        job.next_t += delay
+        job.pos += 1
+
+    def _step_pulse(self, job: PulseJob) -> None:
+        if len(job.entries) > 1 and job.entries[0][2] <= 0:   # a cycle start: the next entry
+            job.entries.pop(0)
+        on, off, cycles = job.entries[0]
+        if cycles == 0:                              # its count is done: the job ends
+            job.active = False
+            self._pin(job.gpio, 0, self._when(job.next_t))
+            return
+        rise = self._when(job.next_t)
+        fall = self._when(job.next_t + on)
+        if on:
+            self._pin(job.gpio, 1, rise)
+            self._pin(job.gpio, 0, fall)
+            self.pulses.append((job.gpio, rise, fall - rise))
+        job.next_t += on + off
+        if cycles > 0:
+            job.entries[0][2] = cycles - 1
+
+    def _free(self, job) -> None:
+        """lgpio deletes an inactive job on its next pass; at the head of a longer list the
+        pass skips the rest: here the thread hangs for good."""
+        head = self.jobs[0] is job
+        self.jobs.remove(job)
+        if head and self.jobs:
+            self.skips += 1
+            self.hung = True
+
+    def _pin(self, gpio: int, value: int, t: int) -> None:
+        self.levels[gpio] = value
+        self.log.append((t, gpio, value))
 
     def _write_group(self, t: int, bits: int, mask: int) -> None:
         word = 0
@@ -127,10 +255,14 @@ class FakeLgpio:
         if handle not in self.open_handles:
             raise error("unknown handle")
 
+    def _job(self, gpio, kind):
+        return next((j for j in self.jobs if j.gpio == gpio and j.kind == kind and j.active),
+                    None)
+
     # -- chips and claims
     def gpiochip_open(self, gpiochip):
         self.calls.append(("gpiochip_open", gpiochip))
-        if gpiochip not in self.chips:
+        if gpiochip not in self.chips or gpiochip in self.denied:
             raise error("can not open gpiochip")
         handle = 100 + gpiochip
         self.open_handles.add(handle)
@@ -140,8 +272,9 @@ class FakeLgpio:
         self.calls.append(("gpiochip_close", handle))
         self._check(handle)
         self._advance()
-        self.queue.clear()
-        self.servo_on = 0
+        for j in self.jobs:
+            j.active = False
+        self.jobs.clear()
         self.claimed.clear()
         self.open_handles.discard(handle)
         return 0
@@ -154,45 +287,63 @@ class FakeLgpio:
         levels = list(levels) + [0] * (len(gpio) - len(levels))
         self.group = list(gpio)
         self.claimed.update(gpio)
+        self.outputs.update(gpio)
         for g, v in zip(gpio, levels):
-            self.levels[g] = 1 if v else 0
-            self.log.append((self._us(), g, self.levels[g]))
+            self._pin(g, 1 if v else 0, self._us())
         return 0
 
     def gpio_claim_output(self, handle, gpio, level=0, lFlags=0):
         self.calls.append(("gpio_claim_output", handle, gpio, level))
         self._check(handle)
-        if gpio in self.claimed:
+        if gpio in self.group and gpio in self.claimed:
             raise error("GPIO busy")
         self.claimed.add(gpio)
-        self.levels[gpio] = 1 if level else 0
-        self.log.append((self._us(), gpio, self.levels[gpio]))
+        self.outputs.add(gpio)
+        self._pin(gpio, 1 if level else 0, self._us())
         return 0
+
+    def gpio_claim_input(self, handle, gpio, lFlags=0):
+        self.calls.append(("gpio_claim_input", handle, gpio))
+        self._check(handle)
+        self.claimed.add(gpio)
+        self.outputs.discard(gpio)
+        return 0
+
+    def gpio_get_mode(self, handle, gpio):
+        self._check(handle)
+        return 2 if gpio in self.outputs else 0
+
+    def gpio_read(self, handle, gpio):
+        self._check(handle)
+        self._advance()
+        return self.levels.get(gpio, 0)
 
     def group_free(self, handle, gpio):
         self.calls.append(("group_free", handle, gpio))
         self._check(handle)
         self._advance()
-        self.queue.clear()          # freeing the group stops its waves
+        for j in [j for j in self.jobs if j.kind == TX_WAVE]:
+            j.active = False
+            self._free(j)
         self.claimed.difference_update(self.group)
+        self.outputs.difference_update(self.group)
         return 0
 
     def gpio_free(self, handle, gpio):
         self.calls.append(("gpio_free", handle, gpio))
         self._check(handle)
+        self._advance()
         self.claimed.discard(gpio)
-        if gpio == self._pen():
-            self.servo_on = 0
+        self.outputs.discard(gpio)
         return 0
-
-    def _pen(self):
-        return next((c[2] for c in self.calls if c[0] == "gpio_claim_output"), None)
 
     # -- writes
     def group_write(self, handle, gpio, group_bits, group_mask=GROUP_ALL):
         self.calls.append(("group_write", handle, gpio, group_bits, group_mask))
         self._check(handle)
         self._advance()
+        if gpio != (self.group[0] if self.group else None):
+            raise error("GPIO not a group leader")
         self._write_group(self._us(), group_bits, group_mask)
         return len(self.group)
 
@@ -200,66 +351,105 @@ class FakeLgpio:
         self.calls.append(("gpio_write", handle, gpio, level))
         self._check(handle)
         self._advance()
-        self.levels[gpio] = 1 if level else 0
-        self.log.append((self._us(), gpio, self.levels[gpio]))
+        self._pin(gpio, 1 if level else 0, self._us())
         return 0
 
-    # -- waves and servo pulses
+    # -- waves and pulses
     def tx_wave(self, handle, gpio, pulses):
         self._check(handle)
         self._advance()
         if gpio != (self.group[0] if self.group else None) or gpio not in self.claimed:
             raise error("GPIO not a claimed group leader")
-        if len(self.queue) >= self.queue_size:
+        job = self._job(gpio, TX_WAVE)
+        if job is not None and len(job.waves) >= self.queue_size:
             raise error("tx queue full")
-        now = self._us()
-        start = self.queue[-1].end if self.queue else now + self.start_latency_us
-        wave = Wave(start, [(p.group_bits, p.group_mask, p.pulse_delay) for p in pulses])
+        wave = [(p.group_bits, p.group_mask, p.pulse_delay) for p in pulses]
         self.calls.append(("tx_wave", handle, gpio, len(pulses)))
-        self.queue.append(wave)
-        self.submitted.append(wave)
+        if job is None:
+            job = WaveJob(gpio, self._us())
+            self.jobs.insert(0, job)
+        job.waves.append(wave)
         self._advance()
-        return self.queue_size - len(self.queue)
+        return self.queue_size - len(job.waves)
 
     def tx_busy(self, handle, gpio, kind):
         self._check(handle)
         self._advance()
-        if kind == TX_WAVE:
-            return 1 if self.queue else 0
-        return 1 if self.servo_on else 0
+        return 1 if self._job(gpio, kind) is not None else 0
 
     def tx_room(self, handle, gpio, kind):
         self._check(handle)
         self._advance()
-        if kind == TX_WAVE:
-            return self.queue_size - len(self.queue)
-        return 10
+        job = self._job(gpio, kind)
+        if job is None:
+            return self.queue_size
+        return self.queue_size - (len(job.waves) if kind == TX_WAVE else len(job.entries))
 
     def tx_servo(self, handle, gpio, pulse_width, servo_frequency=50, pulse_offset=0,
                  pulse_cycles=0):
-        self.calls.append(("tx_servo", handle, gpio, pulse_width, servo_frequency))
+        self.calls.append(("tx_servo", handle, gpio, pulse_width, servo_frequency,
+                           pulse_cycles))
         self._check(handle)
-        self._advance()
-        if gpio not in self.claimed:
-            raise error("GPIO not an output")
-        if not pulse_width and not self.servo_on:
-            raise error("bad PWM micros")      # lgpio: stopping pulses that are not running
         if pulse_width and not 500 <= pulse_width <= 2500:
             raise error("bad servo pulse width")
         if pulse_width and not 40 <= servo_frequency <= 500:
             raise error("bad servo frequency")
-        self.servo_on = pulse_width
-        self.servo.append((self._us(), pulse_width))
-        return 9
+        if not pulse_width:
+            return self._pulses(handle, gpio, 0, 0, 0)
+        frame = int(1e6 / servo_frequency + 0.5)
+        return self._pulses(handle, gpio, pulse_width, frame - pulse_width, pulse_cycles)
+
+    def tx_pwm(self, handle, gpio, pwm_frequency, pwm_duty_cycle, pulse_offset=0,
+               pulse_cycles=0):
+        self.calls.append(("tx_pwm", handle, gpio, pwm_frequency, pwm_duty_cycle))
+        self._check(handle)
+        if pwm_frequency == 0:
+            return self._pulses(handle, gpio, 0, 0, 0)
+        micros = int(1e6 / pwm_frequency + 0.5)
+        on = int(pwm_duty_cycle / 100 * micros + 0.5)
+        return self._pulses(handle, gpio, on, micros - on, pulse_cycles)
+
+    def _pulses(self, handle, gpio, on, off, cycles):
+        self._advance()
+        if gpio not in self.outputs:
+            raise error("GPIO not an output")
+        job = self._job(gpio, TX_PWM)
+        if not on and not off:                       # stop now
+            if job is None:
+                raise error("bad PWM micros")        # lgpio: no pulses to stop
+            self._cut(job)
+            return 0
+        entry = (on, off, cycles if cycles else -1)
+        if job is not None:                          # queued behind the running entry
+            if len(job.entries) > 1 and job.entries[-1][2] == -1:
+                job.entries.pop()
+            job.entries.append(list(entry))
+            return self.queue_size - len(job.entries)
+        now = self._us()
+        start = (now // FRAME_GRID_US + 1) * FRAME_GRID_US  # the thread's 20 ms grid
+        self.jobs.insert(0, PulseJob(gpio, start, entry))
+        return self.queue_size - 1
+
+    def _cut(self, job) -> None:
+        """tx_servo(pin, 0): the job stops now; the pulse in flight is cut short."""
+        now, g = self._us(), job.gpio
+        flight = [p for p in self.pulses if p[0] == g and p[1] <= now < p[1] + p[2]]
+        if flight:
+            self.truncated += 1
+            self.pulses = [p for p in self.pulses if p not in flight]
+            self.pulses.append((g, flight[0][1], now - flight[0][1]))
+        self.log = [e for e in self.log if not (e[1] == g and e[0] > now)]
+        self._pin(g, 0, now)
+        job.active = False
+        self._free(job)
 
     # -- what the outputs did
     def coil_changes(self) -> list[tuple[int, int]]:
         """(t_us, coil word) at every time the group's word changed, last write per time."""
         self._advance()
         out: list[tuple[int, int]] = []
-        for t, who, value in self.log:
-            if who != "group":
-                continue
+        for t, who, value in sorted((e for e in self.log if e[1] == "group"),
+                                    key=lambda e: e[0]):
             if out and out[-1][0] == t:
                 out[-1] = (t, value)
             else:
@@ -271,10 +461,16 @@ class FakeLgpio:
                 word = value
         return result
 
+    def servo_on(self, gpio: int) -> int:
+        """Width of the pulses running on gpio now (0: none)."""
+        self._advance()
+        job = self._job(gpio, TX_PWM)
+        return job.entries[0][0] if job is not None and not self.hung else 0
+
 
 def expected_coil_changes(parts) -> list[tuple[int, int]]:
     """(t_us, coil word) at every planned time the coil word changes (from 0), last row per
-    time: what the waves must reproduce."""
+    time: what the outputs must reproduce."""
     t = np.concatenate([p.t_us for p in parts]).tolist()
     w = np.concatenate([p.coils for p in parts]).tolist()
     last: list[tuple[int, int]] = []
@@ -289,49 +485,3 @@ def expected_coil_changes(parts) -> list[tuple[int, int]]:
             out.append((ti, wi))
             word = wi
     return out
-
-
-def shifted(changes, offset: int) -> list[tuple[int, int]]:
-    return [(t - offset, w) for t, w in changes]
-
-
-def _moves(pulses) -> bool:
-    return any(p.group_mask for p in pulses)
-
-
-class DroppingLgpio(FakeLgpio):
-    """A broken C thread that silently loses the `drop`-th wave with coil changes (0-based)."""
-
-    def __init__(self, *args, drop: int = 10, **kw):
-        super().__init__(*args, **kw)
-        self.drop = drop
-        self.count = 0
-
-    def tx_wave(self, handle, gpio, pulses):
-        self.count += _moves(pulses)
-        if _moves(pulses) and self.count - 1 == self.drop:
-            self._advance()
-            return self.queue_size - len(self.queue)
-        return super().tx_wave(handle, gpio, pulses)
-
-
-class SwappingLgpio(FakeLgpio):
-    """A broken C thread that plays the `swap`-th wave with coil changes after the next one."""
-
-    def __init__(self, *args, swap: int = 10, **kw):
-        super().__init__(*args, **kw)
-        self.swap = swap
-        self.count = 0
-        self.held = None
-
-    def tx_wave(self, handle, gpio, pulses):
-        self.count += _moves(pulses)
-        if _moves(pulses) and self.count - 1 == self.swap and self.held is None:
-            self.held = pulses
-            self._advance()
-            return self.queue_size - len(self.queue) - 1
-        room = super().tx_wave(handle, gpio, pulses)
-        if self.held is not None:
-            held, self.held = self.held, None
-            room = super().tx_wave(handle, gpio, held)
-        return room

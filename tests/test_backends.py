@@ -11,12 +11,10 @@ import numpy as np
 import pytest
 from gpiozero.pins.mock import MockFactory, MockPWMPin
 
-from fake_lgpio import (DroppingLgpio, FakeLgpio, SimClock, SwappingLgpio,
-                        expected_coil_changes, shifted)
+from fake_lgpio import FakeLgpio, SimClock
 from vplotter import config, kinematics, pipeline, state
 from vplotter.inputs import gcode
 from vplotter.backends import create
-from vplotter.backends.lgpio import WAVE_US
 from vplotter.backends.realtime import Player
 from vplotter.errors import BackendError
 from vplotter.job import _split
@@ -192,186 +190,10 @@ def test_player_stops_within_a_few_milliseconds():
 
 # ---------------------------------------------------------------- lgpio on the stand-in
 def lgpio_backend(cfg, clock, lg=None, **kw):
+    """The lgpio backend on the stand-in (more in test_lgpio.py)."""
     lg = lg or FakeLgpio(clock)
     b = create("lgpio", cfg, lgpio=lg, clock=clock.now, sleep=clock.sleep, **kw)
     return b, lg
-
-
-def play_all(b, parts):
-    b.open()
-    try:
-        for part in parts:
-            assert b.play(part) == len(part)
-    finally:
-        b.close()
-
-
-def wave_timeline_problems(lg: FakeLgpio, parts) -> list[str]:
-    """What is wrong with the coil outputs of the waves, compared with the planned rows."""
-    expect = expected_coil_changes(parts)
-    got = lg.coil_changes()
-    if not got:
-        return ["no coil output at all"]
-    got = shifted(got, got[0][0] - expect[0][0])
-    problems = []
-    if got != expect:
-        bad = next((i for i, (a, b) in enumerate(zip(got, expect)) if a != b),
-                   min(len(got), len(expect)))
-        problems.append(f"coil change {bad}: played {got[bad:bad + 2]}, planned "
-                        f"{expect[bad:bad + 2]} ({len(got)} vs {len(expect)} changes)")
-    return problems
-
-
-@pytest.mark.parametrize("chunking", ["draw parts", "random 1", "random 2"])
-def test_lgpio_waves_reproduce_the_planned_rows_exactly(cfg, parts, chunking):
-    chunks = parts if chunking == "draw parts" else rechunk(parts, int(chunking[-1]))
-    clock = SimClock()
-    b, lg = lgpio_backend(cfg, clock)
-    play_all(b, chunks)
-    assert wave_timeline_problems(lg, chunks) == []
-    assert all(w.end - w.start <= WAVE_US for w in lg.submitted)
-    assert b.lateness()["underruns"] == 0
-    # one group of all eight coil pins, the pen pin alone
-    assert ("group_claim_output", 100, [0, 5, 6, 13, 12, 16, 20, 21], [0] * 8) in lg.calls
-
-
-@pytest.mark.parametrize("latency_us", [0, 15_000])
-def test_lgpio_pen_changes_follow_the_waves(cfg, parts, latency_us):
-    """Also when lgpio's thread starts a wave late (it wakes at most every 20 ms when idle):
-    the pen follows the waves, not the wall clock."""
-    clock = SimClock()
-    b, lg = lgpio_backend(cfg, clock, FakeLgpio(clock, start_latency_us=latency_us))
-    play_all(b, parts)
-    first_wave = lg.submitted[0].start
-    planned = pen_changes(parts)
-    made = [(t - first_wave, w) for t, w in lg.servo]
-    assert [w for _, w in made[:len(planned)]] == [w for _, w in planned]
-    # made when the C thread passed the pen row (polled every millisecond), never before
-    for (tm, _), (tp, _) in zip(made, planned):
-        assert 0 <= tm - tp <= 2_000
-    # the pen moves while the coils are released: the coil word there is 0
-    for t, _ in [p for p in planned if p[1]]:
-        words = [w for tt, w in lg.coil_changes() if tt - first_wave <= t]
-        assert not words or words[-1] == 0
-    assert all(c[4] == 50 for c in lg.calls if c[0] == "tx_servo" and c[3])
-
-
-def test_lgpio_keeps_a_quarter_second_queued(cfg, parts, monkeypatch):
-    clock = SimClock()
-    b, lg = lgpio_backend(cfg, clock)
-    ahead = []
-    orig = FakeLgpio.tx_room
-
-    def tx_room(self, handle, gpio, kind):
-        room = orig(self, handle, gpio, kind)
-        if self.queue:
-            ahead.append((self._us(), self.queue[-1].end - self._us()))
-        return room
-
-    monkeypatch.setattr(FakeLgpio, "tx_room", tx_room)
-    play_all(b, parts)
-    start = lg.submitted[0].start
-    rows = concat(parts)
-    moving = rows.t_us[rows.coils > 0]
-    lo, hi = start + int(moving[0]) + 50_000, start + int(moving[-1]) - 400_000
-    during = [a for t, a in ahead if lo <= t <= hi]
-    assert during and min(during) >= 250_000
-
-
-@pytest.mark.parametrize("mutant", [DroppingLgpio, SwappingLgpio])
-def test_the_wave_check_catches_a_dropped_or_reordered_wave(cfg, parts, mutant):
-    clock = SimClock()
-    b, lg = lgpio_backend(cfg, clock, mutant(clock))
-    play_all(b, parts)
-    assert wave_timeline_problems(lg, parts) != []
-
-
-def test_lgpio_pauses_when_the_queue_runs_dry(cfg, parts):
-    """A caller too slow for the queue: the motors pause (relative timing within each
-    stretch is kept, nothing is played early or compressed); lateness reports it."""
-    clock = SimClock()
-    b, lg = lgpio_backend(cfg, clock)
-    b.open()
-    for i, part in enumerate(parts):
-        b.play(part)
-        if i == 5:
-            clock.ns += 700_000_000                  # 0.7 s: longer than the queue
-    b.close()
-    expect = expected_coil_changes(parts)
-    got = lg.coil_changes()
-    assert [w for _, w in got] == [w for _, w in expect]
-    d = np.array([g[0] for g in got]) - np.array([e[0] for e in expect])
-    assert np.all(np.diff(d) >= 0) and d[-1] - d[0] > 300_000      # paused, never raced
-    stats = b.lateness()
-    assert stats["underruns"] >= 1 and stats["max_ms"] > 300
-
-
-def test_lgpio_drain_waits_for_everything_handed_over(cfg, parts):
-    clock = SimClock()
-    b, lg = lgpio_backend(cfg, clock)
-    b.open()
-    for part in parts:
-        b.play(part)
-    b.drain()
-    assert not lg.queue and wave_timeline_problems(lg, parts) == []
-    assert [w for _, w in lg.servo] == [w for _, w in pen_changes(parts)]
-    b.close()
-
-
-def test_lgpio_close_after_a_stop_cuts_the_queue(cfg, parts):
-    clock = SimClock()
-    b, lg = lgpio_backend(cfg, clock)
-    b.open()
-    for part in parts[:6]:
-        b.play(part)
-    assert lg.queue                                  # waves are queued ahead of the motors
-    b.stop_requested = True                          # a second signal: no time to play them out
-    t_close = lg._us()
-    b.close()
-    assert not lg.queue and lg.coil_changes()[-1] == (t_close, 0)
-    assert not lg.claimed and not lg.open_handles and not lg.servo_on
-
-
-def test_lgpio_without_a_gpiochip_suggests_dry_run(cfg):
-    clock = SimClock()
-    b, _ = lgpio_backend(cfg, clock, FakeLgpio(clock, chips=()))
-    with pytest.raises(BackendError, match="--dry-run") as e:
-        b.open()
-    assert "\n" not in str(e.value)
-    b.close()
-
-
-def test_lgpio_real_module_on_a_machine_without_gpio(cfg):
-    lgpio = pytest.importorskip("lgpio")
-    try:
-        h = lgpio.gpiochip_open(cfg.gpio.chip)
-    except lgpio.error:
-        h = -1
-    if h >= 0:
-        lgpio.gpiochip_close(h)
-        pytest.skip("this machine has a gpiochip")
-    with pytest.raises(BackendError, match="--dry-run"):
-        create("lgpio", cfg).open()
-
-
-def test_lgpio_stand_in_through_sys_modules(cfg, parts, monkeypatch):
-    """The backend imports lgpio when it opens: the stand-in can take the module's place."""
-    clock = SimClock()
-    lg = FakeLgpio(clock)
-    monkeypatch.setitem(sys.modules, "lgpio", lg)
-    b = create("lgpio", cfg, clock=clock.now, sleep=clock.sleep)
-    play_all(b, parts[:6])                         # stops mid-stroke: close releases
-    words = [w for _, w in expected_coil_changes(parts[:6])]
-    assert [w for _, w in lg.coil_changes()] == words + [0]
-
-
-def test_lgpio_uses_the_configured_chip(cfg):
-    clock = SimClock()
-    pi5 = config.Config(**{**cfg.__dict__, "gpio": config.Gpio("lgpio", 4)})
-    b, lg = lgpio_backend(pi5, clock, FakeLgpio(clock, chips=(4,)))
-    b.open()
-    b.close()
-    assert lg.calls[0] == ("gpiochip_open", 4) and lg.calls[-1] == ("gpiochip_close", 104)
 
 
 # ---------------------------------------------------------------- gpiozero on MockFactory
@@ -550,8 +372,9 @@ def machine(kind, cfg):
     def outputs():
         lg._advance()
         word = sum(lg.levels.get(p, 0) << i for i, p in enumerate(lg.group))
-        stuck_high = not lg.servo_on and lg.levels.get(cfg.pen.pin, 0)
-        return word, -1 if stuck_high else lg.servo_on
+        on = lg.servo_on(cfg.pen.pin)
+        stuck_high = not on and lg.levels.get(cfg.pen.pin, 0)
+        return word, -1 if stuck_high else on
 
     return b, clock, outputs
 
@@ -591,25 +414,3 @@ def test_stop_requested_makes_play_return_early_with_the_rows_played(cfg, parts,
     assert b.play(stroke) == 0                       # stays stopped until cleared
     b.close()
     assert outputs() == (0, 0)
-
-
-def test_lgpio_stop_outputs_exactly_the_rows_it_reports(cfg, parts):
-    clock = SimClock()
-    b, lg = lgpio_backend(cfg, clock)
-    b.open()
-    stroke = max(parts, key=len)
-    before = parts[:index(parts, stroke)]
-    for part in before:
-        b.play(part)
-    clock.at(clock.ns + 200_000_000, lambda: setattr(b, "stop_requested", True))
-    n = b.play(stroke)
-    assert wave_timeline_problems(lg, [*before, head(stroke, n)]) == []
-    # after a stop the session lifts the pen: the backend plays on from where it stopped
-    b.stop_requested = False
-    t = int(stroke.t_us[n - 1]) + 1
-    up = make_rows([t, t + 300_000], [0, 0], [cfg.pen.up_us, 0])
-    assert b.play(up) == 2
-    b.close()
-    (t_up, up_us), (t_off, off) = lg.servo[-2:]
-    assert (up_us, off) == (cfg.pen.up_us, 0)
-    assert t_off - t_up >= 299_000                                # the settle is kept

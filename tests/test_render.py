@@ -57,7 +57,7 @@ def _preview(capsys, config_path, tmp_path, content=TWO, out="p.png", size=400):
 
 def test_preview_png_geometry(capsys, config_path, tmp_path, cfg):
     code, out, stdout, _ = _preview(capsys, config_path, tmp_path)
-    assert code == 0 and "2 strokes" in stdout
+    assert code == 0 and "2 pen lifts" in stdout
     img = Image.open(out)
     assert max(img.size) == 400 and img.size[0] < img.size[1]     # the page is taller than wide
     kin = kinematics.from_config(cfg)
@@ -408,3 +408,29 @@ def test_preview_draws_a_dot_where_the_pen_only_touches(capsys, config_path, tmp
             if e.get("class") == "stroke"]
     first = np.array([q.split(",") for q in dots[0].get("points").split()], float)
     assert len(dots) == 2 and np.ptp(first, axis=0).max() == 0 and len(first) == 2
+
+
+def _svg_strokes(path) -> list[np.ndarray]:
+    return [np.array([q.split(",") for q in e.get("points").split()], float)
+            for e in ET.parse(path).getroot().iter(f"{SVG}polyline") if e.get("class") == "stroke"]
+
+
+def test_preview_shows_the_placed_and_ordered_drawing(capsys, config_path, tmp_path, cfg):
+    """Placement and order options (prepare.py) change the picture as they change the draw."""
+    far_first = (b"G0 X100 Y200\nM3\nG1 X150 Y200\nM5\n"      # far from the pen: first in file
+                 b"G0 X10 Y10\nM3\nG1 X20 Y10\nM5\n")
+    view = render.preview([np.zeros((1, 2))], (0, 0), kinematics.from_config(cfg), cfg.page,
+                          "", 500).view
+    keep = _preview(capsys, config_path, tmp_path, far_first, "k.svg", 500)   # G-code: keep
+    assert keep[0] == 0
+    code, _, _ = run(capsys, ["--config", config_path, "preview", tmp_path / "in.ngc", "-o",
+                              tmp_path / "g.svg", "--size", "500", "--order", "greedy"])
+    assert code == 0
+    first_keep, first_greedy = _svg_strokes(keep[1])[0], _svg_strokes(tmp_path / "g.svg")[0]
+    assert first_keep[:, 0].min() == pytest.approx(view.px([(100, 200)])[0][0], abs=0.01)
+    assert first_greedy[:, 0].min() == pytest.approx(view.px([(10, 10)])[0][0], abs=0.01)
+    code, _, _ = run(capsys, ["--config", config_path, "preview", tmp_path / "in.ngc", "-o",
+                              tmp_path / "o.svg", "--size", "500", "--offset", "-50", "-30"])
+    moved = _svg_strokes(tmp_path / "o.svg")[0]
+    shift = (moved.min(axis=0) - first_keep.min(axis=0)) / view.scale * [1, -1]
+    assert code == 0 and shift == pytest.approx([-50, -30], abs=0.01)

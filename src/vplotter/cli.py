@@ -12,14 +12,18 @@ import argparse
 import sys
 from typing import Callable
 
-from vplotter.commands import draw, live, machine, pictures, serial
+from vplotter.commands import draw, files, live, machine, pictures, serial
 from vplotter.commands.common import eprint
 from vplotter.errors import BusyError, VplotterError
 
 
 COMMANDS: dict[str, tuple[Callable, Callable, str]] = {
-    "draw": (draw.cmd_draw, draw.add_draw, "draw a G-code file"),
+    "draw": (draw.cmd_draw, draw.add_draw, "draw a G-code or SVG file"),
     "estimate": (draw.cmd_estimate, draw.add_estimate, "validate a file and print the plot time"),
+    "info": (files.cmd_info, files.add_info,
+             "size, extent, strokes, travel and time of a file (file order and --order best)"),
+    "convert": (files.cmd_convert, files.add_convert,
+                "write the placed and ordered drawing as G-code"),
     "calibrate": (machine.cmd_calibrate, machine.add_calibrate,
                   "tell vplotter where the pen is, or measure steps/mm"),
     "status": (live.cmd_status, live.add_status,

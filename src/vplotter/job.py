@@ -96,6 +96,7 @@ class Session:
         self.drawing: dict | None = None     # {"file", "sha256"} while a draw runs
         self.live = None                     # live.Publisher while a draw runs
         self.ignore_hangup = False           # a background draw goes on when SIGHUP comes
+        self.on_pause = None    # on_pause(pause): a Pause came up (pen up, coils released)
 
     @property
     def saves_state(self) -> bool:
@@ -199,11 +200,17 @@ class Session:
         try:
             cur, k = ahead.get(), 0
             while cur is not None and not self._signum:
+                if not isinstance(cur, Rows):        # a pause: wait once all is played
+                    self.backend.drain()
+                    if self.on_pause is not None:
+                        self.on_pause(cur)
+                    cur = ahead.get()
+                    continue
                 nxt = ahead.get()
                 if self.saves_state:
                     self._begin_motion()
                     # until the next record lands the motors are in this part or the next
-                    span = cur if nxt is None else Rows.concat([cur, nxt])
+                    span = cur if not isinstance(nxt, Rows) else Rows.concat([cur, nxt])
                     dev = np.abs(span.steps - np.asarray(self.counts)).max(axis=0)
                     down = self.pen_down or bool((cur.pen_us == self.cfg.pen.down_us).any())
                     self._writer.wait_journal(k - 1)
@@ -336,7 +343,8 @@ class _Ahead:
         self.stopped = threading.Event()
         self.thread = None
         if not threaded:
-            self.parts = (p for rows in chunks for p in (_split(rows) if split else (rows,)))
+            self.parts = (p for rows in chunks
+                          for p in (_split(rows) if split and isinstance(rows, Rows) else (rows,)))
             return
         self.thread = threading.Thread(target=self._run, args=(chunks,), daemon=True,
                                        name="vplotter-plan")
@@ -354,7 +362,7 @@ class _Ahead:
     def _run(self, chunks) -> None:
         try:
             for rows in chunks:
-                for part in (_split(rows) if self.split else (rows,)):
+                for part in (_split(rows) if self.split and isinstance(rows, Rows) else (rows,)):
                     if not self._put(part):
                         return
             self._put(_END)

@@ -17,6 +17,7 @@ from vplotter.inputs import gcode
 from vplotter.config import Config
 from vplotter.errors import InputError
 from vplotter.planner import Block, Planner, _slice
+from vplotter.prepare import Pause
 from vplotter.schedule import Rows, Scheduler
 
 
@@ -41,7 +42,7 @@ class Summary:
         m, s = divmod(int(round(self.time_s)), 60)
         h, m = divmod(m, 60)
         hms = f"{h}:{m:02d}:{s:02d}" if h else f"{m}:{s:02d}"
-        return (f"{self.moves} moves, {self.pieces} pieces, {self.pen_downs} strokes, "
+        return (f"{self.moves} moves, {self.pieces} pieces, {self.pen_downs} pen lifts, "
                 f"steps left {self.steps[0]} right {self.steps[1]}, "
                 f"drawn {self.drawn_mm / 1000:.2f} m, travel {self.travel_mm / 1000:.2f} m, "
                 f"plot time {hms} ({self.time_s:.1f} s)")
@@ -62,7 +63,7 @@ PLAN_LIMIT = 100_000   # pieces (about 11 MB): a validated plan up to this size 
 def stream(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str = "<input>",
            emit: bool = True, summary: Summary | None = None,
            start_at: StartAt | None = None, pen_down: bool | None = None,
-           keep: Kept | None = None, scheduler=Scheduler) -> Iterator[Rows]:
+           keep: Kept | None = None, scheduler=Scheduler, where=None) -> Iterator[Rows | Pause]:
     """Rows for drawing `records` starting from the given step counts (cords = ref + counts / steps per unit).
 
     With `start_at`, records before that line are skipped (their pen changes still count), the
@@ -71,10 +72,12 @@ def stream(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: s
     `replay` can make the same rows later without parsing and planning again.
     `scheduler` makes what is played from the plan (Rows for GPIO; the serial backend's
     `linestream.LineScheduler` makes G-code lines); its `chord_share` cuts arcs.
+    A Pause record (pen up, coils released) is passed on as it is, for the player to wait.
+    where(line, col) names the file place of a line in errors (default: name:line:col).
     """
     summary = summary if summary is not None else Summary()
     ops = plan(cfg, records, counts, ref_mm, name, summary, start_at, pen_down,
-               getattr(scheduler, "chord_share", CHORD_SHARE))
+               getattr(scheduler, "chord_share", CHORD_SHARE), where)
     if keep is not None:
         ops = _keeping(ops, keep)
     yield from _schedule(cfg, ops, counts, ref_mm, emit, summary, scheduler)
@@ -118,6 +121,13 @@ def _schedule(cfg, ops, counts, ref_mm, emit: bool, summary: Summary,
             rows = sched.dwell(op[1], op[2])
         elif kind == "start":
             rows = sched.start(op[1])
+        elif kind == "pause":
+            rows = sched.release()
+            if emit:
+                if rows is not None:
+                    yield rows
+                yield op[1]
+            continue
         else:
             rows = sched.finish(lift=op[1])
         if rows is not None and emit:
@@ -128,13 +138,16 @@ def _schedule(cfg, ops, counts, ref_mm, emit: bool, summary: Summary,
 
 def plan(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str,
          summary: Summary, start_at: StartAt | None = None,
-         pen_down: bool | None = None, chord_share: float = CHORD_SHARE) -> Iterator[tuple]:
+         pen_down: bool | None = None, chord_share: float = CHORD_SHARE,
+         where=None) -> Iterator[tuple]:
     """The plan: ("start", pen_down), ("motion", Block), ("pen", down, line),
     ("dwell", seconds, line) and ("finish", lift) in the order the machine does them.
 
     Pen changes and dwells are stops inside the planner's look-ahead, so that many short
     strokes are planned together: they travel with the planned pieces as the events of the
-    stop they happen at, and come out right after the block that ends there."""
+    stop they happen at, and come out right after the block that ends there. A Pause record
+    gives ("pause", record), a stop like a pen change."""
+    where = where or (lambda line, col: f"{name}:{line}:{col}")
     kin = kinematics.from_config(cfg)
     spu = np.asarray(cfg.motors.steps_per_unit)
     cords = np.asarray(ref_mm, dtype=float) + np.asarray(counts, dtype=float) / spu
@@ -186,7 +199,7 @@ def plan(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str
                 move = int(np.searchsorted(np.cumsum(n), bad, side="right"))
                 x, y = pts[bad]
                 raise InputError(
-                    f"{name}:{line[move]}:{col[move]}: error: point X{x:.3f} Y{y:.3f} is outside "
+                    f"{where(int(line[move]), int(col[move]))}: error: point X{x:.3f} Y{y:.3f} is outside "
                     f"the page (X {page.x_min_mm:g}..{page.x_max_mm:g}, "
                     f"Y {page.y_min_mm:g}..{page.y_max_mm:g})")
             mpts = kin.to_machine(pts)
@@ -254,6 +267,8 @@ def plan(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str
             pen_down = rec.down
         elif isinstance(rec, gcode.Dwell):
             yield from stop_for(("dwell", rec.seconds, rec.line))
+        elif isinstance(rec, Pause):
+            yield from stop_for(("pause", rec))
     if start_at is not None:
         raise InputError(f"{name}: error: line {start_at.line} is past the last move of the file")
     yield from flush(True)
@@ -262,13 +277,14 @@ def plan(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str
 
 def validate(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str = "<input>",
              start_at: StartAt | None = None, stop=lambda: False,
-             scheduler=Scheduler) -> Summary | None:
+             scheduler=Scheduler, where=None) -> Summary | None:
     """The validation pass: every record checked, planned and timed, no step computed.
     Returns the summary, or None if stop() turned true first."""
     summary = Summary()
     kept = Kept()
     ops = _keeping(plan(cfg, records, counts, ref_mm, name, summary, start_at,
-                        chord_share=getattr(scheduler, "chord_share", CHORD_SHARE)), kept)
+                        chord_share=getattr(scheduler, "chord_share", CHORD_SHARE), where=where),
+                   kept)
     stopped = False
 
     def watched():

@@ -1,15 +1,22 @@
 """gpiozero backend: any pin factory gpiozero supports (lgpio, RPi.GPIO, pigpio, native, mock),
 timed in software by `realtime.Player` (absolute deadlines, sleep then spin).
 
-Coils are DigitalOutputDevices (written through their `pin.state`, the fastest public path);
-the pen is a gpiozero Servo whose min/max pulse widths are the pen's up/down widths, so
-value -1/+1 give exactly those widths and value None stops the pulses. Servo needs a factory
-with PWM (software PWM is fine); gpiozero's mock factory gets a PWM-capable mock pen pin
+Coils are DigitalOutputDevices (written through their `pin.state`, the fastest public path).
+The pen: on gpiozero's lgpio factory (what gpiozero uses on a Pi) lgpio's servo trains
+(`lgpio_pen.PenTrains`: the configured width to the microsecond, ended by a pulse count, with
+the watchdog), because gpiozero sets PWM through a duty cycle in whole percent (gpiozero issue
+1209: 500 us is sent as 400 us). Other factories get a gpiozero Servo whose min/max pulse widths
+are the pen's up/down widths (value -1/+1, None stops the pulses); it needs a factory with PWM
+(software PWM is fine); gpiozero's mock factory gets a PWM-capable mock pen pin
 (GPIOZERO_PIN_FACTORY=mock simulates the whole machine).
 """
 
 from __future__ import annotations
 
+import contextlib
+import os
+import sys
+import time
 import warnings
 
 from vplotter.backends import Backend
@@ -34,10 +41,14 @@ class GpiozeroBackend(Backend):
         self.pin_factory = pin_factory
         self._coils = []
         self._servo = None
+        self._pen_dev = None                 # the pen pin on the lgpio factory
+        self.pen = None                      # lgpio_pen.PenTrains on the lgpio factory
         lo, hi = sorted((cfg.pen.up_us, cfg.pen.down_us))
         self._pen_range = (lo, hi)
+        self._clock, self._sleep = clock or time.perf_counter_ns, sleep or time.sleep
         timing = {"min_step_us": 1e6 / cfg.motors.max_step_rate, "pin_at_a_time": True, **timing}
-        self._player = Player(self._write_coils, self._write_pen, clock, sleep, **timing)
+        self._player = Player(self._write_coils, self._write_pen, self._clock, self._sleep,
+                              **timing)
 
     # -- outputs
     def _write_coils(self, word: int, changed: int) -> None:
@@ -46,6 +57,9 @@ class GpiozeroBackend(Backend):
                 dev.pin.state = word >> bit & 1
 
     def _write_pen(self, pulse_us: int) -> None:
+        if self.pen is not None:
+            self.pen.start(pulse_us)
+            return
         if pulse_us <= 0:
             self._servo.value = None  # detach: no pulses
             return
@@ -59,8 +73,9 @@ class GpiozeroBackend(Backend):
         except ImportError:
             raise BackendError(f"error: the gpiozero backend needs the gpiozero package; {HINT}") \
                 from None
+        prepared = self._prepare_lgpio()
         try:
-            with warnings.catch_warnings():
+            with warnings.catch_warnings(), prepared:
                 warnings.simplefilter("ignore")  # gpiozero warns about each factory it skips
                 for pin in self.coil_pins:
                     self._coils.append(DigitalOutputDevice(pin, initial_value=False,
@@ -71,12 +86,48 @@ class GpiozeroBackend(Backend):
             raise BackendError(f"error: gpiozero cannot drive GPIO{pin} ({type(e).__name__}: "
                                f"{e}); {HINT}") from None
         try:
-            self._servo = self._make_servo(self._coils[0].pin_factory)
+            factory = self._coils[0].pin_factory
+            if _lgpio_of(factory) is not None:
+                self._lgpio_pen(factory)
+            else:
+                self._servo = self._make_servo(factory)
         except Exception as e:  # noqa: BLE001
             self.close()
             raise BackendError(f"error: gpiozero cannot make servo pulses on GPIO{self.pen_pin} "
                                f"({type(e).__name__}: {e}); use a pin factory with PWM "
                                f"(lgpio, pigpio, RPi.GPIO) or --dry-run") from None
+
+    def _prepare_lgpio(self):
+        """When gpiozero may pick its lgpio factory: import lgpio safely first (its notify
+        FIFO in the state directory, not in the working directory), tight timers, and the
+        context in which lgpio starts its tx thread (the first device opens the chip).
+        Without lgpio gpiozero picks another factory."""
+        wanted = os.environ.get("GPIOZERO_PIN_FACTORY", "").lower()
+        if self.pin_factory is None and wanted in ("", "lgpio"):
+            from vplotter.backends.lgpio_setup import load_lgpio, tight_timers, tx_thread_priority
+
+            try:
+                load_lgpio()
+            except BackendError:
+                return contextlib.nullcontext()
+            tight_timers()
+            return tx_thread_priority()
+        return contextlib.nullcontext()
+
+    def _lgpio_pen(self, factory) -> None:
+        from gpiozero import DigitalOutputDevice
+
+        from vplotter.backends.lgpio_pen import PenTrains
+
+        for w in (self.cfg.pen.up_us, self.cfg.pen.down_us):
+            if not 500 <= w <= 2500:
+                raise ValueError(f"lgpio makes servo pulses of 500..2500 us, not {w} ([pen] "
+                                 f"up_us/down_us)")
+        self._pen_dev = DigitalOutputDevice(self.pen_pin, initial_value=False,
+                                            pin_factory=factory)
+        self.pen = PenTrains(_lgpio_of(factory), factory._handle, self.pen_pin,
+                             self.cfg.pen.up_us, int(round(self.cfg.pen.settle_s * 1e6)),
+                             self._clock, self._sleep)
 
     def _make_servo(self, factory):
         from gpiozero import Servo
@@ -93,10 +144,54 @@ class GpiozeroBackend(Backend):
                 factory.pin_class = old
 
     def play(self, rows: Rows) -> int:
-        return self._player.play(rows, lambda: self.stop_requested)
+        pen = self.pen
+        if pen is None:
+            return self._player.play(rows, lambda: self.stop_requested)
+        if pen.hung:
+            return 0                         # after a hang the pen is up and the coils off
+        pen.plan(rows, self._player.pen_us)
+        try:
+            n = self._player.play(rows, lambda: self.stop_requested or pen.check())
+        except pen.lg.error as e:
+            raise BackendError(f"error: lgpio failed while drawing: {e}") from None
+        if pen.hung:
+            self._hang()
+        return n
+
+    def drain(self) -> None:
+        if self.pen is not None and not self.pen.wait():
+            self._hang()
+
+    def _hang(self):
+        for dev in self._coils:
+            try:
+                dev.off()
+            except Exception:  # noqa: BLE001
+                pass
+        raise self.pen.emergency()
 
     def close(self) -> None:
-        """All coils low, pen pulses off, pins released; never raises."""
+        """All coils low, the pen's last pulse whole then pulses off, pins released; never
+        raises."""
+        for dev in self._coils:
+            try:
+                dev.off()
+            except Exception:  # noqa: BLE001
+                pass
+        if self.pen is not None:
+            for action in (self.pen.wait, self.pen.release):
+                try:
+                    action()
+                except BaseException:  # noqa: BLE001
+                    pass
+            self.pen = None
+        if self._pen_dev is not None:
+            for action in (self._pen_dev.off, self._pen_dev.close):
+                try:
+                    action()
+                except Exception:  # noqa: BLE001
+                    pass
+            self._pen_dev = None
         if self._servo is not None:
             for action in (self._servo.detach, self._servo.close):
                 try:
@@ -114,6 +209,13 @@ class GpiozeroBackend(Backend):
 
     def lateness(self) -> dict | None:
         return self._player.lateness.stats()
+
+
+def _lgpio_of(factory):
+    """The lgpio module behind gpiozero's lgpio factory, or None for any other factory."""
+    if type(factory).__name__ != "LGPIOFactory":
+        return None
+    return getattr(sys.modules.get(type(factory).__module__), "lgpio", None)
 
 
 def _mock_without_pwm(factory):

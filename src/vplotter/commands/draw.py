@@ -6,12 +6,14 @@ import argparse
 import sys
 
 from vplotter.commands.common import (command_line, load_config, eprint, file_hash, position,
-                                      add_machine_options, say, session, stream_rows)
+                                      add_machine_options, say, session)
 from vplotter.errors import ConfigError, MachineError
 
 
 def add_draw(p: argparse.ArgumentParser) -> None:
-    p.add_argument("file", help="G-code file (.ngc, .gcode, .nc)")
+    from vplotter.prepare import add_file_options
+
+    p.add_argument("file", help="G-code (.ngc, .gcode, .nc) or SVG (.svg, .svgz) file")
     add_machine_options(p)
     p.add_argument("--strict", action="store_true",
                    help="treat warnings about inconsistent arcs as errors")
@@ -27,6 +29,7 @@ def add_draw(p: argparse.ArgumentParser) -> None:
                    help="after validation, draw in the background (survives the end of the SSH "
                         "session; follow with `vplotter status --watch` or `vplotter log -f`)")
     p.add_argument("--detached", action="store_true", help=argparse.SUPPRESS)
+    add_file_options(p)
 
 
 def start_at(args, pos):
@@ -49,6 +52,12 @@ def start_at(args, pos):
     if file_hash(args.file) != info.get("sha256") and not args.force:
         raise MachineError(f"error: {args.file} changed since the draw was interrupted "
                            f"(--force to resume anyway, or --from-line N)")
+    from vplotter.prepare import options_key
+
+    if info.get("options", options_key(args.file, args)) != options_key(args.file, args) \
+            and not args.force:
+        raise MachineError(f"error: the interrupted draw of {args.file} was placed or ordered "
+                           f"with other options; give the same ones to --resume")
     xy = info.get("xy")
     return StartAt(int(info["line"]), (float(xy[0]), float(xy[1])) if xy else None)
 
@@ -59,14 +68,18 @@ def cmd_draw(args, argv=None) -> int:
     import numpy as np
 
     from vplotter import kinematics, pipeline
-    from vplotter.inputs import gcode
+    from vplotter.commands.files import prepare_file
     from vplotter.errors import Interrupted
+    from vplotter.prepare import options_key
 
     from vplotter import live
 
     cfg = load_config(args)
     if args.detach and args.dry_run:
         raise ConfigError("error: --detach draws on the machine; a --dry-run has nothing to detach")
+    if args.detach and args.pause_between_layers:
+        raise ConfigError("error: --pause-between-layers waits for Enter on the terminal; "
+                          "not with --detach")
     pos = position(cfg, args, args.dry_run)
     begin = start_at(args, pos)
     if args.backend == "serial" or args.save_stream:
@@ -74,32 +87,39 @@ def cmd_draw(args, argv=None) -> int:
 
         return serial.draw(args, argv, cfg, pos, begin)
     sess = session(args, cfg, command_line(argv), pos)
-    sess.drawing = {"file": os.path.abspath(args.file), "sha256": file_hash(args.file)}
+    sess.drawing = {"file": os.path.abspath(args.file), "sha256": file_hash(args.file),
+                    "options": options_key(args.file, args)}
     sess.ignore_hangup = args.detached
     # the session (lock, pins, signal handlers) is open first, so that a signal at any moment
     # ends the same way; nothing is output before the whole file has been validated
     with sess as s:
+        # a resumed draw is ordered from where the interrupted one started, so that the
+        # record numbers match
+        start = (pos.extra.get("resume") or {}).get("start") if args.resume else None
+        prep = prepare_file(args, cfg, pos, start_xy=start)
+        sess.drawing["start"] = list(prep.start_xy)
         # validation pass: the whole file, page limits and exact plot time before anything moves
-        records = gcode.read(args.file, strict=args.strict)
-        summary = pipeline.validate(cfg, records, pos.counts, pos.ref_mm, args.file, begin,
-                                    lambda: s.stop_pending)
+        summary = pipeline.validate(cfg, prep.records(), pos.counts, pos.ref_mm, args.file, begin,
+                                    lambda: s.stop_pending, where=prep.where)
         if summary is not None and not s.dry_run and not args.detach:
             # published before the summary is printed: whoever sees the summary finds it
             s.live = live.Publisher(command_line(argv), os.path.abspath(args.file), summary.time_s)
             s.live.update(0.0, 0, force=True)
         if summary is not None:
+            _ordered(prep)
             say(f"{args.file}: {summary.text()}")
         if args.detach and summary is not None:
             return _detach(args, argv, s)
         if summary is not None and summary.plan is not None:     # planned once, drawn as planned
             rows = pipeline.replay(cfg, summary.plan, pos.counts, pos.ref_mm)
         else:
-            quiet = gcode.read(args.file, strict=args.strict, warn=lambda m: None)
-            rows = stream_rows(cfg, quiet, pos, args.file, start_at=begin)
+            rows = pipeline.stream(cfg, prep.records(), pos.counts, pos.ref_mm, args.file,
+                                   start_at=begin, where=prep.where)
         if s.tracer is not None:
             s.tracer.comment(f"file {os.path.abspath(args.file)}")
-        progress = (_Progress(summary.time_s) if summary and sys.stderr.isatty() and not s.dry_run
+        progress = (_Progress(summary) if summary and sys.stderr.isatty() and not s.dry_run
                     else None)
+        s.on_pause = _pause_handler(s, progress)
         try:
             s.play(rows, progress)
         except Interrupted:
@@ -112,7 +132,7 @@ def cmd_draw(args, argv=None) -> int:
             if progress:
                 progress.done()
             xy = np.where(np.abs(xy) < 5e-4, 0.0, xy)
-            where = f"{args.file}:{s.line}: stopped" if s.line else f"{args.file}: stopped before drawing"
+            where = f"{prep.where(s.line)}: stopped" if s.line else f"{args.file}: stopped before drawing"
             eprint(f"{where} at X{xy[0]:.3f} Y{xy[1]:.3f}; pen lifted, coils released"
                     f"{'' if s.dry_run else ', position saved'}")
             if not s.dry_run and s.resume_info:
@@ -167,11 +187,53 @@ def _detach(args, argv, s) -> int:
     return 0
 
 
-class _Progress:
-    """A one-line progress bar on stderr (only on a terminal)."""
+def _ordered(prep) -> None:
+    if not prep.passthrough:
+        say(f"{prep.path}: {len(prep.strokes)} strokes placed and ordered in {prep.order_s:.2f} s")
 
-    def __init__(self, total_s: float):
-        self.total_us = max(total_s * 1e6, 1.0)
+
+def _pause_handler(s, progress):
+    """What happens at a Pause (between layers): the pen is up and the coils are released.
+    A dry run only notes it; a real draw waits for Enter (a signal still stops it)."""
+    def on_pause(p) -> None:
+        if progress:
+            progress.done()
+        if s.dry_run:
+            say(f"pause: {p.message} (dry run: not waiting)")
+            return
+        say(f"pause: {p.message}: change the pen, then press Enter")
+        wait_enter(sys.stdin, lambda: s.stop_pending)
+    return on_pause
+
+
+def wait_enter(stdin, stop, poll_s: float = 0.2) -> None:
+    """Read one line from stdin; polls so that a signal (stop() true) ends the wait. With
+    stdin closed (end of file) it says so and goes on."""
+    try:
+        fd = stdin.fileno()
+    except (AttributeError, OSError, ValueError):
+        fd = None
+    if fd is not None:
+        import select
+
+        while not stop():
+            ready, _, _ = select.select([fd], [], [], poll_s)
+            if ready:
+                break
+        else:
+            return
+    if stdin.readline() == "":
+        eprint("vplotter: warning: standard input is closed: not waiting at the pause")
+
+
+class _Progress:
+    """A one-line progress bar on stderr (only on a terminal): done, line, time left, and the
+    drawing's travel, pen lifts and plot time."""
+
+    def __init__(self, summary):
+        self.total_us = max(summary.time_s * 1e6, 1.0)
+        self.tail = (f"travel {summary.travel_mm / 1000:.2f} m, {summary.pen_downs} pen lifts, "
+                     f"plot time {_hms(summary.time_s)}")
         self.last = -1
 
     def __call__(self, t_us: int, line: int) -> None:
@@ -181,26 +243,37 @@ class _Progress:
         self.last = pct
         left = max(0.0, (self.total_us - t_us) / 1e6)
         bar = "#" * (pct // 4) + "-" * (25 - pct // 4)
-        say(f"\r[{bar}] {pct:3d}%  line {line}  {int(left // 60)}:{int(left % 60):02d} left ",
+        say(f"\r[{bar}] {pct:3d}%  line {line}  {_hms(left)} left; {self.tail} ",
              sys.stderr, end="")
 
     def done(self) -> None:
         say("", sys.stderr)
 
 
+def _hms(seconds: float) -> str:
+    m, s = divmod(int(round(seconds)), 60)
+    h, m = divmod(m, 60)
+    return f"{h}:{m:02d}:{s:02d}" if h else f"{m}:{s:02d}"
+
+
 def cmd_estimate(args, argv=None) -> int:
     from vplotter import pipeline
-    from vplotter.inputs import gcode
+    from vplotter.commands.files import prepare_file
 
     cfg = load_config(args)
     pos = position(cfg, args, True)
-    summary = pipeline.validate(cfg, gcode.read(args.file, strict=args.strict), pos.counts,
-                                pos.ref_mm, args.file)
+    prep = prepare_file(args, cfg, pos)
+    summary = pipeline.validate(cfg, prep.records(), pos.counts, pos.ref_mm, args.file,
+                                where=prep.where)
+    _ordered(prep)
     print(f"{args.file}: {summary.text()}")
     return 0
 
 
 def add_estimate(p) -> None:
-    p.add_argument("file")
-    p.add_argument("--strict", action="store_true")
+    from vplotter.prepare import add_file_options
+
+    p.add_argument("file", help="G-code or SVG file")
+    p.add_argument("--strict", action="store_true", help="treat arc warnings as errors")
+    add_file_options(p)
 

@@ -23,27 +23,34 @@ def _check_picture_options(args) -> None:
 
 
 def add_preview(p: argparse.ArgumentParser) -> None:
-    p.add_argument("file", help="drawing to preview (G-code)")
+    from vplotter.prepare import add_file_options
+
+    p.add_argument("file", help="drawing to preview (G-code or SVG)")
     _add_picture_options(p)
     p.add_argument("--strict", action="store_true",
                    help="treat warnings about inconsistent arcs as errors")
+    add_file_options(p)
 
 
 def cmd_preview(args, argv=None) -> int:
     import numpy as np
 
     from vplotter import kinematics, pipeline, render
+    from vplotter.commands.files import prepare_file
 
     _check_picture_options(args)
     cfg = load_config(args)
     pos = position(cfg, args, True)
     kin = kinematics.from_config(cfg)
     start = kin.to_gcode(kin.forward(np.array([[pos.left_mm, pos.right_mm]])))[0]
-    strokes, records = _planned(args, cfg, start)
+    # the planned drawing: placed and ordered strokes, and the records the draw plays (the
+    # same as `estimate` times)
+    prep = prepare_file(args, cfg, pos, start_xy=start)
+    strokes = prep.strokes
     travel: list = []
     tol = cfg.motion.tolerance_mm * pipeline.CHORD_SHARE
-    summary = pipeline.validate(cfg, _tap_travel(records, start, tol, travel), pos.counts,
-                                pos.ref_mm, args.file)
+    summary = pipeline.validate(cfg, _tap_travel(prep.records(), start, tol, travel), pos.counts,
+                                pos.ref_mm, args.file, where=prep.where)
     pic = render.preview([s.pts for s in strokes], start, kin, cfg.page,
                          f"{args.file}: {_legend(summary)}", args.size,
                          np.concatenate(travel) if travel else np.zeros((0, 2, 2)))
@@ -52,17 +59,6 @@ def cmd_preview(args, argv=None) -> int:
     say(f"{args.output}: {pic.width_px} x {pic.height_px} px, strokes from red (first) to "
         f"violet (last), travel in grey")
     return 0
-
-
-def _planned(args, cfg, start_xy):
-    """The strokes in drawing order and the records the draw plays (what `estimate` times).
-    The pen starts at start_xy (G-code mm): ordering and placement will start from there."""
-    from vplotter import pipeline
-    from vplotter.inputs import gcode, strokes
-
-    quiet = gcode.read(args.file, strict=args.strict, warn=lambda m: None)
-    return (strokes.from_records(quiet, cfg.motion.tolerance_mm * pipeline.CHORD_SHARE),
-            gcode.read(args.file, strict=args.strict))
 
 
 def _tap_travel(records, start_xy, tol_mm: float, out: list):

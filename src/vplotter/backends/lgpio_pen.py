@@ -1,0 +1,150 @@
+"""The pen as lgpio servo pulse trains (lgpio backend, and gpiozero on its lgpio pin factory).
+
+A pen change is one `tx_servo(pin, width, 50, 0, cycles)`: the width exactly as configured (no
+duty cycle in whole percent, as gpiozero's PWM would make it), and a pulse count that covers
+the time the pen stays at that width in the schedule (the settle time). lgpio ends such a
+train after its last whole pulse, the pin low; vplotter never stops one with `tx_servo(pin, 0)`,
+which cuts the pulse in flight short. A change while a train runs is queued behind it by lgpio
+(same job, no new one). With nothing else using lgpio's tx thread there is at most one job in
+its list, so lgpio 0.2's fault (freeing the job at the head of a longer list makes its thread
+skip the rest, and sometimes spin forever) has nothing to act on.
+
+The watchdog: a train still running HANG_NS after it should have ended, seen twice (a stall of
+this process is not a hang), means the tx thread has stopped. `emergency()` then stops the job,
+and lifts the pen with pulses written from Python (gpio_write, spin-timed).
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+import numpy as np
+
+from vplotter.errors import BackendError
+from vplotter.schedule import Rows
+
+SERVO_HZ = 50
+FRAME_US = 1_000_000 // SERVO_HZ
+TRAIN_SLACK_NS = 60_000_000     # lgpio starts a train on its 20 ms grid: up to 40 ms late
+HANG_NS = 1_000_000_000         # still running this long past its end (twice): a hang
+HANG = ("error: lgpio's pulse thread stopped (an lgpio 0.2 fault): the pen was lifted and the "
+        "coils released; the stored position is marked uncertain: check the pen, then `vplotter "
+        "calibrate --at X Y` (or --trust-position)")
+
+
+def train_cycles(duration_us: int) -> int:
+    """Servo pulses (50 Hz) for a pen train of duration_us."""
+    return max(1, int(round(duration_us / FRAME_US)))
+
+
+def plan_trains(rows: Rows, pen_us: int, settle_us: int) -> list[tuple[int, int]]:
+    """(width, cycles) for each pen change to a width in rows: as long as the pen stays at that
+    width in these rows (pulses off or another width end it), else the settle time."""
+    p = rows.pen_us.astype(np.int64)
+    at = np.flatnonzero(p != np.concatenate(([pen_us], p[:-1])))
+    t = rows.t_us
+    out = []
+    for k, i in enumerate(at.tolist()):
+        if p[i] <= 0:
+            continue
+        dur = int(t[at[k + 1]] - t[i]) if k + 1 < len(at) else settle_us
+        out.append((int(p[i]), train_cycles(dur)))
+    return out
+
+
+class PenTrains:
+    def __init__(self, lg, handle: int, pin: int, up_us: int, settle_us: int, clock, sleep):
+        self.lg, self.handle, self.pin = lg, handle, pin
+        self.up_us, self.settle_us = up_us, settle_us
+        self.clock, self.sleep = clock, sleep
+        self._planned: deque = deque()
+        self.end_ns: int | None = None       # when the queued trains should have ended
+        self._suspect_ns: int | None = None
+        self.hung = False
+
+    def plan(self, rows: Rows, pen_us: int) -> None:
+        """Before rows are played: the pen changes they hold, pen_us the width before them."""
+        self._planned = deque(plan_trains(rows, pen_us, self.settle_us))
+
+    def start(self, width: int) -> None:
+        """A pen change to width (0: pulses off, which the train's count already does)."""
+        if width <= 0:
+            return
+        cycles = train_cycles(self.settle_us)
+        while self._planned:
+            w, c = self._planned.popleft()
+            if w == width:
+                cycles = c
+                break
+        self.lg.tx_servo(self.handle, self.pin, width, SERVO_HZ, 0, cycles)
+        start = max(self.clock(), self.end_ns or 0)   # queued behind a running train
+        self.end_ns = start + cycles * FRAME_US * 1000 + TRAIN_SLACK_NS
+        self._suspect_ns = None
+
+    def busy(self) -> bool:
+        try:
+            return bool(self.lg.tx_busy(self.handle, self.pin, self.lg.TX_PWM))
+        except Exception:  # noqa: BLE001
+            return False
+
+    def check(self) -> bool:
+        """The watchdog (cheap while no train is due): True once the tx thread has stopped."""
+        if self.end_ns is None or self.hung:
+            return self.hung
+        now = self.clock()
+        if now < self.end_ns:
+            return False
+        if not self.busy():
+            self.end_ns = self._suspect_ns = None
+            return False
+        if self._suspect_ns is None:
+            self._suspect_ns = now
+        elif now - self._suspect_ns >= HANG_NS:
+            self.hung = True
+        return self.hung
+
+    def wait(self) -> bool:
+        """Until the trains have ended (their last pulse whole); False on a hang."""
+        while self.end_ns is not None:
+            if self.check():
+                return False
+            if self.end_ns is not None:
+                self.sleep(0.005)
+        return not self.hung
+
+    def release(self) -> None:
+        """At close: a train still running (a second Ctrl+C, a hang) is stopped, the pin low.
+        It is the only job in lgpio's list, so stopping it is safe."""
+        lg = self.lg
+        if self.hung or self.busy():
+            try:
+                lg.tx_servo(self.handle, self.pin, 0)
+            except Exception:  # noqa: BLE001
+                pass
+        self.end_ns = None
+
+    def emergency(self) -> BackendError:
+        """The tx thread hangs: stop its job, lift the pen by direct writes; the error to raise."""
+        self.hung = True
+        for step in (lambda: self.lg.tx_servo(self.handle, self.pin, 0), self._lift_by_hand):
+            try:
+                step()
+            except Exception:  # noqa: BLE001
+                pass
+        self.end_ns = None
+        return BackendError(HANG)
+
+    def _lift_by_hand(self) -> None:
+        """Pen-up pulses written from here for the settle time (spin-timed, ~10 us)."""
+        lg, h, pin = self.lg, self.handle, self.pin
+        t0 = self.clock()
+        for k in range(train_cycles(self.settle_us)):
+            self._until(t0 + k * FRAME_US * 1000)
+            lg.gpio_write(h, pin, 1)
+            self._until(self.clock() + self.up_us * 1000)
+            lg.gpio_write(h, pin, 0)
+
+    def _until(self, t_ns: int) -> None:
+        while (left := t_ns - self.clock()) > 0:
+            if left > 2_000_000:
+                self.sleep((left - 1_000_000) / 1e9)

@@ -1,0 +1,210 @@
+"""info and convert: what a drawing file holds, and the placed, ordered drawing as G-code."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+
+from vplotter.commands.common import eprint, load_config, position, say
+from vplotter.errors import InputError
+
+
+def prepare_file(args, cfg, pos, warn=None, start_xy=None, **changes):
+    """prepare() for a command (with some options changed): the travel starts where the pen
+    is, or at start_xy (a resumed draw keeps the order it was started with)."""
+    from vplotter.commands import jog
+    from vplotter.prepare import prepare
+
+    if changes:
+        args = argparse.Namespace(**{**vars(args), **changes})
+    xy = jog.pen_xy(cfg, pos, pos.counts) if start_xy is None else start_xy
+    extra = {"warn": warn} if warn is not None else {}
+    return prepare(args.file, cfg, args, start_xy=(float(xy[0]), float(xy[1])), **extra)
+
+
+# ------------------------------------------------------------------ info
+def add_info(p: argparse.ArgumentParser) -> None:
+    from vplotter.prepare import add_file_options
+
+    p.add_argument("file", help="G-code or SVG file")
+    p.add_argument("--json", action="store_true", help="print the figures as one JSON object")
+    p.add_argument("--strict", action="store_true", help="treat arc warnings as errors")
+    add_file_options(p)
+
+
+def _timed(cfg, pos, prep):
+    """(travel_mm, time_s) of the pipeline's validation pass; (None, None) when the drawing
+    does not fit the page (the error is printed as a warning: info still reports)."""
+    from vplotter import pipeline
+
+    try:
+        s = pipeline.validate(cfg, prep.records(), pos.counts, pos.ref_mm, prep.path,
+                              where=prep.where)
+    except InputError as e:
+        if "outside the page" not in str(e):
+            raise
+        return None, None, str(e).replace("error:", "warning:", 1)
+    return s.travel_mm, s.time_s, None
+
+
+def cmd_info(args, argv=None) -> int:
+    from vplotter import place
+
+    cfg = load_config(args)
+    pos = position(cfg, args, True)
+    keep = prepare_file(args, cfg, pos, order="keep")
+    best = prepare_file(args, cfg, pos, warn=lambda m: None, order="best")
+    drawing = best.drawing
+    strokes = best.strokes
+    box = place.extent(strokes)
+    ext = [box.x_min, box.y_min, box.x_max, box.y_max] if box else [0.0, 0.0, 0.0, 0.0]
+    width = drawing.width_mm if drawing.width_mm is not None else ext[2] - ext[0]
+    height = drawing.height_mm if drawing.height_mm is not None else ext[3] - ext[1]
+    t_keep, s_keep, problem = _timed(cfg, pos, keep)
+    t_best, s_best, _ = _timed(cfg, pos, best)
+    if problem:
+        eprint(problem)
+    skipped = {k: int(drawing.skipped.get(k, 0)) for k in ("text", "image", "hidden")}
+    out = {
+        "width_mm": _r(width), "height_mm": _r(height), "extent": [_r(v) for v in ext],
+        "strokes": len(drawing.strokes),
+        "drawn_mm": _r(float(sum(s.length_mm() for s in strokes))),
+        "travel_mm": {"file": _r(t_keep), "best": _r(t_best)},
+        "time_s": {"file": _r(s_keep), "best": _r(s_best)},
+        "layers": [{"id": lay.get("id"), "label": lay.get("label"),
+                    "visible": bool(lay.get("visible", True))} for lay in drawing.layers],
+        "skipped": skipped,
+    }
+    if args.json:
+        say(json.dumps(out))
+        return 0
+    say(f"{args.file}: {'G-code' if best.is_gcode else 'SVG'}, {out['width_mm']:g} x "
+        f"{out['height_mm']:g} mm; drawn extent X {ext[0]:.2f}..{ext[2]:.2f} "
+        f"Y {ext[1]:.2f}..{ext[3]:.2f} mm")
+    say(f"  {out['strokes']} strokes, drawn {out['drawn_mm'] / 1000:.2f} m")
+    for what, t, s in (("file order", t_keep, s_keep), ("--order best", t_best, s_best)):
+        if t is None:
+            say(f"  {what}: does not fit the page")
+        else:
+            say(f"  {what}: travel {t / 1000:.2f} m, plot time {_hms(s)} ({s:.1f} s)")
+    say(f"  ordering took {best.order_s:.2f} s")
+    for lay in out["layers"]:
+        say(f"  layer {lay['label'] or lay['id']!s} (id {lay['id']}): "
+            f"{'visible' if lay['visible'] else 'hidden'}")
+    notes = {"text": "text elements (convert text to paths to draw it)",
+             "image": "images (bitmaps are not drawn)",
+             "hidden": "hidden elements (display:none or visibility:hidden)"}
+    for k, n in skipped.items():
+        if n:
+            say(f"  skipped {n} {notes[k]}")
+    return 0
+
+
+def _r(v):
+    return None if v is None else round(float(v), 3)
+
+
+def _hms(seconds: float) -> str:
+    m, s = divmod(int(round(seconds)), 60)
+    h, m = divmod(m, 60)
+    return f"{h}:{m:02d}:{s:02d}" if h else f"{m}:{s:02d}"
+
+
+# ------------------------------------------------------------------ convert
+def add_convert(p: argparse.ArgumentParser) -> None:
+    from vplotter.prepare import add_file_options
+
+    p.add_argument("file", help="G-code or SVG file")
+    p.add_argument("-o", "--output", required=True, metavar="OUT.ngc",
+                   help="G-code file to write ('-' for standard output)")
+    p.add_argument("--strict", action="store_true", help="treat arc warnings as errors")
+    add_file_options(p)
+
+
+def cmd_convert(args, argv=None) -> int:
+    import os
+    import sys
+
+    cfg = load_config(args)
+    pos = position(cfg, args, True)
+    prep = prepare_file(args, cfg, pos)
+    if args.output == "-":
+        write_gcode(prep, cfg, sys.stdout)
+        return 0
+    tmp = f"{args.output}.part"
+    try:
+        with open(tmp, "w", encoding="utf-8") as f:
+            write_gcode(prep, cfg, f)
+        os.replace(tmp, args.output)
+    except OSError as e:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise InputError(f"{args.output}: error: cannot write: {e.strerror}") from None
+    return 0
+
+
+def pen_words(cfg) -> tuple[str, str]:
+    """(up, down) pen commands: Z5 / Z-1, or what config.toml [gcode] says the files of this
+    setup use (pen = "m3": M5 / M3, or the reverse with m3_down = false; "m280": M280 at the
+    middle of the up and down angle ranges; Z relative to z_down_below_mm)."""
+    d = getattr(cfg, "gcode", None)          # [gcode] (pen dialects), when the config has it
+    mode = getattr(d, "pen", "z")
+    if mode == "m3":
+        return ("M5", "M3") if getattr(d, "m3_down", True) else ("M3", "M5")
+    if mode == "m280":
+        servo = getattr(d, "m280_servo", 0)
+        up, down = (sum(getattr(d, k)) / 2 for k in ("m280_up_s", "m280_down_s"))
+        return f"M280 P{servo} S{_num(up)}", f"M280 P{servo} S{_num(down)}"
+    z = getattr(d, "z_down_below_mm", 0.0)
+    return f"G0 Z{_num(z + 5)}", f"G1 Z{_num(z - 1)}"
+
+
+def _num(v: float) -> str:
+    t = f"{round(float(v), 4) + 0.0:.4f}".rstrip("0").rstrip(".")
+    return "0" if t in ("-0", "") else t
+
+
+def write_gcode(prep, cfg, f) -> None:
+    """The strokes as G-code: G0 travel, G1 drawing, the pen by `pen_words`; a stroke that
+    starts within --join of the previous end is drawn on without lifting."""
+    from vplotter import order
+
+    strokes = prep.strokes
+    joined = order.joined(strokes, prep.join_mm)
+    pen_up, pen_down = pen_words(cfg)
+    f.write(f"(vplotter convert {os.path.basename(prep.path)}: {len(strokes)} strokes)\n")
+    f.write(f"G21\nG90\n{pen_up}\n")
+    feeds = any(s.feed_mm_s is not None for s in strokes)
+    feed = None
+    layer = object()
+    at = ""
+    for k, st in enumerate(strokes):
+        if st.layer is not None and st.layer != layer:
+            f.write(f"(layer {_safe(str(st.layer))})\n")
+        layer = st.layer
+        xy = [f"X{_num(x)} Y{_num(y)}" for x, y in st.pts.tolist()]
+        if not joined[k]:
+            f.write(f"G0 {xy[0]}\n{pen_down}\n")
+            at = xy[0]
+        lines = []
+        for w in xy:            # no zero-length moves: they would not read back
+            if w != at:
+                lines.append(f"G1 {w}")
+                at = w
+        want = st.feed_mm_s if st.feed_mm_s is not None else cfg.motion.draw_speed_mm_s
+        if feeds and lines and want != feed:
+            lines[0] += f" F{_num(want * 60)}"
+            feed = want
+        if lines:
+            f.write("\n".join(lines) + "\n")
+        if k + 1 == len(strokes) or not joined[k + 1]:
+            f.write(f"{pen_up}\n")
+    f.write("M2\n")
+
+
+def _safe(text: str) -> str:
+    return text.replace("(", "[").replace(")", "]").replace("\n", " ")
+

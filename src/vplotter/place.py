@@ -1,0 +1,118 @@
+"""Placement: one affine map from the drawing as read to where it lands on the page.
+
+Pure geometry on strokes in G-code millimetres (+Y up). The map is built in this order:
+  1. --scale S and --rotate DEG (counter-clockwise, as seen on the wall) about the centre of
+     the drawing's extent;
+  2. --fit: the largest uniform scale that puts the extent inside the page (less --margin),
+     centred on the page;
+  3. --align left|center|right, --valign top|middle|bottom: that edge (or centre) of the
+     extent on the page's edge (or centre), --margin in from the edge;
+  4. --offset X Y, last.
+What the page check sees is the result.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from vplotter.errors import ConfigError
+from vplotter.inputs.strokes import Stroke
+
+
+@dataclass(frozen=True)
+class Placement:
+    scale: float = 1.0
+    rotate_deg: float = 0.0
+    fit: bool = False
+    margin_mm: float = 0.0
+    align: str | None = None      # left | center | right
+    valign: str | None = None     # top | middle | bottom
+    offset_mm: tuple[float, float] = (0.0, 0.0)
+
+    @property
+    def identity(self) -> bool:
+        return self == Placement()
+
+
+@dataclass(frozen=True)
+class Box:
+    x_min: float
+    y_min: float
+    x_max: float
+    y_max: float
+
+    @property
+    def centre(self) -> np.ndarray:
+        return np.array([(self.x_min + self.x_max) / 2, (self.y_min + self.y_max) / 2])
+
+    @property
+    def size(self) -> np.ndarray:
+        return np.array([self.x_max - self.x_min, self.y_max - self.y_min])
+
+
+def extent(strokes: list[Stroke]) -> Box | None:
+    """The bounding box of every point of the strokes (None when there are none)."""
+    if not strokes:
+        return None
+    lo = np.min([s.pts.min(axis=0) for s in strokes], axis=0)
+    hi = np.max([s.pts.max(axis=0) for s in strokes], axis=0)
+    return Box(float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
+
+
+def _box_of(pts: np.ndarray) -> Box:
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    return Box(float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
+
+
+def matrix(p: Placement, pts: np.ndarray, page: Box) -> tuple[np.ndarray, np.ndarray]:
+    """(A, b): a point x lands at A @ x + b. `pts` (N, 2): every point of the drawing as
+    read (fit and align look at the extent of the transformed points)."""
+    if len(pts) == 0:
+        return np.eye(2), np.asarray(p.offset_mm, dtype=float)
+    box = _box_of(pts)
+    a = math.radians(p.rotate_deg)
+    rot = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+    A = p.scale * rot
+    c = box.centre
+    b = c - A @ c
+    now = _box_of(pts @ A.T + b)
+    room = page.size - 2 * p.margin_mm
+    if p.fit or p.align or p.valign:
+        if (room <= 0).any():
+            raise ConfigError(f"error: --margin {p.margin_mm:g} leaves no room on the page "
+                              f"({page.size[0]:g} x {page.size[1]:g} mm)")
+    if p.fit:
+        size = now.size
+        k = [room[i] / size[i] for i in (0, 1) if size[i] > 1e-12]
+        s = min(k) if k else 1.0
+        # scale about the extent's centre, then move that centre to the page's centre
+        A, b = s * A, s * (b - now.centre) + page.centre
+        now = _box_of(pts @ A.T + b)
+    shift = np.zeros(2)
+    if p.align:
+        shift[0] = {"left": page.x_min + p.margin_mm - now.x_min,
+                    "center": page.centre[0] - now.centre[0],
+                    "right": page.x_max - p.margin_mm - now.x_max}[p.align]
+    if p.valign:
+        shift[1] = {"bottom": page.y_min + p.margin_mm - now.y_min,
+                    "middle": page.centre[1] - now.centre[1],
+                    "top": page.y_max - p.margin_mm - now.y_max}[p.valign]
+    return A, b + shift + np.asarray(p.offset_mm, dtype=float)
+
+
+def apply(strokes: list[Stroke], A: np.ndarray, b: np.ndarray) -> list[Stroke]:
+    """New strokes with every point mapped (the input is left as it is)."""
+    from dataclasses import replace
+
+    return [replace(s, pts=s.pts @ A.T + b) for s in strokes]
+
+
+def place(strokes: list[Stroke], p: Placement, page: Box) -> list[Stroke]:
+    if p.identity:
+        return strokes
+    pts = np.concatenate([s.pts for s in strokes]) if strokes else np.zeros((0, 2))
+    A, b = matrix(p, pts, page)
+    return apply(strokes, A, b)

@@ -1,0 +1,284 @@
+"""From a file to the records the pipeline draws: read (G-code or SVG) -> Drawing ->
+placement (`place.py`) -> ordering (`order.py`) -> records.
+
+A G-code file drawn as it is (--order keep, no placement option) streams its own records
+unchanged: exact arcs, dwells, feeds and line numbers, flat memory; resume and --from-line
+count its lines. Everything else is read into strokes (arcs cut at the pipeline's chord
+tolerance), placed, ordered and turned back into records. Those records are numbered one by
+one in drawing order (that number is the "line" that progress, resume and --from-line use),
+and `where(line)` names the file place (G-code line or SVG element) behind it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import bisect
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Callable, Iterator
+
+from vplotter.errors import ConfigError, InputError
+
+SVG_SUFFIXES = (".svg", ".svgz")
+
+
+def _stderr(msg: str) -> None:
+    import sys
+
+    print(msg, file=sys.stderr)
+
+
+# ------------------------------------------------------------------ options
+def _number(kind: str, lo: float | None = None, above: bool = False):
+    def parse(text: str) -> float:
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{kind} must be a number (got {text!r})") from None
+        if not math.isfinite(v):
+            raise argparse.ArgumentTypeError(f"{kind} must be finite (got {text!r})")
+        if lo is not None and (v <= lo if above else v < lo):
+            raise argparse.ArgumentTypeError(
+                f"{kind} must be {'above' if above else 'at least'} {lo:g} (got {text!r})")
+        return v
+    parse.__name__ = kind
+    return parse
+
+
+def add_file_options(p: argparse.ArgumentParser) -> None:
+    """Placement, order and layer options, for every command that takes a drawing file."""
+    g = p.add_argument_group("placement (scale and rotate about the drawing's centre, then fit, "
+                             "align, offset; the result is checked against the page)")
+    size = g.add_mutually_exclusive_group()
+    size.add_argument("--scale", type=_number("scale", 0, above=True), metavar="S",
+                      help="scale about the drawing's centre")
+    size.add_argument("--fit", action="store_true",
+                      help="the largest size inside the page (aspect kept), centred")
+    g.add_argument("--rotate", type=_number("angle"), metavar="DEG",
+                   help="rotate counter-clockwise about the drawing's centre")
+    g.add_argument("--margin", type=_number("margin", 0), default=0.0, metavar="MM",
+                   help="keep this far inside the page edges with --fit/--align/--valign")
+    g.add_argument("--align", choices=("left", "center", "right"),
+                   help="put the drawing on the page's left edge, centre or right edge")
+    g.add_argument("--valign", choices=("top", "middle", "bottom"),
+                   help="put the drawing on the page's top edge, middle or bottom edge")
+    g.add_argument("--offset", type=_number("offset"), nargs=2, metavar=("X", "Y"),
+                   help="move by X Y mm, last")
+    o = p.add_argument_group("order and layers")
+    o.add_argument("--order", choices=("keep", "greedy", "best"),
+                   help="stroke order: keep the file's, greedy nearest neighbour, or best "
+                        "(default: best for SVG, keep for G-code)")
+    o.add_argument("--join", type=_number("join", 0), default=0.05, metavar="MM",
+                   help="draw on without lifting the pen when the next stroke starts within MM "
+                        "(default 0.05)")
+    o.add_argument("--layer", action="append", metavar="NAME",
+                   help="draw only this SVG layer (label or id); repeatable")
+    o.add_argument("--pause-between-layers", action="store_true",
+                   help="lift the pen after each layer and wait for Enter (change the pen)")
+
+
+def placement(args):
+    from vplotter.place import Placement
+
+    return Placement(scale=getattr(args, "scale", None) or 1.0,
+                     rotate_deg=getattr(args, "rotate", None) or 0.0,
+                     fit=bool(getattr(args, "fit", False)),
+                     margin_mm=getattr(args, "margin", 0.0) or 0.0,
+                     align=getattr(args, "align", None), valign=getattr(args, "valign", None),
+                     offset_mm=tuple(getattr(args, "offset", None) or (0.0, 0.0)))
+
+
+def is_svg(path: str) -> bool:
+    """By suffix, or by content: gzip (svgz) or text starting with '<'."""
+    if path.lower().endswith(SVG_SUFFIXES):
+        return True
+    try:
+        with open(path, "rb") as f:
+            head = f.read(256)
+    except OSError:
+        return False        # the reader reports it
+    if head.startswith(b"\x1f\x8b"):
+        return True
+    return head.lstrip(b"\xef\xbb\xbf \t\r\n").startswith(b"<")
+
+
+# ------------------------------------------------------------------ records
+@dataclass(frozen=True, slots=True)
+class Pause:
+    """Lift the pen (already up) and wait for the person: between layers."""
+
+    line: int
+    col: int
+    message: str
+
+
+# ------------------------------------------------------------------ the prepared drawing
+@dataclass
+class Prepared:
+    path: str
+    is_gcode: bool
+    passthrough: bool             # G-code streamed as it is
+    strict: bool = False
+    join_mm: float = 0.05
+    pause: bool = False
+    order_s: float = 0.0
+    key: str = ""                 # the options that make the order; resume checks them
+    start_xy: tuple[float, float] = (0.0, 0.0)   # where the travel starts (G-code mm)
+    tol_mm: float = 0.0075        # chords of G-code arcs read into strokes
+    dialect: object = None        # config.toml [gcode] pen dialect, when the config has one
+    warn: Callable[[str], None] = _stderr
+    _drawing: object = None
+    _strokes: list | None = None
+    _firsts: list[int] = field(default_factory=list)
+    _reads: int = 0
+
+    @property
+    def drawing(self):
+        if self._drawing is None:
+            from vplotter.inputs.strokes import Drawing
+
+            self._drawing = Drawing(self.path, self._read_gcode_strokes())
+        return self._drawing
+
+    @property
+    def strokes(self) -> list:
+        if self._strokes is None:
+            self._strokes = self.drawing.strokes
+        return self._strokes
+
+    def _read_gcode_strokes(self) -> list:
+        from vplotter.inputs import strokes
+
+        return strokes.from_records(self._gcode(), self.tol_mm)
+
+    def _gcode(self):
+        from vplotter.inputs import gcode
+
+        warn = self.warn if self._reads == 0 else (lambda m: None)
+        self._reads += 1
+        extra = {"dialect": self.dialect} if self.dialect is not None else {}
+        return gcode.read(self.path, strict=self.strict, warn=warn, **extra)
+
+    def records(self) -> Iterator:
+        """A fresh iterator of pipeline records (warnings are given on the first read only)."""
+        if self.passthrough:
+            return self._gcode()
+        return self._stroke_records()
+
+    def _stroke_records(self) -> Iterator:
+        from vplotter import order
+        from vplotter.inputs.gcode import Move, Pen
+
+        strokes = self.strokes
+        joined = order.joined(strokes, self.join_mm)
+        firsts: list[int] = []
+        n = 0
+        x, y = 0.0, 0.0
+        have = False
+        for k, st in enumerate(strokes):
+            if k and self.pause and st.layer != strokes[k - 1].layer:
+                n += 1
+                yield Pause(n, 0, f"layer {strokes[k - 1].layer} done; next: layer {st.layer}")
+            n += 1
+            firsts.append(n)
+            p = st.pts
+            x0, y0 = float(p[0, 0]), float(p[0, 1])
+            if joined[k]:
+                if (x0, y0) != (x, y):
+                    yield Move(n, 0, x, y, x0, y0, feed_mm_s=st.feed_mm_s)
+                    n += 1
+            else:
+                if not have or (x0, y0) != (x, y):
+                    yield Move(n, 0, x, y, x0, y0, rapid=True)
+                    n += 1
+                yield Pen(n, 0, True)
+                n += 1
+            have = True
+            x, y = x0, y0
+            for x1, y1 in p[1:].tolist():
+                if (x1, y1) != (x, y):
+                    yield Move(n, 0, x, y, x1, y1, feed_mm_s=st.feed_mm_s)
+                    n += 1
+                x, y = x1, y1
+            if k + 1 == len(strokes) or not joined[k + 1]:
+                yield Pen(n, 0, False)
+        self._firsts = firsts
+
+    def where(self, line: int, col: int | None = None) -> str:
+        """The file place behind a pipeline line: 'file:line:col' for G-code, 'file: element
+        ID' for SVG."""
+        if self.passthrough:
+            return f"{self.path}:{line}" + (f":{col}" if col is not None else "")
+        if not self._firsts:
+            for _ in self._stroke_records():
+                pass
+        k = max(bisect.bisect_right(self._firsts, line) - 1, 0)
+        if k >= len(self.strokes):
+            return f"{self.path}"
+        st = self.strokes[k]
+        if self.is_gcode:
+            return f"{self.path}:{st.line}:{st.col}"
+        return f"{self.path}: element {st.src}" if st.src else f"{self.path}: element {st.line}"
+
+
+def options_key(path: str, args) -> str:
+    """The options that decide what is drawn in which order (a resume needs the same)."""
+    method = getattr(args, "order", None) or ("best" if is_svg(path) else "keep")
+    return repr((method, placement(args), getattr(args, "join", 0.05),
+                 getattr(args, "layer", None), bool(getattr(args, "pause_between_layers", False))))
+
+
+def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
+            start_xy=(0.0, 0.0)) -> Prepared:
+    """Read, place and order `path` as the file options in `args` say. The pen starts at
+    start_xy (G-code mm) for the travel."""
+    from vplotter import pipeline
+
+    svg = is_svg(path)
+    place_opts = placement(args)
+    method = getattr(args, "order", None) or ("best" if svg else "keep")
+    layers = getattr(args, "layer", None)
+    if layers and not svg:
+        raise ConfigError(f"error: --layer is for SVG files; {path} is G-code")
+    strict = bool(getattr(args, "strict", False))
+    join_mm = getattr(args, "join", 0.05)
+    join_mm = 0.05 if join_mm is None else join_mm
+    pause = bool(getattr(args, "pause_between_layers", False))
+    tol = cfg.motion.tolerance_mm * pipeline.CHORD_SHARE
+    key = options_key(path, args)
+    prep = Prepared(path, not svg, passthrough=False, strict=strict, join_mm=join_mm,
+                    pause=pause, key=key, warn=warn,
+                    start_xy=(float(start_xy[0]), float(start_xy[1])), tol_mm=tol,
+                    dialect=getattr(cfg, "gcode", None))
+    if not svg and method == "keep" and place_opts.identity:
+        prep.passthrough = True
+        return prep
+    if svg:
+        from vplotter.inputs import svg as svg_reader
+
+        drawing = svg_reader.read(path, tol, layers=layers, warn=warn)
+    else:
+        from vplotter.inputs.strokes import Drawing
+
+        drawing = Drawing(path, prep._read_gcode_strokes())
+    prep._drawing = drawing
+    from vplotter import order, place
+
+    pg = cfg.page
+    page = place.Box(pg.x_min_mm, pg.y_min_mm, pg.x_max_mm, pg.y_max_mm)
+    placed = place.place(drawing.strokes, place_opts, page)
+    t0 = time.perf_counter()
+    prep._strokes = order.order(placed, method, start_xy)
+    prep.order_s = time.perf_counter() - t0
+    return prep
+
+
+def check_readable(path: str) -> None:
+    """The same one-line errors for a missing file or a directory, whatever its type."""
+    import os
+
+    if os.path.isdir(path):
+        raise InputError(f"{path}: error: is a directory, not a drawing file")
+    if not os.path.exists(path):
+        raise InputError(f"{path}: error: no such file")
