@@ -1,6 +1,6 @@
 """How long the pictures take: trace decoding (rows/s) and painting, preview and simulate.
 
-For car.ngc and a larger generated drawing (plan_speed's rosettes, 10,000 moves): a dry-run
+For car.ngc and a larger generated drawing (samples.py's rosettes, 10,000 moves): a dry-run
 trace is written first (not timed), then timed:
 - decode: trace.read_steps (numpy loadtxt, coil patterns -> steps, pen states);
 - simulate: decode + forward kinematics + picture + PNG at 1600 px (what the command does);
@@ -19,9 +19,11 @@ import sys
 import tempfile
 import time
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+sys.path.insert(0, HERE)
 
-from plan_speed import ROOT, big_file  # noqa: E402
+from samples import rosettes_file  # noqa: E402
 
 from vplotter import config, trace  # noqa: E402
 from vplotter.cli import main  # noqa: E402
@@ -50,7 +52,7 @@ def run() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         os.environ["XDG_STATE_HOME"] = tmp
         files = [os.path.join(ROOT, "gcode_samples", "car.ngc"),
-                 big_file(os.path.join(tmp, "big.ngc"), 10_000)]
+                 rosettes_file(os.path.join(tmp, "rosettes.ngc"), 10_000)]
         print("| file | trace rows | decode CPU | rows/CPU s | simulate 1600 px CPU "
               "| preview 1600 px CPU |")
         print("| --- | --- | --- | --- | --- | --- |")
