@@ -15,7 +15,7 @@ from fake_lgpio import FakeLgpio, SimClock, expected_coil_changes, pulse
 from test_backends import cfg, concat, make_rows, parts, rechunk, row_changes  # noqa: F401 (fixtures)
 from vplotter import config, state
 from vplotter.backends import create, lgpio_setup
-from vplotter.backends.lgpio import Folded
+from vplotter.backends.realtime import Folded
 from vplotter.backends.lgpio_setup import load_lgpio
 from vplotter.errors import BackendError
 from vplotter.job import Session
@@ -232,20 +232,23 @@ def test_a_hang_leaves_the_position_uncertain(cfg, parts, monkeypatch):
 
 
 # ---------------------------------------------------------------- memory
-def test_lateness_is_kept_in_fixed_memory(cfg, parts):
+def test_lateness_is_kept_in_fixed_memory(cfg, parts, monkeypatch):
+    from vplotter.backends.realtime import Lateness
+
+    monkeypatch.setattr(Lateness, "FOLD", 16)
     clock = SimClock()
     b, lg = lgpio_backend(cfg, clock)
     b.open()
     for part in parts:
         b.play(part)
-        assert len(b._player.lateness.ns) == 0   # folded after every play()
-    size = b._late.counts.nbytes
+        assert len(b._player.lateness.ns) < 16 + len(part)   # folded once there are FOLD
+    size = b._player.lateness.folded.counts.nbytes
     b.close()
     stats = b.lateness()
     coil_writes = len([c for c in lg.calls if c[0] == "group_write"]) - 1    # - the one at close
     assert stats["n"] >= coil_writes > 100                  # every change measured, none lost
     assert stats["max_ms"] >= stats["p99_ms"] >= stats["p50_ms"]
-    assert b._late.counts.nbytes == size
+    assert b._player.lateness.folded.counts.nbytes == size
 
 
 def test_folded_percentiles_match_the_exact_ones():

@@ -198,3 +198,18 @@ def test_plot_time_is_close_to_time_optimal(name):
     planned = pipeline.validate(CFG, gcode.read(path, warn=lambda m: None), counts, ref).time_s
     best = topp.reference(CFG, path)
     assert best <= planned <= 1.05 * best
+
+
+def test_rows_come_in_parts_of_bounded_size(tmp_path):
+    """400 pen-up moves across 150 mm are one planned block of 8.7 million steps; its rows
+    come in parts of about STEPS_PER_PART, so memory does not grow with the pieces' length."""
+    path = tmp_path / "zig.ngc"
+    path.write_text("G21 G90\n" + "".join(f"G00 X{-75 if i % 2 else 75} Y{-100 + i * 0.5:.1f}\n"
+                                          for i in range(60)))
+    counts, ref = _start()
+    sizes, total = [], 0
+    for rows in pipeline.stream(CFG, gcode.read(str(path)), counts, ref):
+        sizes.append(len(rows))
+        total += len(rows)
+    assert total > 5 * pipeline.STEPS_PER_PART
+    assert max(sizes) <= pipeline.STEPS_PER_PART + 2 * 150 * SPM      # a part and one piece

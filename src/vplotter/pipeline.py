@@ -57,6 +57,7 @@ class StartAt:
     xy: tuple[float, float] | None = None
 
 
+STEPS_PER_PART = 50_000  # steps: the rows of one part of a block are a few MB at most
 PLAN_LIMIT = 100_000   # pieces (about 11 MB): a validated plan up to this size is kept for the draw
 
 
@@ -111,10 +112,15 @@ def _schedule(cfg, ops, counts, ref_mm, emit: bool, summary: Summary,
               scheduler=Scheduler) -> Iterator[Rows]:
     kin = kinematics.from_config(cfg)
     sched = scheduler(cfg, kin, counts, ref_mm)
+    spu = np.asarray(cfg.motors.steps_per_unit, dtype=float)
     for op in ops:
         kind = op[0]
         if kind == "motion":
-            rows = sched.motion(op[1], emit)
+            for part in _parts(op[1], spu):
+                rows = sched.motion(part, emit)
+                if rows is not None and emit:
+                    yield rows
+            continue
         elif kind == "pen":
             rows = sched.pen(op[1], op[2])
         elif kind == "dwell":
@@ -134,6 +140,22 @@ def _schedule(cfg, ops, counts, ref_mm, emit: bool, summary: Summary,
             yield rows
     summary.steps = sched.steps_total.copy()
     summary.time_s = sched.t_us / 1e6
+
+
+def _parts(block: Block, spu: np.ndarray) -> Iterator[Block]:
+    """A block in parts of about STEPS_PER_PART steps (whole pieces), so that the rows of one
+    part stay small however long the pieces are (a block holds up to 2 x 2048 pieces)."""
+    steps = (np.abs(np.diff(block.cords, axis=0)) * spu).sum(axis=1)
+    total = float(steps.sum())
+    if total <= STEPS_PER_PART:
+        yield block
+        return
+    cum = np.cumsum(steps)
+    cuts = np.unique(np.searchsorted(cum, np.arange(STEPS_PER_PART, total, STEPS_PER_PART)) + 1)
+    i = 0
+    for j in [*cuts[cuts < len(steps)].tolist(), len(steps)]:
+        yield _slice(block, i, j)
+        i = j
 
 
 def plan(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str,

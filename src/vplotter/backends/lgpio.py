@@ -20,7 +20,6 @@ from __future__ import annotations
 import inspect
 import time
 
-import numpy as np
 
 from vplotter.backends import Backend
 from vplotter.backends.lgpio_pen import PenTrains
@@ -52,7 +51,6 @@ class LgpioBackend(Backend):
             timing = {"min_step_us": 1e6 / cfg.motors.max_step_rate, **timing}
         self._player = Player(self._write_coils, self._write_pen, self.clock, self.sleep,
                               **timing)
-        self._late = Folded()
 
     # ------------------------------------------------------------ open / close
     def open(self) -> None:
@@ -103,12 +101,7 @@ class LgpioBackend(Backend):
         self.handle = self.pen = None
 
     def lateness(self) -> dict | None:
-        self._fold()
-        stats = self._late.stats()
-        lat = self._player.lateness
-        if stats is not None and hasattr(lat, "shifts"):     # the player's timeline shifts
-            stats.update(shifts=lat.shifts, lost_ms=getattr(lat, "lost_ns", 0) / 1e6)
-        return stats
+        return self._player.lateness.stats()
 
     # ------------------------------------------------------------ play
     def play(self, rows: Rows) -> int:
@@ -120,8 +113,6 @@ class LgpioBackend(Backend):
             n = self._player.play(rows, lambda: self.stop_requested or pen.check())
         except self.lg.error as e:
             raise BackendError(f"error: lgpio failed while drawing: {e}") from None
-        finally:
-            self._fold()
         if pen.hung:
             self._hang()
         return n
@@ -138,49 +129,8 @@ class LgpioBackend(Backend):
             pass
         raise self.pen.emergency()
 
-    def _fold(self) -> None:
-        """Move the player's lateness samples into a bounded summary (memory stays flat)."""
-        ns = getattr(self._player.lateness, "ns", None)
-        if ns is not None and len(ns):
-            self._late.add(np.frombuffer(ns, dtype=np.int64))
-            del ns[:]
-
     def _write_coils(self, word: int, changed: int) -> None:
         self.lg.group_write(self.handle, self.leader, word, self.mask)
 
     def _write_pen(self, width: int) -> None:
         self.pen.start(width)
-
-
-class Folded:
-    """Lateness samples (ns) folded into fixed bins: 1 us bins up to 2 ms, then 1 % wide bins
-    up to 1000 s; p50/p99 to the bin, max and n exact, memory fixed."""
-
-    EDGES = np.concatenate((np.arange(0, 2_000_001, 1000),
-                            np.geomspace(2_000_000, 1e12, 1300)[1:])).astype(np.float64)
-
-    def __init__(self):
-        self.counts = np.zeros(len(self.EDGES) + 1, dtype=np.int64)
-        self.max_ns: int | None = None
-        self.n = 0
-
-    def add(self, ns: np.ndarray) -> None:
-        if not len(ns):
-            return
-        self.counts += np.bincount(np.searchsorted(self.EDGES, ns, side="right"),
-                                   minlength=len(self.counts))
-        m = int(ns.max())
-        self.max_ns = m if self.max_ns is None else max(self.max_ns, m)
-        self.n += len(ns)
-
-    def stats(self) -> dict | None:
-        if not self.n:
-            return None
-        cum = np.cumsum(self.counts)
-        upper = np.concatenate((self.EDGES, [np.inf]))
-
-        def pct(q):
-            k = int(np.searchsorted(cum, q * self.n, side="left"))
-            return min(float(upper[k]), self.max_ns) / 1e6
-
-        return {"p50_ms": pct(0.5), "p99_ms": pct(0.99), "max_ms": self.max_ns / 1e6, "n": self.n}

@@ -40,12 +40,51 @@ from vplotter.schedule import Rows
 SHIFT_NS = 100_000     # a move of the timeline by more than 0.1 ms counts as a shift
 
 
+class Folded:
+    """Lateness samples (ns) folded into fixed bins: 1 us bins up to 2 ms, then 1 % wide bins
+    up to 1000 s; p50/p99 to the bin, max and n exact, memory fixed."""
+
+    EDGES = np.concatenate((np.arange(0, 2_000_001, 1000),
+                            np.geomspace(2_000_000, 1e12, 1300)[1:])).astype(np.float64)
+
+    def __init__(self):
+        self.counts = np.zeros(len(self.EDGES) + 1, dtype=np.int64)
+        self.max_ns: int | None = None
+        self.n = 0
+
+    def add(self, ns: np.ndarray) -> None:
+        if not len(ns):
+            return
+        self.counts += np.bincount(np.searchsorted(self.EDGES, ns, side="right"),
+                                   minlength=len(self.counts))
+        m = int(ns.max())
+        self.max_ns = m if self.max_ns is None else max(self.max_ns, m)
+        self.n += len(ns)
+
+    def stats(self) -> dict | None:
+        if not self.n:
+            return None
+        cum = np.cumsum(self.counts)
+        upper = np.concatenate((self.EDGES, [np.inf]))
+
+        def pct(q):
+            k = int(np.searchsorted(cum, q * self.n, side="left"))
+            return min(float(upper[k]), self.max_ns) / 1e6
+
+        return {"p50_ms": pct(0.5), "p99_ms": pct(0.99), "max_ms": self.max_ns / 1e6, "n": self.n}
+
+
 class Lateness:
     """Lateness samples in nanoseconds (start of each write minus its due time) and the shifts
-    of the timeline -> {"p50_ms", "p99_ms", "max_ms", "n", "shifts", "lost_ms"}."""
+    of the timeline -> {"p50_ms", "p99_ms", "max_ms", "n", "shifts", "lost_ms"}. New samples
+    gather in `ns` and are folded into fixed bins once there are FOLD of them (the player
+    checks after every play), so memory stays flat however long the plot."""
+
+    FOLD = 1 << 16
 
     def __init__(self):
         self.ns = array("q")
+        self.folded = Folded()
         self.shifts = 0
         self.lost_ns = 0
 
@@ -55,13 +94,17 @@ class Lateness:
         elif count > 1:
             self.ns.extend([late_ns] * count)
 
+    def fold(self) -> None:
+        if len(self.ns):
+            self.folded.add(np.frombuffer(self.ns, dtype=np.int64))
+            del self.ns[:]
+
     def stats(self) -> dict | None:
-        if not self.ns:
-            return None
-        ms = np.frombuffer(self.ns, dtype=np.int64) / 1e6
-        p50, p99 = np.percentile(ms, [50, 99])
-        return {"p50_ms": float(p50), "p99_ms": float(p99), "max_ms": float(ms.max()),
-                "n": len(ms), "shifts": self.shifts, "lost_ms": self.lost_ns / 1e6}
+        self.fold()
+        stats = self.folded.stats()
+        if stats is not None:
+            stats.update(shifts=self.shifts, lost_ms=self.lost_ns / 1e6)
+        return stats
 
 
 def _first_coil(pattern: int) -> int:
@@ -159,6 +202,8 @@ class Player:
         finally:
             self.written_us = np.maximum.accumulate(np.frombuffer(written, dtype=np.int64)) \
                 if len(written) else np.zeros(0, np.int64)
+            if len(self.lateness.ns) >= Lateness.FOLD:
+                self.lateness.fold()
             if enabled:
                 gc.enable()
 
