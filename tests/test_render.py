@@ -434,3 +434,14 @@ def test_preview_shows_the_placed_and_ordered_drawing(capsys, config_path, tmp_p
     moved = _svg_strokes(tmp_path / "o.svg")[0]
     shift = (moved.min(axis=0) - first_keep.min(axis=0)) / view.scale * [1, -1]
     assert code == 0 and shift == pytest.approx([-50, -30], abs=0.01)
+
+
+def test_simulate_refuses_what_it_cannot_decode_yet(capsys, config_path, tmp_path):
+    """A step/dir machine's trace is not coil patterns: one line, exit 2 (not a wrong picture)."""
+    from test_stepdir import stepdir_toml
+
+    c = tmp_path / "sd.toml"
+    c.write_text(stepdir_toml(config_path), encoding="utf-8")
+    t = _dry_trace(capsys, c, tmp_path, SAMPLES / "square.ngc")
+    code, _, err = run(capsys, ["--config", c, "simulate", t, "-o", tmp_path / "s.png"])
+    assert code == 2 and 'driver = "stepdir"' in err

@@ -20,7 +20,9 @@ Conventions used throughout
   ``y = origin.y_mm - Y``.  All positions returned by this module are in
   G-code coordinates (mm) unless stated otherwise.
 * Cords: ``left = hypot(x, y)``, ``right = hypot(D - x, y)``.
-* Motors are named ``"left"`` and ``"right"``.
+* Motors are named ``"left"`` and ``"right"`` (``"rotary"`` and ``"linear"`` on the polar
+  plotter, whose motor coordinates, angle in degrees and radius in mm, take the place of the
+  cords; step/dir drivers and the polar kinematics are in ``tracecheck_polar.py``).
 * Step directions in :class:`Decoded` are CORD directions: ``+1`` = the step
   lengthened that motor's cord, ``-1`` = shortened it (the ``*_reverse``
   flags are already applied).  ``seq_dirs`` holds the raw direction through
@@ -46,6 +48,8 @@ from typing import Iterable, Sequence
 
 import numpy as np
 from scipy.spatial import cKDTree
+
+import tracecheck_polar as tp
 
 __all__ = [
     "DEFAULT_CONFIG", "SEQUENCES", "HEADER", "TraceFormatError", "GCodeError",
@@ -125,6 +129,9 @@ def merge_config(cfg: dict | None) -> dict:
     drive = out["motors"]["drive"]
     if drive not in SEQUENCES:
         raise ValueError(f"unknown motors.drive {drive!r}")
+    if out["pen"].get("kind", "servo") in ("output", "switch"):
+        # solenoid and cam pens: the pen pin's trace values are the commands 1 (up), 2 (down)
+        out["pen"]["up_us"], out["pen"]["down_us"] = 1, 2
     if out["pen"]["up_us"] == out["pen"]["down_us"]:
         raise ValueError("pen.up_us == pen.down_us")
     return out
@@ -262,9 +269,8 @@ def _as_trace(trace) -> Trace:
 
 
 def _coil_pins(cfg: dict) -> dict[str, list[int]]:
-    m = cfg["motors"]
-    return {"left": [int(p) for p in m["left_pins"]],
-            "right": [int(p) for p in m["right_pins"]]}
+    """Output pins per motor (and "enable" for step/dir drivers)."""
+    return tp.motor_pins(cfg)
 
 
 def format_problems(trace, cfg: dict | None = None) -> list[str]:
@@ -291,12 +297,13 @@ def format_problems(trace, cfg: dict | None = None) -> list[str]:
         probs.append(f"first row is at t={tr.t[0]:.6f}, not 0")
     coils = _coil_pins(c)
     pen_pin = int(c["pen"]["pin"])
-    all_pins = coils["left"] + coils["right"] + [pen_pin]
+    motor_pins = [p for pins in coils.values() for p in pins]
+    all_pins = motor_pins + [pen_pin]
     at0 = set(tr.pin[tr.t_us == 0].tolist())
     missing = [p for p in all_pins if p not in at0]
     if missing:
         probs.append(f"pins without an initial level at t=0: {missing}")
-    coil_mask = np.isin(tr.pin, coils["left"] + coils["right"])
+    coil_mask = np.isin(tr.pin, motor_pins)
     bad = coil_mask & ~np.isin(tr.value, [0, 1])
     if np.any(bad):
         i = int(np.argmax(bad))
@@ -413,7 +420,7 @@ def _per_group_last(gid: np.ndarray, values: np.ndarray, G: int,
     return out
 
 
-def decode(trace, cfg: dict | None = None, start_xy=(0.0, 0.0)) -> Decoded:
+def decode(trace, cfg: dict | None = None, start_xy=(0.0, 0.0), start_q=None) -> Decoded:
     """Decode a trace into steps, pen state and pen positions.
 
     Semantics (from the contract):
@@ -445,10 +452,16 @@ def decode(trace, cfg: dict | None = None, start_xy=(0.0, 0.0)) -> Decoded:
     """
     tr = _as_trace(trace)
     c = merge_config(cfg)
-    spm = steps_per_mm(c)
-    L0, R0 = (float(v) for v in inverse_kinematics(c, start_xy[0], start_xy[1]))
+    spu = tp.steps_per_unit(c)
+    names = tp.motor_names(c)
+    polar = tp.kind(c) == "polar"
+    inv = (lambda X, Y: tp.polar_inverse(c, X, Y)) if polar else (
+        lambda X, Y: inverse_kinematics(c, X, Y))
+    # the polar table's angle is not fixed by the pen's point: start_q gives the motor
+    # coordinates at the start (default: the angle in -180..180, as `calibrate --at` sets it)
+    L0, R0 = (float(v) for v in (inv(start_xy[0], start_xy[1]) if start_q is None else start_q))
     dec = Decoded(cfg=c, start_xy=(float(start_xy[0]), float(start_xy[1])),
-                  start_cords=(L0, R0))
+                  start_cords=(L0, R0), steps={m: _empty_steps() for m in names})
     if len(tr) == 0:
         dec.problems.append("empty trace")
         return dec
@@ -465,12 +478,20 @@ def decode(trace, cfg: dict | None = None, start_xy=(0.0, 0.0)) -> Decoded:
     g_t = g_us / 1e6
     dec.end_time = float(g_t[-1])
 
-    table, n = _pattern_table(c["motors"]["drive"])
+    table, n = _pattern_table(c["motors"].get("drive", "half"))
     coils = _coil_pins(c)
     net_steps: dict[str, np.ndarray] = {}
     illegal_total = 0
     illegal_msgs: list[tuple[float, str]] = []
-    for motor in MOTORS:
+    for motor in names:
+        if tp.driver(c) == "stepdir":
+            s_groups, dirs = tp.stepdir_steps(c, motor, gid, pin, value, G)
+            dec.steps[motor] = MotorSteps(times=g_us[s_groups] / 1e6, t_us=g_us[s_groups].copy(),
+                                          dirs=dirs, seq_dirs=dirs.copy())
+            per_group = np.zeros(G, dtype=np.int64)
+            np.add.at(per_group, s_groups, dirs)
+            net_steps[motor] = np.cumsum(per_group)
+            continue
         code = np.zeros(G, dtype=np.int64)
         for bit, p in enumerate(coils[motor]):
             m = pin == p
@@ -542,15 +563,17 @@ def decode(trace, cfg: dict | None = None, start_xy=(0.0, 0.0)) -> Decoded:
         [(float(g_t[i]), bool(pen_state[i])) for i in schg]
 
     # pen points
-    nl, nr = net_steps["left"], net_steps["right"]
+    nl, nr = net_steps[names[0]], net_steps[names[1]]
     changed = np.zeros(G, dtype=bool)
     changed[0] = True
     changed[1:] = (nl[1:] != nl[:-1]) | (nr[1:] != nr[:-1]) | (pen_state[1:] != pen_state[:-1])
     sel = np.flatnonzero(changed)
     dec.t = g_t[sel]
-    dec.left_mm = L0 + nl[sel] / spm
-    dec.right_mm = R0 + nr[sel] / spm
-    dec.x, dec.y = forward_kinematics(c, dec.left_mm, dec.right_mm)
+    dec.left_mm = L0 + nl[sel] / spu[0]
+    dec.right_mm = R0 + nr[sel] / spu[1]
+    fwd = (lambda a, r: tp.polar_forward(c, a, r)) if polar else (
+        lambda a, b: forward_kinematics(c, a, b))
+    dec.x, dec.y = fwd(dec.left_mm, dec.right_mm)
     dec.pen_down = pen_state[sel].astype(bool)
     nan = np.isnan(dec.y)
     if np.any(nan):
@@ -576,7 +599,7 @@ def min_step_interval(decoded: Decoded) -> dict[str, float]:
     ``inf`` for a motor with fewer than two steps.
     """
     out = {}
-    for motor in MOTORS:
+    for motor in decoded.steps:
         tu = decoded.steps[motor].t_us
         out[motor] = float(np.min(np.diff(tu)) / 1e6) if len(tu) >= 2 else math.inf
     return out
@@ -586,7 +609,7 @@ def check_step_rate(decoded: Decoded, max_step_rate: float) -> list[str]:
     """Steps closer together than ``1/max_step_rate - 1e-6`` s (empty = OK)."""
     limit = 1.0 / float(max_step_rate) - TIME_EPS
     probs = []
-    for motor in MOTORS:
+    for motor in decoded.steps:
         st = decoded.steps[motor]
         if len(st) < 2:
             continue
@@ -614,7 +637,7 @@ def steps_while_settling(decoded: Decoded, settle_s: float,
                if v != 0 and (i > 0 or include_initial)]
     probs = []
     settle_us = int(round(float(settle_s) * 1e6))
-    for motor in MOTORS:
+    for motor in decoded.steps:
         tu = decoded.steps[motor].t_us
         for tc, v in changes:
             tc_us = int(round(tc * 1e6))
@@ -635,7 +658,13 @@ def released_at_end(trace, cfg: dict | None = None) -> list[str]:
     order = np.argsort(tr.t_us, kind="stable")
     pin, value = tr.pin[order], tr.value[order]
     coils = _coil_pins(c)
-    for motor in MOTORS:
+    if tp.driver(c) == "stepdir":       # STEP low, ENABLE high (the timing check has both)
+        for p in [coils[m][0] for m in tp.motor_names(c)] + coils["enable"]:
+            vals = value[pin == p]
+            want = 1 if p in coils["enable"] else 0
+            if len(vals) == 0 or vals[-1] != want:
+                probs.append(f"pin {p} does not end at {want} (motors not released)")
+    for motor in (() if tp.driver(c) == "stepdir" else tp.motor_names(c)):
         for p in coils[motor]:
             vals = value[pin == p]
             if len(vals) == 0:
@@ -694,7 +723,7 @@ def max_window_accel(decoded: Decoded, window_s: float = 0.1) -> dict[str, float
     true peak acceleration.
     """
     out = {}
-    for motor in MOTORS:
+    for motor in decoded.steps:
         best = 0.0
         for off in (0.0, window_s / 2.0):
             _, v = window_velocities(decoded, motor, window_s, off)
@@ -841,8 +870,10 @@ def _read_gcode_text(src) -> str:
     return str(src)
 
 
-def reference_path(gcode, start_xy=(0.0, 0.0), spacing: float = 0.005) -> list[np.ndarray]:
-    """Pen-down polylines of a G-code program, densely sampled.
+def reference_path(gcode, start_xy=(0.0, 0.0), spacing: float = 0.005,
+                   travel: bool = False) -> list[np.ndarray]:
+    """Pen-down polylines of a G-code program, densely sampled (with ``travel``: one
+    polyline of the whole tool path from ``start_xy``, pen up or down).
 
     ``gcode`` is a path (``str``/``PathLike`` to an existing file) or program
     text.  Returns a list of ``(N, 2)`` arrays in G-code mm; consecutive
@@ -888,6 +919,7 @@ def reference_path(gcode, start_xy=(0.0, 0.0), spacing: float = 0.005) -> list[n
     pen = False
     polylines: list[np.ndarray] = []
     current: list[np.ndarray] = []
+    tool: list[np.ndarray] = [pos.reshape(1, 2).copy()]
 
     def pen_set(down: bool):
         nonlocal pen, current
@@ -964,11 +996,15 @@ def reference_path(gcode, start_xy=(0.0, 0.0), spacing: float = 0.005) -> list[n
                         raise GCodeError(f"line {lineno}: arc without I/J/R")
                     centre = pos + np.array([vals.get("I", 0.0), vals.get("J", 0.0)]) * scale
                 pts = _sample_arc(pos, target, centre, cw, spacing)
+            if len(pts):
+                tool.append(pts)
             if pen and len(pts):
                 current.append(pts)
             pos = target
         if end_program:
             break
+    if travel:
+        return [np.concatenate(tool)]
     if pen:
         polylines.append(np.concatenate(current))
     return polylines
@@ -1136,6 +1172,8 @@ def check_page(decoded: Decoded, cfg: dict | None = None, tol_mm: float = 0.02,
     x, y = np.asarray(decoded.x), np.asarray(decoded.y)
     if pen_down_only:
         x, y = x[decoded.pen_down], y[decoded.pen_down]
+    if tp.kind(c) == "polar":
+        return tp.radius_problems(x, y, c, tol_mm)
     bad = ((x < pg["x_min_mm"] - tol_mm) | (x > pg["x_max_mm"] + tol_mm) |
            (y < pg["y_min_mm"] - tol_mm) | (y > pg["y_max_mm"] + tol_mm) | np.isnan(y))
     if np.any(bad):
@@ -1150,7 +1188,7 @@ def check_page(decoded: Decoded, cfg: dict | None = None, tol_mm: float = 0.02,
 
 def verify(trace, gcode, cfg: dict | None = None, start_xy=(0.0, 0.0),
            tol_mm: float = 0.02, accel_window_s: float = 0.1,
-           check_accel: bool = True, page: bool = True) -> list[str]:
+           check_accel: bool = True, page: bool = True, start_q=None) -> list[str]:
     """Run every check on a trace against its G-code; returns all problems.
 
     ``trace`` is a :class:`Trace` or a path; ``gcode`` a path or program
@@ -1163,7 +1201,7 @@ def verify(trace, gcode, cfg: dict | None = None, start_xy=(0.0, 0.0),
     """
     tr = _as_trace(trace)
     c = merge_config(cfg)
-    dec = decode(tr, c, start_xy)
+    dec = decode(tr, c, start_xy, start_q)
     probs: list[str] = []
 
     def add(name: str, items: Iterable[str]):
@@ -1171,6 +1209,19 @@ def verify(trace, gcode, cfg: dict | None = None, start_xy=(0.0, 0.0),
 
     add("format", format_problems(tr, c))
     add("decode", dec.problems)
+    if tp.driver(c) == "stepdir":
+        order = np.argsort(tr.t_us, kind="stable")
+        add("stepdir", tp.check_stepdir_timing(tr.t_us[order], tr.pin[order], tr.value[order], c))
+    if tp.kind(c) == "polar":
+        tool = reference_path(gcode, start_xy, travel=True)
+        # every pen point, up or down, on the tool path: travel follows straight lines too
+        far = distances_to_polylines(dec.points, tool)
+        if len(far) and far.max() > tol_mm:
+            i = int(np.argmax(far))
+            add("travel", [f"pen point ({dec.x[i]:.4f}, {dec.y[i]:.4f}) is {far[i]:.4f} mm off "
+                           f"the tool path"])
+        turned = float(np.abs(dec.steps["rotary"].dirs).sum()) / tp.steps_per_unit(c)[0]
+        add("rotation", tp.check_shorter_rotation(turned, tool[0], c, dec.start_cords[0]))
     add("illegal", illegal_transitions(dec))
     add("step-rate", check_step_rate(dec, c["motors"]["max_step_rate"]))
     add("settle", steps_while_settling(dec, c["pen"]["settle_s"]))

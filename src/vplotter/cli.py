@@ -36,7 +36,7 @@ COMMANDS: dict[str, tuple[Callable, Callable, str]] = {
             "move the pen by hand (arrow keys) or by --dx/--dy, --left/--right"),
     "goto": (machine.cmd_goto, machine.add_goto, "move the pen (up) to a G-code point"),
     "home": (machine.cmd_home, machine.add_machine_options,
-             "move the pen (up) to the last calibrated point"),
+             "move the pen (up) to the last calibrated point; polar: find the arm's end switch"),
     "serial": (serial.cmd_serial, serial.add_serial,
                "a grbl controller on [serial] port: check its settings, or a console"),
     "preview": (pictures.cmd_preview, pictures.add_preview,

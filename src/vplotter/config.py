@@ -15,11 +15,31 @@ from typing import Any
 from vplotter.errors import ConfigError
 
 DRIVES = ("half", "full", "wave")
+KINDS = ("vplotter", "polar")
+DRIVERS = ("uln2003", "stepdir")
+PEN_KINDS = ("servo", "switch", "output")
+UNSET = "unset"   # a default: the key may be left out (the value is then None)
+MOTOR_NAMES = {"vplotter": ("left", "right"), "polar": ("rotary", "linear")}
 
 
 @dataclass(frozen=True)
 class Machine:
-    anchor_distance_mm: float
+    anchor_distance_mm: float | None = None
+    kind: str = "vplotter"
+
+
+@dataclass(frozen=True)
+class Polar:
+    """The polar plotter: a rotary table under a linear arm (G-code frame, mm and degrees)."""
+
+    centre_x_mm: float
+    centre_y_mm: float
+    arm_angle_deg: float
+    radius_min_mm: float
+    radius_max_mm: float
+    home_pin: int | None
+    home_radius_mm: float | None
+    home_active_low: bool
 
 
 @dataclass(frozen=True)
@@ -47,20 +67,75 @@ class Motors:
     right_pins: tuple[int, int, int, int]
     left_reverse: bool
     right_reverse: bool
+    # which keys apply depends on [machine] kind and [motors] driver; the others stay None
+    driver: str = "uln2003"
+    names: tuple[str, str] = ("left", "right")
+    rotary_steps_per_deg: float | None = None
+    linear_steps_per_mm: float | None = None
+    rotary_pins: tuple[int, int, int, int] | None = None
+    linear_pins: tuple[int, int, int, int] | None = None
+    rotary_reverse: bool = False
+    linear_reverse: bool = False
+    left_step_pin: int | None = None
+    left_dir_pin: int | None = None
+    right_step_pin: int | None = None
+    right_dir_pin: int | None = None
+    rotary_step_pin: int | None = None
+    rotary_dir_pin: int | None = None
+    linear_step_pin: int | None = None
+    linear_dir_pin: int | None = None
+    enable_pin: int | None = None
+    dir_setup_us: int = 1
+    step_pulse_us: int = 2
 
     @property
     def steps_per_unit(self) -> tuple[float, float]:
-        """Steps per unit of each motor's coordinate (per mm of cord, left and right)."""
+        """Steps per unit of each motor's coordinate: per mm of cord (left, right), or per
+        degree of the table and per mm of the arm (rotary, linear)."""
+        if self.names[0] == "rotary":
+            return (self.rotary_steps_per_deg, self.linear_steps_per_mm)
         spm = self.steps_per_rev / self.spool_circumference_mm
         return (spm, spm)
+
+    def _pair(self, suffix: str) -> tuple:
+        return tuple(getattr(self, f"{n}_{suffix}") for n in self.names)
+
+    @property
+    def reverse(self) -> tuple[bool, bool]:
+        return self._pair("reverse")
+
+    @property
+    def out_pins(self) -> list[int]:
+        """The motor output pins, bit i of an output word = out_pins[i]: IN1..IN4 of both
+        motors (uln2003), or STEP, DIR of both motors and ENABLE (stepdir)."""
+        if self.driver == "stepdir":
+            pins = [getattr(self, f"{n}_{what}_pin") for n in self.names for what in ("step", "dir")]
+            return pins + [self.enable_pin]
+        return [p for pins in self._pair("pins") for p in pins]
+
+    @property
+    def idle_word(self) -> int:
+        """The output word of released motors: coils all low, or ENABLE high (drivers off)."""
+        return 1 << 4 if self.driver == "stepdir" else 0
 
 
 @dataclass(frozen=True)
 class Pen:
+    """kind "servo": `pin` gets pulses of up_us/down_us. "output": `pin` is held high while
+    the pen is down (a solenoid). "switch": `pin` runs the cam motor: up until `switch_pin`
+    closes (at most timeout_s), down for down_s. The schedule's pen rows carry up_us/down_us
+    for every kind (1 and 2 for output and switch): the backend turns them into what the kind
+    needs (pens.py)."""
+
     pin: int
     up_us: int
     down_us: int
     settle_s: float
+    kind: str = "servo"
+    switch_pin: int | None = None
+    switch_active_low: bool = True
+    timeout_s: float = 2.0
+    down_s: float = 0.2
 
 
 @dataclass(frozen=True)
@@ -99,13 +174,26 @@ class Config:
     gpio: Gpio
     serial: Serial | None = None
     path: str = "config.toml"
+    polar: Polar | None = None
 
 
-# section -> key -> (kind, default or None if required, low, high); bounds are inclusive
-# unless the kind ends in '+' (strictly above low).
+# section -> key -> (kind, default or None if required, low, high[, when]); bounds are inclusive
+# unless the kind ends in '+' (strictly above low). `when` names the machine kind, driver or pen
+# kind ("polar", "stepdir", "vplotter uln2003", ...) a key belongs to: elsewhere it is an error.
 SCHEMA: dict[str, dict[str, tuple]] = {
-    "machine": {"anchor_distance_mm": ("float+", None, 0.0, 1e5)},
+    "machine": {"kind": ("str", "vplotter", KINDS, None),
+                "anchor_distance_mm": ("float+", None, 0.0, 1e5, "vplotter")},
     "origin": {"x_mm": ("float", None, -1e5, 1e5), "y_mm": ("float+", None, 0.0, 1e5)},
+    "polar": {
+        "centre_x_mm": ("float", 0.0, -1e5, 1e5),
+        "centre_y_mm": ("float", 0.0, -1e5, 1e5),
+        "arm_angle_deg": ("float", 0.0, -360.0, 360.0),
+        "radius_min_mm": ("float", 0.0, -1e5, 1e5),
+        "radius_max_mm": ("float+", None, 0.0, 1e5),
+        "home_pin": ("int", UNSET, 0, 63),
+        "home_radius_mm": ("float", UNSET, -1e5, 1e5),
+        "home_active_low": ("bool", True, None, None),
+    },
     "page": {
         "x_min_mm": ("float", None, -1e5, 1e5),
         "x_max_mm": ("float", None, -1e5, 1e5),
@@ -113,21 +201,44 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "y_max_mm": ("float", None, -1e5, 1e5),
     },
     "motors": {
-        "drive": ("str", "half", DRIVES, None),
-        "steps_per_rev": ("int+", None, 0, 10**7),
-        "spool_circumference_mm": ("float+", None, 0.0, 1e4),
+        "driver": ("str", "uln2003", DRIVERS, None),
+        "drive": ("str", "half", DRIVES, None, "uln2003"),
+        "steps_per_rev": ("int+", None, 0, 10**7, "vplotter"),
+        "spool_circumference_mm": ("float+", None, 0.0, 1e4, "vplotter"),
+        "rotary_steps_per_deg": ("float+", None, 0.0, 1e6, "polar"),
+        "linear_steps_per_mm": ("float+", None, 0.0, 1e6, "polar"),
         "max_step_rate": ("float+", None, 0.0, 1e5),
         "max_accel": ("float+", 2000.0, 0.0, 1e7),
-        "left_pins": ("pins", None, 0, 63),
-        "right_pins": ("pins", None, 0, 63),
-        "left_reverse": ("bool", False, None, None),
-        "right_reverse": ("bool", False, None, None),
+        "left_pins": ("pins", None, 0, 63, "vplotter uln2003"),
+        "right_pins": ("pins", None, 0, 63, "vplotter uln2003"),
+        "rotary_pins": ("pins", None, 0, 63, "polar uln2003"),
+        "linear_pins": ("pins", None, 0, 63, "polar uln2003"),
+        "left_step_pin": ("int", None, 0, 63, "vplotter stepdir"),
+        "left_dir_pin": ("int", None, 0, 63, "vplotter stepdir"),
+        "right_step_pin": ("int", None, 0, 63, "vplotter stepdir"),
+        "right_dir_pin": ("int", None, 0, 63, "vplotter stepdir"),
+        "rotary_step_pin": ("int", None, 0, 63, "polar stepdir"),
+        "rotary_dir_pin": ("int", None, 0, 63, "polar stepdir"),
+        "linear_step_pin": ("int", None, 0, 63, "polar stepdir"),
+        "linear_dir_pin": ("int", None, 0, 63, "polar stepdir"),
+        "enable_pin": ("int", None, 0, 63, "stepdir"),
+        "dir_setup_us": ("int+", 1, 0, 1000, "stepdir"),
+        "step_pulse_us": ("int+", 2, 0, 1000, "stepdir"),
+        "left_reverse": ("bool", False, None, None, "vplotter"),
+        "right_reverse": ("bool", False, None, None, "vplotter"),
+        "rotary_reverse": ("bool", False, None, None, "polar"),
+        "linear_reverse": ("bool", False, None, None, "polar"),
     },
     "pen": {
+        "kind": ("str", "servo", PEN_KINDS, None),
         "pin": ("int", None, 0, 63),
-        "up_us": ("int+", None, 0, 2600),
-        "down_us": ("int+", None, 0, 2600),
+        "up_us": ("int+", None, 0, 2600, "servo"),
+        "down_us": ("int+", None, 0, 2600, "servo"),
         "settle_s": ("float", 0.3, 0.0, 60.0),
+        "switch_pin": ("int", None, 0, 63, "switch"),
+        "switch_active_low": ("bool", True, None, None, "switch"),
+        "timeout_s": ("float+", 2.0, 0.0, 60.0, "switch"),
+        "down_s": ("float", 0.2, 0.0, 10.0, "switch"),
     },
     "motion": {
         "tolerance_mm": ("float+", 0.01, 0.0, 10.0),
@@ -150,8 +261,16 @@ SCHEMA: dict[str, dict[str, tuple]] = {
     },
 }
 OPTIONAL_SECTIONS = {"gpio", "motion", "serial"}
-SECTION_CLASSES = {"machine": Machine, "origin": Origin, "page": Page, "motors": Motors,
-                   "pen": Pen, "motion": Motion, "gpio": Gpio, "serial": Serial}
+# sections that belong to one machine kind; [page] is optional for the polar machine (its
+# default is the square around the table's reach)
+SECTION_WHEN = {"origin": "vplotter", "polar": "polar"}
+SECTION_CLASSES = {"machine": Machine, "origin": Origin, "polar": Polar, "page": Page,
+                   "motors": Motors, "pen": Pen, "motion": Motion, "gpio": Gpio,
+                   "serial": Serial}
+PEN_CODES = {"output": (1, 2), "switch": (1, 2)}    # up_us, down_us of the pen rows
+# values of the V-plotter's coil keys where they do not apply (the fields have no defaults)
+NOT_USED = {"drive": "half", "steps_per_rev": 0, "spool_circumference_mm": 0.0, "left_pins": (),
+            "right_pins": (), "left_reverse": False, "right_reverse": False}
 
 
 def _fmt(v: Any) -> str:
@@ -201,15 +320,43 @@ def _value(where: str, kind: str, raw: Any, lo: Any, hi: Any) -> Any:
     return value
 
 
+def _choice(data: dict, path: str, section: str, key: str) -> str:
+    """The value of one of the keys that decide which other keys apply."""
+    table = data.get(section, {})
+    kind, default, lo, hi = SCHEMA[section][key][:4]
+    if not isinstance(table, dict) or key not in table:
+        return default
+    return _value(f"{path}: [{section}] {key}", kind, table[key], lo, hi)
+
+
 def from_dict(data: dict, path: str = "config.toml") -> Config:
     """Validate a parsed TOML document; raise ConfigError naming the first bad key."""
     for section in data:
         if section not in SCHEMA:
             raise ConfigError(f"{path}: unknown section [{section}]")
+    chosen = {"machine kind": _choice(data, path, "machine", "kind"),
+              "driver": _choice(data, path, "motors", "driver"),
+              "pen kind": _choice(data, path, "pen", "kind")}
+    kind = chosen["machine kind"]
+
+    def applies(when: str | None) -> bool:
+        return when is None or all(w in chosen.values() for w in when.split())
+
+    def whose(when: str) -> str:
+        return " and ".join(f'{name} = "{w}"' for w in when.split()
+                            for name, v in chosen.items() if w in SCHEMA_CHOICES[name])
+
     sections = {}
     for section, keys in SCHEMA.items():
         table = data.get(section)
+        when = SECTION_WHEN.get(section)
+        if not applies(when):
+            if table is not None:
+                raise ConfigError(f"{path}: [{section}] is only for {whose(when)}")
+            continue
         if table is None:
+            if section == "page" and kind == "polar":
+                continue                          # the square around the reach, below
             if section not in OPTIONAL_SECTIONS:
                 raise ConfigError(f"{path}: missing section [{section}]")
             table = {}
@@ -220,26 +367,56 @@ def from_dict(data: dict, path: str = "config.toml") -> Config:
                 close = difflib.get_close_matches(key, keys, n=1)
                 hint = f" (did you mean {close[0]}?)" if close else ""
                 raise ConfigError(f"{path}: unknown key [{section}] {key}{hint}")
+            if not applies(keys[key][4] if len(keys[key]) > 4 else None):
+                raise ConfigError(f"{path}: [{section}] {key} is only for {whose(keys[key][4])}")
         values = {}
-        for key, (kind, default, lo, hi) in keys.items():
+        for key, (kind_, default, lo, hi, *when_) in keys.items():
             where = f"{path}: [{section}] {key}"
+            if when_ and not applies(when_[0]):
+                continue
             if key not in table:
                 if default is None:
                     raise ConfigError(f"{where} is missing")
-                values[key] = default
+                values[key] = None if default is UNSET else default
                 continue
-            values[key] = _value(where, kind, table[key], lo, hi)
+            values[key] = _value(where, kind_, table[key], lo, hi)
+        if section == "motors":
+            values["names"] = MOTOR_NAMES[kind]
+            values = {**NOT_USED, **values}
+        if section == "pen" and values["kind"] in PEN_CODES:
+            values["up_us"], values["down_us"] = PEN_CODES[values["kind"]]
         sections[section] = SECTION_CLASSES[section](**values)
+    if kind == "polar":
+        sections.setdefault("origin", None)
+        pol = sections["polar"]
+        if pol.home_radius_mm is None and pol.home_pin is not None:
+            raise ConfigError(f"{path}: [polar] home_radius_mm is missing (home_pin is set)")
+        if "page" not in sections:
+            r = pol.radius_max_mm
+            sections["page"] = Page(pol.centre_x_mm - r, pol.centre_x_mm + r,
+                                    pol.centre_y_mm - r, pol.centre_y_mm + r)
     cfg = Config(**sections, path=path)
     _check_geometry(cfg)
     return cfg
 
 
+SCHEMA_CHOICES = {"machine kind": KINDS, "driver": DRIVERS, "pen kind": PEN_KINDS}
+
+
 def _check_geometry(cfg: Config) -> None:
     path = cfg.path
-    pins = [*(("[motors] left_pins", p) for p in cfg.motors.left_pins),
-            *(("[motors] right_pins", p) for p in cfg.motors.right_pins),
-            ("[pen] pin", cfg.pen.pin)]
+    m = cfg.motors
+    if m.driver == "stepdir":
+        pins = [(f"[motors] {n}_{what}_pin", getattr(m, f"{n}_{what}_pin"))
+                for n in m.names for what in ("step", "dir")]
+        pins.append(("[motors] enable_pin", m.enable_pin))
+    else:
+        pins = [(f"[motors] {n}_pins", p) for n in m.names for p in getattr(m, f"{n}_pins")]
+    pins.append(("[pen] pin", cfg.pen.pin))
+    if cfg.pen.kind == "switch":
+        pins.append(("[pen] switch_pin", cfg.pen.switch_pin))
+    if cfg.polar is not None and cfg.polar.home_pin is not None:
+        pins.append(("[polar] home_pin", cfg.polar.home_pin))
     seen: dict[int, str] = {}
     for key, p in pins:
         if p in seen:
@@ -254,6 +431,12 @@ def _check_geometry(cfg: Config) -> None:
                           f"(got {pg.y_min_mm:g} and {pg.y_max_mm:g})")
     if cfg.pen.up_us == cfg.pen.down_us:
         raise ConfigError(f"{path}: [pen] up_us and down_us must differ (both {cfg.pen.up_us})")
+    if cfg.polar is not None:
+        pol = cfg.polar
+        if pol.radius_min_mm >= pol.radius_max_mm:
+            raise ConfigError(f"{path}: [polar] radius_min_mm must be below radius_max_mm "
+                              f"(got {pol.radius_min_mm:g} and {pol.radius_max_mm:g})")
+        return
     # The whole page must hang below the anchor line.
     top = cfg.origin.y_mm - pg.y_max_mm
     if top <= 0:

@@ -43,6 +43,7 @@ def load_position(cfg, trust: bool = False, dry_run: bool = False) -> state.Posi
     if pos is None:
         raise MachineError("error: the pen position is unknown; put the pen on a known point and "
                            "run `vplotter calibrate --at X Y` first")
+    check_machine(cfg, pos)
     pos = state.recovered(pos).rebased(cfg.motors.steps_per_unit)
     if not pos.clean and not trust and not dry_run:
         mm = uncertainty_mm(cfg, pos)
@@ -50,6 +51,15 @@ def load_position(cfg, trust: bool = False, dry_run: bool = False) -> state.Posi
                          f"may be off by up to {mm:.2f} mm. Check the pen and run `vplotter "
                          f"calibrate --at X Y`, or pass --trust-position to go on from it")
     return pos
+
+
+def check_machine(cfg, pos: state.Position) -> None:
+    """The stored position must be of this kind of machine (cords or angle and radius)."""
+    kind = pos.extra.get("machine", "vplotter")
+    if kind != cfg.machine.kind:
+        raise MachineError(f"error: the stored position is of a {kind} machine, not of this "
+                           f"{cfg.machine.kind}; run `vplotter calibrate` (or `vplotter home`) "
+                           f"first")
 
 
 def uncertainty_mm(cfg, pos: state.Position) -> float:
@@ -276,9 +286,12 @@ class Session:
         if self.backend is None:
             return
         self.backend.stop_requested = False
-        t = self.t_us + 1 if self._moved else 0
+        m = self.cfg.motors
+        # a STEP pulse that was just raised stays high its full width
+        t = self.t_us + (m.step_pulse_us if m.driver == "stepdir" else 1) if self._moved else 0
         up, settle = self.cfg.pen.up_us, int(round(self.cfg.pen.settle_s * 1e6))
-        rows = Rows(np.array([t, t + settle], dtype=np.int64), np.zeros(2, dtype=np.uint8),
+        rows = Rows(np.array([t, t + settle], dtype=np.int64),
+                    np.full(2, self.backend.idle_word, dtype=np.uint8),
                     np.array([up, 0], dtype=np.int32), np.full(2, self.line, dtype=np.int64),
                     np.array([self.counts, self.counts], dtype=np.int64))
         try:

@@ -29,6 +29,8 @@ def lock_path():
     return state_dir() / "lock"
 
 
+INFO_BYTES = 1024   # the lock file's size while it is held
+
 class Lock:
     def __init__(self, fd: int, command: str):
         self.fd = fd
@@ -38,8 +40,10 @@ class Lock:
     def write_info(self, pid: int | None = None, command: str | None = None) -> None:
         info = {"pid": pid or os.getpid(), "command": command or self.command,
                 "since": time.time()}
-        os.ftruncate(self.fd, 0)
-        os.pwrite(self.fd, json.dumps(info).encode(), 0)
+        # padded to a fixed size and written in one pwrite: a reader never sees it empty or
+        # half old, half new (JSON allows the trailing spaces)
+        data = json.dumps(info).encode()
+        os.pwrite(self.fd, data + b" " * max(0, INFO_BYTES - len(data)), 0)
 
     def release(self) -> None:
         """Give back one acquire(); the last one unlocks."""

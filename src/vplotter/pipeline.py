@@ -15,8 +15,8 @@ import numpy as np
 from vplotter import kinematics, segment
 from vplotter.inputs import gcode
 from vplotter.config import Config
-from vplotter.errors import InputError
-from vplotter.planner import Block, Planner, _slice
+from vplotter.errors import ConfigError, InputError
+from vplotter.planner import Block, Planner, Turn, _slice
 from vplotter.prepare import Pause
 from vplotter.schedule import Rows, Scheduler
 
@@ -36,6 +36,7 @@ class Summary:
     travel_mm: float = 0.0
     time_s: float = 0.0
     pen_downs: int = 0
+    motors: tuple[str, str] = ("left", "right")
     plan: list | None = None     # the validated plan, for `replay` (None: plan again)
 
     def text(self) -> str:
@@ -43,7 +44,7 @@ class Summary:
         h, m = divmod(m, 60)
         hms = f"{h}:{m:02d}:{s:02d}" if h else f"{m}:{s:02d}"
         return (f"{self.moves} moves, {self.pieces} pieces, {self.pen_downs} pen lifts, "
-                f"steps left {self.steps[0]} right {self.steps[1]}, "
+                f"steps {self.motors[0]} {self.steps[0]} {self.motors[1]} {self.steps[1]}, "
                 f"drawn {self.drawn_mm / 1000:.2f} m, travel {self.travel_mm / 1000:.2f} m, "
                 f"plot time {hms} ({self.time_s:.1f} s)")
 
@@ -125,6 +126,11 @@ def _schedule(cfg, ops, counts, ref_mm, emit: bool, summary: Summary,
             rows = sched.pen(op[1], op[2])
         elif kind == "dwell":
             rows = sched.dwell(op[1], op[2])
+        elif kind == "turn":
+            if not hasattr(sched, "turn"):
+                raise ConfigError("error: the polar table turns in place at its centre here, "
+                                  "which this backend cannot send; use a GPIO backend")
+            rows = sched.turn(op[1], emit)
         elif kind == "start":
             rows = sched.start(op[1])
         elif kind == "pause":
@@ -162,7 +168,7 @@ def plan(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str
          summary: Summary, start_at: StartAt | None = None,
          pen_down: bool | None = None, chord_share: float = CHORD_SHARE,
          where=None) -> Iterator[tuple]:
-    """The plan: ("start", pen_down), ("motion", Block), ("pen", down, line),
+    """The plan: ("start", pen_down), ("motion", Block), ("turn", Turn), ("pen", down, line),
     ("dwell", seconds, line) and ("finish", lift) in the order the machine does them.
 
     Pen changes and dwells are stops inside the planner's look-ahead, so that many short
@@ -172,16 +178,22 @@ def plan(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str
     where = where or (lambda line, col: f"{name}:{line}:{col}")
     kin = kinematics.from_config(cfg)
     spu = np.asarray(cfg.motors.steps_per_unit)
+    summary.motors = tuple(kin.motors)
     cords = np.asarray(ref_mm, dtype=float) + np.asarray(counts, dtype=float) / spu
     start = kin.forward(cords[None, :])[0]
-    planner = Planner(kin, cfg.motors.max_step_rate, cfg.motors.max_accel, spu, start)
+    planner = Planner(kin, cfg.motors.max_step_rate, cfg.motors.max_accel, spu, start,
+                      start_q=cords)
+    reach = getattr(kin, "first_unreachable", None)
     page = cfg.page
     tol = cfg.motion.tolerance_mm * chord_share
     mo = cfg.motion
     file_xy = (0.0, 0.0)
 
-    def blocks(bs: Iterator[Block]) -> Iterator[tuple]:
+    def blocks(bs: Iterator[Block | Turn]) -> Iterator[tuple]:
         for b in bs:
+            if isinstance(b, Turn):
+                yield ("turn", b)
+                continue
             summary.pieces += len(b.d)
             drawn = float(b.d[b.drawing].sum())
             summary.drawn_mm += drawn
@@ -225,6 +237,13 @@ def plan(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str
                     f"the page (X {page.x_min_mm:g}..{page.x_max_mm:g}, "
                     f"Y {page.y_min_mm:g}..{page.y_max_mm:g})")
             mpts = kin.to_machine(pts)
+            bad = reach(mpts, planner.position) if reach is not None else -1
+            if bad >= 0:
+                move = int(np.searchsorted(np.cumsum(n), bad, side="right"))
+                x, y = pts[bad]
+                raise InputError(f"{name}:{line[move]}:{col[move]}: error: the pen cannot reach "
+                                 f"X{x:.3f} Y{y:.3f} or the line to it (the arm reaches "
+                                 f"{kin.r_min:g}..{kin.r_max:g} mm from the table's centre)")
             keep = planner.nonzero(mpts)
             cap, line, draw = (np.repeat(v, n)[keep] for v in (cap, line, draw))
             # the events after entry i go to the last point kept up to the end of entry i

@@ -121,13 +121,34 @@ class Block:
                                               1e-300)
 
 
+@dataclass
+class Turn:
+    """The motors move to q (motor coordinates) while the pen stands still (the polar table
+    turning at the centre), from rest to rest, between two Blocks."""
+
+    q: np.ndarray
+    line: int
+
+
+def motor_path(kin, verts: np.ndarray, q0) -> tuple[np.ndarray, np.ndarray]:
+    """Motor coordinates before and after each vertex of a polyline that starts with the motors
+    at q0 (the same where the kinematics has no place to turn in place)."""
+    path = getattr(kin, "path", None)
+    if path is not None:
+        return path(verts, q0)
+    q = kin.inverse(verts)
+    return q, q
+
+
 class Planner:
-    """Feed pieces with `add`, end a stroke with `stop`; both yield planned Blocks."""
+    """Feed pieces with `add`, end a stroke with `stop`; both yield planned Blocks (and Turns
+    where the motors must move with the pen standing still)."""
 
     def __init__(self, kin, max_step_rate: float, max_accel: float, steps_per_unit,
-                 start_xy: np.ndarray, window: int = WINDOW):
+                 start_xy: np.ndarray, window: int = WINDOW, start_q=None):
         """steps_per_unit: steps per unit of each motor's coordinate (one value or one per
-        motor); the limits are per motor in steps."""
+        motor); the limits are per motor in steps. start_q: the motor coordinates at start_xy
+        (where an angle is unwrapped from)."""
         self.kin = kin
         spu = np.broadcast_to(np.asarray(steps_per_unit, dtype=float), (len(kin.motors),))
         self.v_cord = max_step_rate * RATE_MARGIN / spu       # (M,) motor units/s
@@ -141,6 +162,8 @@ class Planner:
         self._stops: dict[int, list] = {}   # buffered input piece -> what happens after it
         self._count = 0
         self._start = self.last.copy()
+        self._start_q = (kin.inverse(self._start[None, :])[0] if start_q is None
+                         else np.asarray(start_q, dtype=float).copy())
         self._u_entry = 0.0
 
     @property
@@ -212,18 +235,24 @@ class Planner:
         events = [self._stops[int(i)] for i in origin[stop]]
         if len(verts) < 2 or final:
             entry = self._u_entry
+            q0 = self._start_q
             self._reset(pts[:0], raw_cap[:0], raw_line[:0], raw_draw[:0], pts[-1])
             self._u_entry = 0.0 if final else entry
             if len(verts) >= 2:
-                yield self._profile(verts, cap, line, draw, stop, entry, events)[0]
+                block, _, q_in, turns = self._profile(verts, cap, line, draw, stop, entry,
+                                                      events, q0)
+                self._start_q = q_in[-1]
+                yield from _split(block, q_in, turns, len(block.d))
             return
-        block, u = self._profile(verts, cap, line, draw, stop, self._u_entry, events)
+        block, u, q_in, turns = self._profile(verts, cap, line, draw, stop, self._u_entry,
+                                              events, self._start_q)
         # commit the pieces that come from the first `window` input pieces
         n = int(np.searchsorted(origin, self.window, side="left"))
         n = max(n, 1)
-        yield _slice(block, 0, n)
+        yield from _split(block, q_in, turns, n)
         raw_keep = int(origin[n]) if n < len(origin) else len(pts)
         self._u_entry = float(u[n])
+        self._start_q = q_in[n]       # a turn at vertex n is made in the next round
         # the committed end vertex is exactly pts[raw_keep - 1], where the kept pieces start
         self._reset(pts[raw_keep:], raw_cap[raw_keep:], raw_line[raw_keep:], raw_draw[raw_keep:],
                     block.verts[n])
@@ -269,8 +298,10 @@ class Planner:
         verts = np.vstack((verts[:1], new))
         return verts, cap[piece], line[piece], draw[piece], stop[piece] & end, origin[piece]
 
-    def _profile(self, verts, cap, line, draw, stop, u_entry, events):
+    def _profile(self, verts, cap, line, draw, stop, u_entry, events, q0):
         kin = self.kin
+        q_in, q_out = motor_path(kin, verts, q0)
+        turns = np.flatnonzero(np.any(q_in != q_out, axis=1))
         diff = np.diff(verts, axis=0)
         d = np.hypot(diff[:, 0], diff[:, 1])
         e = diff / d[:, None]
@@ -319,6 +350,7 @@ class Planner:
         u_lim[0] = min(u_lim[0], vcap[0] ** 2)
         u_lim[1:][stop] = 0.0
         u_lim[n] = 0.0
+        u_lim[turns] = 0.0                                        # the motors turn at rest
         u = _passes(u_lim, 2.0 * a * d)
         if n > 1:
             # the corners take what they need at the speeds just planned (no more: those
@@ -332,10 +364,9 @@ class Planner:
         u0, u1 = u[:-1], u[1:]
         up = np.minimum(vcap ** 2, (u0 + u1 + inc) / 2.0)
         up = np.maximum(up, np.maximum(u0, u1))
-        cords = kin.inverse(verts)
-        block = Block(verts, cords, d, np.sqrt(u0), np.sqrt(up), np.sqrt(u1), a, line, draw, cap,
+        block = Block(verts, q_out, d, np.sqrt(u0), np.sqrt(up), np.sqrt(u1), a, line, draw, cap,
                       stop, events)
-        return block, u
+        return block, u, q_in, turns
 
 
 def _passes(u_lim: np.ndarray, inc: np.ndarray) -> np.ndarray:
@@ -352,3 +383,18 @@ def _slice(b: Block, i: int, j: int) -> Block:
     return Block(b.verts[i:j + 1], b.cords[i:j + 1], b.d[i:j], b.v0[i:j], b.vp[i:j], b.v1[i:j],
                  b.a[i:j], b.line[i:j], b.drawing[i:j], b.cap[i:j], b.stop[i:j],
                  b.events[int(b.stop[:i].sum()):int(b.stop[:j].sum())])
+
+
+def _split(b: Block, q_in: np.ndarray, turns: np.ndarray, n: int) -> Iterator[Block | Turn]:
+    """The first n pieces of b, cut into Blocks at the vertices where the motors turn in place
+    (a Turn between them); a turn at vertex n is left for the next round."""
+    i = 0
+    for j in [*turns[turns < n].tolist(), n]:
+        if j > i:
+            part = _slice(b, i, j)
+            part.cords = part.cords.copy()
+            part.cords[-1] = q_in[j]       # the motors before the turn at j
+            yield part
+        if j < n:
+            yield Turn(b.cords[j].copy(), int(b.line[min(j, len(b.line) - 1)]))
+        i = j

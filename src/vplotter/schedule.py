@@ -1,14 +1,17 @@
 """Step schedule: planned motion + pen events -> rows of output states on one timeline.
 
 A `Rows` chunk says: at time t_us (microseconds since the start) the outputs become
-(coil word, pen pulse width). Backends play rows and compute no geometry; the trace is
-written from them. Each motor steps when its cord length, computed from the pen's planned
-position through the inverse kinematics, crosses the next step boundary (half-way between
-two step counts), so step targets are absolute and rounding never accumulates.
+(motor output word, pen pulse width); drivers.py makes the words (coils or step/dir).
+Backends play rows and compute no geometry; the trace is written from them. Each motor
+steps when its coordinate (a cord length, the polar table's angle or arm's radius), computed
+from the pen's planned position through the inverse kinematics, crosses the next step
+boundary (half-way between two step counts), so step targets are absolute and rounding never
+accumulates.
 
-Coils are energised only while moving: released at every pen change, dwell and at the end.
-Before moving again a motor's coils are energised at the phase they were released at and held
-for one step interval, so no step is lost.
+Motors are energised only while moving: released at every pen change, dwell and at the end.
+Before moving again a motor's coils are energised at the phase they were released at (or a
+step/dir driver enabled) and held for one step interval, so no step is lost. A `Turn` (the
+polar table at its centre) moves the motors from rest to rest with the pen standing still.
 """
 
 from __future__ import annotations
@@ -17,15 +20,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from vplotter import drivers
 from vplotter.config import Config
-from vplotter.planner import Block
-from vplotter.sequencer import TABLES, coil_words
+from vplotter.planner import ACCEL_MARGIN, RATE_MARGIN, Block, Turn
 
 
 @dataclass
 class Rows:
     t_us: np.ndarray     # int64
-    coils: np.ndarray    # uint8 coil word after the row
+    coils: np.ndarray    # uint8 motor output word after the row (Motors.out_pins, drivers.py)
     pen_us: np.ndarray   # int32 pen pulse width after the row (0 = pulses off)
     line: np.ndarray     # int64 G-code line being drawn
     steps: np.ndarray    # (n, 2) int64 step counts of both motors after the row
@@ -44,28 +47,29 @@ class Rows:
 
 
 class Scheduler:
-    """Turns a stream of planned blocks and pen events into Rows. Keeps the clock and phases."""
+    """Turns a stream of planned blocks, turns and pen events into Rows. Keeps the clock and
+    the step counts (the driver keeps the output state)."""
 
     def __init__(self, cfg: Config, kin, counts, ref_mm):
         m = cfg.motors
         self.cfg = cfg
         self.kin = kin
         self.spu = np.asarray(m.steps_per_unit, dtype=float)
-        self.table = TABLES[m.drive]
-        self.sign = np.array([-1 if m.left_reverse else 1, -1 if m.right_reverse else 1])
         self.hold_us = int(np.ceil(1e6 / m.max_step_rate))
         self.min_interval_us = self.hold_us + 1
         self.last_step_us = [-(10 ** 12), -(10 ** 12)]
         self.settle_us = int(round(cfg.pen.settle_s * 1e6))
         self.ref = np.asarray(ref_mm, dtype=float)
         self.counts = np.asarray(counts, dtype=np.int64).copy()
-        self.phase = (self.counts * self.sign) % len(self.table)
+        self.drv = drivers.create(m, self.counts)
+        self.idle = self.drv.idle_word
         self.t_us = 0
         self.energized = False
         self.pen_down = False
         self.pen_us = 0
         self.line = 0
         self.steps_total = np.zeros(2, dtype=np.int64)
+        self.t_us_floor = 0       # rows before this time were output already
 
     # -- rows helpers
     def _row(self, t_us: int, coils: int, pen_us: int) -> Rows:
@@ -73,8 +77,42 @@ class Scheduler:
                     np.array([pen_us], dtype=np.int32), np.array([self.line], dtype=np.int64),
                     self.counts[None, :].copy())
 
-    def _hold_word(self) -> int:
-        return int(coil_words(self.table, self.phase[:1], self.phase[1:])[0])
+    def _energize(self, rows: list, emit: bool = True) -> None:
+        """Energise the motors where they stand and hold them one step interval."""
+        if not self.energized:
+            if emit:
+                rows.append(self._row(self.t_us, self.drv.hold_word(), 0))
+            self.energized = True
+            self.t_us += self.hold_us
+
+    def _steps(self, t_us, motor, dirn, line, head: Rows | None = None) -> Rows:
+        """Rows for step events sorted by time (line: G-code line of each event), after the
+        row `head` if given (built in place: no copy of the step rows)."""
+        is_l = motor == 0
+        cl = np.cumsum(np.where(is_l, dirn, 0))
+        cr = np.cumsum(np.where(is_l, 0, dirn))
+        t, words, done, ev = self.drv.rows(t_us, motor, dirn, self.t_us_floor, cl, cr)
+        if done is not None:                  # several rows per step event (step/dir)
+            cl, cr = np.concatenate(([0], cl))[done], np.concatenate(([0], cr))[done]
+            line = np.asarray(line)[ev]
+        for m in (0, 1):
+            mine = t_us[motor == m]
+            if len(mine):
+                self.last_step_us[m] = max(self.last_step_us[m], int(mine[-1]))
+        self.t_us = max(self.t_us, int(t[-1]))
+        k = 0 if head is None else len(head)
+        n = len(t) + k
+        rows = Rows(np.empty(n, np.int64), np.empty(n, np.uint8), np.zeros(n, np.int32),
+                    np.empty(n, np.int64), np.empty((n, 2), np.int64))
+        if head is not None:
+            for f in ("t_us", "coils", "pen_us", "line", "steps"):
+                getattr(rows, f)[:k] = getattr(head, f)
+        rows.t_us[k:] = t
+        rows.coils[k:] = words
+        rows.line[k:] = line
+        rows.steps[k:, 0] = self.counts[0] + cl
+        rows.steps[k:, 1] = self.counts[1] + cr
+        return rows
 
     def start(self, pen_down: bool | None = None) -> Rows | None:
         """Lift the pen (wherever it is) and let it settle, coils released. With pen_down
@@ -83,7 +121,7 @@ class Scheduler:
             self.pen_down = pen_down
             return None
         up = self.cfg.pen.up_us
-        rows = [self._row(0, 0, up), self._row(self.settle_us, 0, 0)]
+        rows = [self._row(0, self.idle, up), self._row(self.settle_us, self.idle, 0)]
         self.t_us = self.settle_us
         self.pen_us = 0
         return Rows.concat(rows)
@@ -94,7 +132,8 @@ class Scheduler:
         self.line = line
         self.pen_down = down
         width = self.cfg.pen.down_us if down else self.cfg.pen.up_us
-        rows = [self._row(self.t_us, 0, width), self._row(self.t_us + self.settle_us, 0, 0)]
+        rows = [self._row(self.t_us, self.idle, width),
+                self._row(self.t_us + self.settle_us, self.idle, 0)]
         self.energized = False
         self.t_us += self.settle_us
         return Rows.concat(rows)
@@ -103,7 +142,7 @@ class Scheduler:
         if not self.energized:
             return None
         self.energized = False
-        return self._row(self.t_us, 0, 0)
+        return self._row(self.t_us, self.idle, 0)
 
     def dwell(self, seconds: float, line: int = 0) -> Rows | None:
         self.line = line
@@ -127,17 +166,14 @@ class Scheduler:
         targets = self.targets(block)
         dur = block.durations
         self.steps_total += np.abs(np.diff(targets, axis=0)).sum(axis=0)
-        hold = not self.energized
-        hold_t, hold_word = self.t_us, None
-        if hold:
-            if emit:
-                hold_word = self._hold_word()
-            self.energized = True
-            self.t_us += self.hold_us
+        rows = []
+        self._energize(rows, emit)
         t0 = self.t_us
+        self.t_us_floor = t0
         starts = np.concatenate(([0.0], np.cumsum(dur)[:-1]))
         self.t_us = t0 + int(round(float(dur.sum()) * 1e6))
         if not emit:
+            self.drv.advance(targets[-1] - targets[0])
             self._advance(targets, block)
             return None
         e = block.e
@@ -167,36 +203,19 @@ class Scheduler:
             times.append(t_us)
             dirs.append(dirn)
             pieces.append(piece)
-        n_l, n_r = len(times[0]), len(times[1])
-        n = n_l + n_r
-        if n:
+        if sum(len(t) for t in times):
             t_all = np.concatenate(times)
             order = np.argsort(t_all, kind="stable")
-            t_all = t_all[order]
-            self.t_us = max(self.t_us, int(t_all[-1]))
-            is_l = order < n_l                                     # left motor's rows
-            d_all = np.concatenate(dirs)[order].astype(np.int64)
-            cl = np.cumsum(np.where(is_l, d_all, 0))
-            cr = np.cumsum(np.where(is_l, 0, d_all))
-        k = int(hold)
-        rows = Rows(np.empty(n + k, np.int64), np.empty(n + k, np.uint8), np.zeros(n + k, np.int32),
-                    np.empty(n + k, np.int64), np.empty((n + k, 2), np.int64))
-        if hold:
-            rows.t_us[0], rows.coils[0], rows.line[0] = hold_t, hold_word, self.line
-            rows.steps[0] = self.counts
-        if n:
-            rows.t_us[k:] = t_all
-            rows.coils[k:] = coil_words(self.table, self.phase[0] + cl * self.sign[0],
-                                        self.phase[1] + cr * self.sign[1])
-            rows.line[k:] = block.line[np.concatenate(pieces)[order]]
-            rows.steps[k:, 0] = self.counts[0] + cl
-            rows.steps[k:, 1] = self.counts[1] + cr
+            motor = np.repeat(np.arange(2), [len(t) for t in times])[order]
+            dirn = np.concatenate(dirs)[order].astype(np.int64)
+            piece = np.concatenate(pieces)[order]
+            head = Rows.concat(rows) if rows else None
+            rows = [self._steps(t_all[order], motor, dirn, block.line[piece], head)]
         self._advance(targets, block)
-        return rows if n + k else None
+        return Rows.concat(rows) if len(rows) > 1 else (rows[0] if rows else None)
 
     def _advance(self, targets: np.ndarray, block: Block) -> None:
         self.counts = targets[-1].copy()
-        self.phase = (self.phase + (targets[-1] - targets[0]) * self.sign) % len(self.table)
         self.line = int(block.line[-1])
 
     def _spaced(self, m: int, t_us, dirn, piece):
@@ -226,20 +245,40 @@ class Scheduler:
         return t_us, dirn, piece
 
     def cord_move(self, delta_steps, rate_share: float = 0.5) -> Rows | None:
-        """Move both cords by whole steps, linearly in cord space, rest to rest (jog by cord,
-        calibration). The leading motor runs at most rate_share x max_step_rate."""
+        """Move both motors by whole steps, linearly in motor space, rest to rest (jog by cord,
+        calibration), then release. The leading motor runs at most rate_share x max_step_rate."""
+        m = self.cfg.motors
+        rows = self._rest_move(delta_steps, m.max_step_rate * rate_share, m.max_accel * 0.95)
+        if rows is None:
+            return None
+        return Rows.concat([rows, self.release()])
+
+    def turn(self, turn: Turn, emit: bool = True) -> Rows | None:
+        """The motors move to turn.q with the pen standing still (the polar table turning at the
+        centre), from rest to rest within the rate and acceleration limits."""
+        target = np.rint((np.asarray(turn.q) - self.ref) * self.spu).astype(np.int64)
+        delta = target - self.counts
+        self.line = turn.line
+        self.steps_total += np.abs(delta)
+        m = self.cfg.motors
+        v, a = m.max_step_rate * RATE_MARGIN, m.max_accel * ACCEL_MARGIN
+        if not emit:
+            lead = int(np.abs(delta).max())
+            if lead:
+                self._energize([], False)
+                self.t_us += int(round(float(_rest_to_rest(np.array([float(lead)]), lead, v, a)[0]) * 1e6))
+                self.drv.advance(delta)
+                self.counts = self.counts + delta
+            return None
+        return self._rest_move(delta, v, a)
+
+    def _rest_move(self, delta_steps, v: float, a: float) -> Rows | None:
         delta = np.asarray(delta_steps, dtype=np.int64)
         lead = int(np.abs(delta).max())
         if lead == 0:
             return None
-        m = self.cfg.motors
-        v = m.max_step_rate * rate_share
-        a = m.max_accel * 0.95
         rows = []
-        if not self.energized:
-            rows.append(self._row(self.t_us, self._hold_word(), self.pen_us))
-            self.energized = True
-            self.t_us += self.hold_us
+        self._energize(rows)
         times, motors, dirs = [], [], []
         for k in (0, 1):
             n = abs(int(delta[k]))
@@ -252,18 +291,13 @@ class Scheduler:
         total = float(_rest_to_rest(np.array([float(lead)]), float(lead), v, a)[0])
         t = np.concatenate(times)
         order = np.argsort(t, kind="stable")
-        t_us = self.t_us + np.rint(t[order] * 1e6).astype(np.int64)
+        t0 = self.t_us
+        self.t_us_floor = t0
+        t_us = t0 + np.rint(t[order] * 1e6).astype(np.int64)
         motor, dirn = np.concatenate(motors)[order], np.concatenate(dirs)[order]
-        cl = np.cumsum(np.where(motor == 0, dirn, 0))
-        cr = np.cumsum(np.where(motor == 1, dirn, 0))
-        words = coil_words(self.table, self.phase[0] + cl * self.sign[0], self.phase[1] + cr * self.sign[1])
-        steps = np.column_stack((self.counts[0] + cl, self.counts[1] + cr))
-        rows.append(Rows(t_us, words, np.zeros(len(t_us), dtype=np.int32),
-                         np.full(len(t_us), self.line, dtype=np.int64), steps))
-        self.t_us += int(round(total * 1e6))
+        rows.append(self._steps(t_us, motor, dirn, np.full(len(t_us), self.line)))
+        self.t_us = max(self.t_us, t0 + int(round(total * 1e6)))
         self.counts = self.counts + delta
-        self.phase = (self.phase + delta * self.sign) % len(self.table)
-        rows.append(self.release())
         return Rows.concat(rows)
 
 

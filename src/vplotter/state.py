@@ -29,7 +29,8 @@ def state_path() -> Path:
 @dataclass
 class Position:
     """Motor coordinates (cord lengths): left_mm = ref_left_mm + left_steps / steps_per_unit[0]
-    (the same for right with steps_per_unit[1])."""
+    (the same for right with steps_per_unit[1]). On the polar plotter (extra["machine"] =
+    "polar") left_mm and right_mm hold the table angle in degrees and the pen radius in mm."""
 
     left_mm: float
     right_mm: float
@@ -122,8 +123,13 @@ def load(path: Path | None = None) -> Position | None:
                              else data["steps_per_mm"]),        # version 1 before per-motor
                        str(data.get("pen", "up")), bool(data.get("clean", True)),
                        dict(data.get("extra", {})))
-        if not all(0 < v < 1e6 for v in (pos.left_mm, pos.right_mm, *pos.steps_per_unit)):
+        if pos.extra.get("machine", "vplotter") != "vplotter":   # polar: angle, radius
+            if not all(abs(v) < 1e6 for v in (pos.left_mm, pos.right_mm)):
+                raise ValueError("motor coordinates out of range")
+        elif not all(0 < v < 1e6 for v in (pos.left_mm, pos.right_mm)):
             raise ValueError("cord lengths out of range")
+        if not all(0 < v < 1e6 for v in pos.steps_per_unit):
+            raise ValueError("steps per unit out of range")
     except (ValueError, KeyError, TypeError) as e:
         raise StateError(f"{p}: error: the stored position is corrupt ({e}); {hint}") from None
     return pos

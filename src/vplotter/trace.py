@@ -5,8 +5,9 @@ Written while playing (`TraceWriter`), read back into steps and pen states (`rea
     t,pin,value
     0.000000,0,0
 
-t = seconds since the start, pin = BCM number, value = 0/1 for coil pins and the pulse width
-in microseconds for the pen pin (0 = pulses off). The first rows give every pin at t = 0;
+t = seconds since the start, pin = BCM number, value = 0/1 for the motor pins (coils, or STEP,
+DIR and ENABLE) and the pulse width in microseconds for the pen pin (0 = pulses off; the
+codes 1 = up, 2 = down for solenoid and cam pens). The first rows give every pin at t = 0;
 rows with equal t take effect together.
 """
 

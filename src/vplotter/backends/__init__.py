@@ -18,14 +18,20 @@ NAMES = ("fake", "gpiozero", "lgpio")
 
 
 class Backend:
-    """Base class. `open` claims the pins (coils low, pen pulses off), `play` outputs rows at
-    their times, `close` releases everything and must never raise."""
+    """Base class. `open` claims the pins (motor outputs at the idle word, pen pulses off),
+    `play` outputs rows at their times, `close` releases everything and must never raise.
+
+    The motor outputs are one word over `coil_pins` (bit i = coil_pins[i]): IN1..IN4 of both
+    motors for ULN2003 boards, or STEP, DIR of both motors and ENABLE for step/dir drivers
+    (drivers.py). `idle_word` is what they are when the motors are released: all low for
+    coils, ENABLE high for step/dir drivers."""
 
     name = "base"
 
     def __init__(self, cfg: Config):
         self.cfg = cfg
-        self.coil_pins = [*cfg.motors.left_pins, *cfg.motors.right_pins]
+        self.coil_pins = list(cfg.motors.out_pins)
+        self.idle_word = cfg.motors.idle_word
         self.pen_pin = cfg.pen.pin
         self.stop_requested = False
 
@@ -42,6 +48,10 @@ class Backend:
     def drain(self) -> None:
         """Wait until every row handed to play() has been output (backends that queue ahead
         of the motors, lgpio, override this)."""
+
+    def read_input(self, pin: int) -> bool:
+        """The level of an input pin (a switch), True = high."""
+        raise NotImplementedError
 
     def lateness(self) -> dict | None:
         """For real-time backends: {"p50_ms", "p99_ms", "max_ms", "n"} of actual minus planned

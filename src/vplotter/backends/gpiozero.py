@@ -43,12 +43,20 @@ class GpiozeroBackend(Backend):
         self._servo = None
         self._pen_dev = None                 # the pen pin on the lgpio factory
         self.pen = None                      # lgpio_pen.PenTrains on the lgpio factory
+        self._kind_pen = None                # a solenoid or a cam (pens.py)
+        self._pen_devices = []
         lo, hi = sorted((cfg.pen.up_us, cfg.pen.down_us))
         self._pen_range = (lo, hi)
         self._clock, self._sleep = clock or time.perf_counter_ns, sleep or time.sleep
-        timing = {"min_step_us": 1e6 / cfg.motors.max_step_rate, "pin_at_a_time": True, **timing}
+        # coils: one pin at a time in a legal order, 1 / max_step_rate between two changes of
+        # one motor; step/dir words (STEP, DIR of both motors, ENABLE) keep their planned
+        # intervals (a STEP pulse is 2 us, DIR is set 1 us before it)
+        coils = cfg.motors.driver == "uln2003"
+        timing = {"min_step_us": 1e6 / cfg.motors.max_step_rate if coils else 0,
+                  "pin_at_a_time": coils, **timing}
         self._player = Player(self._write_coils, self._write_pen, self._clock, self._sleep,
                               **timing)
+        self._player.coils = self.idle_word
 
     # -- outputs
     def _write_coils(self, word: int, changed: int) -> None:
@@ -57,6 +65,9 @@ class GpiozeroBackend(Backend):
                 dev.pin.state = word >> bit & 1
 
     def _write_pen(self, pulse_us: int) -> None:
+        if self._kind_pen is not None:       # a solenoid or the cam (pens.py)
+            self._kind_pen.set(pulse_us)
+            return
         if self.pen is not None:
             self.pen.start(pulse_us)
             return
@@ -77,14 +88,18 @@ class GpiozeroBackend(Backend):
         try:
             with warnings.catch_warnings(), prepared:
                 warnings.simplefilter("ignore")  # gpiozero warns about each factory it skips
-                for pin in self.coil_pins:
-                    self._coils.append(DigitalOutputDevice(pin, initial_value=False,
+                for bit, pin in enumerate(self.coil_pins):
+                    idle = bool(self.idle_word >> bit & 1)     # ENABLE high for step/dir
+                    self._coils.append(DigitalOutputDevice(pin, initial_value=idle,
                                                            pin_factory=self.pin_factory))
         except Exception as e:  # noqa: BLE001 - BadPinFactory, GPIOPinInUse, ...
             pin = self.coil_pins[len(self._coils)]
             self.close()
             raise BackendError(f"error: gpiozero cannot drive GPIO{pin} ({type(e).__name__}: "
                                f"{e}); {HINT}") from None
+        if self.cfg.pen.kind != "servo":
+            self._open_pen()
+            return
         try:
             factory = self._coils[0].pin_factory
             if _lgpio_of(factory) is not None:
@@ -96,6 +111,37 @@ class GpiozeroBackend(Backend):
             raise BackendError(f"error: gpiozero cannot make servo pulses on GPIO{self.pen_pin} "
                                f"({type(e).__name__}: {e}); use a pin factory with PWM "
                                f"(lgpio, pigpio, RPi.GPIO) or --dry-run") from None
+
+    def _open_pen(self) -> None:
+        """The pen pin as a plain output (and the cam's switch as an input)."""
+        from gpiozero import DigitalInputDevice, DigitalOutputDevice
+
+        from vplotter import pens
+
+        pen, factory = self.cfg.pen, self._coils[0].pin_factory
+        try:
+            out = DigitalOutputDevice(self.pen_pin, initial_value=False, pin_factory=factory)
+            self._pen_devices.append(out)
+            switch = None
+            if pen.kind == "switch":
+                switch = DigitalInputDevice(pen.switch_pin, pull_up=pen.switch_active_low,
+                                            pin_factory=factory)
+                self._pen_devices.append(switch)
+        except Exception as e:  # noqa: BLE001
+            self.close()
+            raise BackendError(f"error: gpiozero cannot use the pen's pins ({type(e).__name__}: "
+                               f"{e}); {HINT}") from None
+        self._kind_pen = pens.create(self.cfg, lambda level: setattr(out, "value", level),
+                                     lambda: bool(switch.pin.state))
+
+    def read_input(self, pin: int) -> bool:
+        from gpiozero import DigitalInputDevice
+
+        dev = DigitalInputDevice(pin, pull_up=True, pin_factory=self._coils[0].pin_factory)
+        try:
+            return bool(dev.pin.state)
+        finally:
+            dev.close()
 
     def _prepare_lgpio(self):
         """When gpiozero may pick its lgpio factory: import lgpio safely first (its notify
@@ -163,21 +209,20 @@ class GpiozeroBackend(Backend):
             self._hang()
 
     def _hang(self):
-        for dev in self._coils:
-            try:
-                dev.off()
-            except Exception:  # noqa: BLE001
-                pass
+        self._idle()
         raise self.pen.emergency()
 
     def close(self) -> None:
-        """All coils low, the pen's last pulse whole then pulses off, pins released; never
-        raises."""
-        for dev in self._coils:
-            try:
-                dev.off()
-            except Exception:  # noqa: BLE001
-                pass
+        """Motor outputs at the idle word (coils low, ENABLE high), the pen's last pulse whole
+        then pulses off, pins released; never raises."""
+        self._idle()
+        for dev in self._pen_devices:
+            for action in (getattr(dev, "off", lambda: None), dev.close):
+                try:
+                    action()
+                except Exception:  # noqa: BLE001
+                    pass
+        self._pen_devices, self._kind_pen = [], None
         if self.pen is not None:
             for action in (self.pen.wait, self.pen.release):
                 try:
@@ -199,13 +244,21 @@ class GpiozeroBackend(Backend):
                 except Exception:  # noqa: BLE001
                     pass
             self._servo = None
+        self._idle()
         for dev in self._coils:
-            for action in (dev.off, dev.close):
-                try:
-                    action()
-                except Exception:  # noqa: BLE001
-                    pass
+            try:
+                dev.close()
+            except Exception:  # noqa: BLE001
+                pass
         self._coils = []
+
+    def _idle(self) -> None:
+        """The motor outputs at the idle word: coils low, or ENABLE high (motors free)."""
+        for bit, dev in enumerate(self._coils):
+            try:
+                dev.value = self.idle_word >> bit & 1
+            except Exception:  # noqa: BLE001
+                pass
 
     def lateness(self) -> dict | None:
         return self._player.lateness.stats()

@@ -47,13 +47,17 @@ class LgpioBackend(Backend):
         self.sleep = sleep or time.sleep
         self.handle: int | None = None
         self.pen: PenTrains | None = None
-        if "min_step_us" in inspect.signature(Player).parameters:   # the player's own floor
-            timing = {"min_step_us": 1e6 / cfg.motors.max_step_rate, **timing}
+        if "min_step_us" in inspect.signature(Player).parameters and cfg.motors.driver == "uln2003":
+            timing = {"min_step_us": 1e6 / cfg.motors.max_step_rate, **timing}   # coils only
         self._player = Player(self._write_coils, self._write_pen, self.clock, self.sleep,
                               **timing)
+        self._player.coils = self.idle_word
 
     # ------------------------------------------------------------ open / close
     def open(self) -> None:
+        if self.cfg.pen.kind != "servo":
+            raise BackendError(f"error: the lgpio backend drives a servo pen; for [pen] kind = "
+                               f"\"{self.cfg.pen.kind}\" use --backend gpiozero")
         for w in (self.cfg.pen.up_us, self.cfg.pen.down_us):
             if not 500 <= w <= 2500:
                 raise BackendError(f"error: lgpio makes servo pulses of 500..2500 us, not {w} "
@@ -70,7 +74,8 @@ class LgpioBackend(Backend):
             raise chip_error(self.chip, f"error code {h}")
         self.handle = h
         try:
-            lg.group_claim_output(h, list(self.coil_pins), [0] * len(self.coil_pins))
+            idle = [self.idle_word >> b & 1 for b in range(len(self.coil_pins))]
+            lg.group_claim_output(h, list(self.coil_pins), idle)
             lg.gpio_claim_output(h, self.pen_pin, 0)
         except lg.error as e:
             self.close()
@@ -86,7 +91,7 @@ class LgpioBackend(Backend):
         lg, h = self.lg, self.handle
         if h is None:
             return
-        steps = [lambda: lg.group_write(h, self.leader, 0, self.mask)]
+        steps = [lambda: lg.group_write(h, self.leader, self.idle_word, self.mask)]
         if self.pen is not None:
             steps += [self.pen.wait, self.pen.release]
         steps += [lambda: lg.gpio_write(h, self.pen_pin, 0),
@@ -124,7 +129,7 @@ class LgpioBackend(Backend):
 
     def _hang(self):
         try:
-            self.lg.group_write(self.handle, self.leader, 0, self.mask)
+            self.lg.group_write(self.handle, self.leader, self.idle_word, self.mask)
         except Exception:  # noqa: BLE001
             pass
         raise self.pen.emergency()
@@ -134,3 +139,11 @@ class LgpioBackend(Backend):
 
     def _write_pen(self, width: int) -> None:
         self.pen.start(width)
+
+    def read_input(self, pin: int) -> bool:
+        lg, h = self.lg, self.handle
+        lg.gpio_claim_input(h, pin, lg.SET_PULL_UP)
+        try:
+            return bool(lg.gpio_read(h, pin))
+        finally:
+            lg.gpio_free(h, pin)

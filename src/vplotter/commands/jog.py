@@ -31,9 +31,13 @@ def cord_rows(cfg, pos, counts, left_mm: float, right_mm: float, pen_down: bool 
     delta = np.rint(np.array([left_mm, right_mm]) * spu).astype(np.int64)
     cords = np.asarray(pos.ref_mm) + (np.asarray(counts) + delta) / spu
     kin = kinematics.from_config(cfg)
-    d = cfg.machine.anchor_distance_mm
-    if cords.min() <= 0 or cords.sum() <= d or abs(cords[0] - cords[1]) >= d:
-        raise MachineError("error: the cords cannot be that long or short")
+    if cfg.machine.kind == "polar":       # left/right: the table (degrees) and the arm (mm)
+        if not cfg.polar.radius_min_mm <= cords[1] <= cfg.polar.radius_max_mm:
+            raise MachineError("error: the arm does not reach that far")
+    else:
+        d = cfg.machine.anchor_distance_mm
+        if cords.min() <= 0 or cords.sum() <= d or abs(cords[0] - cords[1]) >= d:
+            raise MachineError("error: the cords cannot be that long or short")
     xy = kin.to_gcode(kin.forward(cords[None, :]))[0]
     pg = cfg.page
     if not (pg.x_min_mm <= xy[0] <= pg.x_max_mm and pg.y_min_mm <= xy[1] <= pg.y_max_mm):

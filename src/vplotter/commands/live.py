@@ -24,11 +24,13 @@ def add_status(p) -> None:
 
 def _snapshot(cfg):
     """(stored position or None, lock holder or None, running draw or None)."""
-    from vplotter import live, lock, state
+    from vplotter import job, live, lock, state
 
     holder = lock.holder()
     drawing = live.read(holder) if holder else None
     stored = state.load()
+    if stored:
+        job.check_machine(cfg, stored)      # a polar position is no pair of cords
     pos = state.recovered(stored).rebased(cfg.motors.steps_per_unit) if stored else None
     return pos, holder, drawing
 

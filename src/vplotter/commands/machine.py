@@ -31,6 +31,11 @@ def cmd_calibrate(args, argv=None) -> int:
     if args.what == "steps":
         from vplotter.commands.calibrate import calibrate_steps
 
+        if cfg.machine.kind == "polar":
+            raise ConfigError("error: `calibrate steps` measures a cord; on the polar plotter set "
+                              "[motors] rotary_steps_per_deg and linear_steps_per_mm from the "
+                              "gearing and the drivers' microsteps")
+
         return calibrate_steps(args, cfg, command_line(argv))
     if args.at is None and args.cords is None:
         raise ConfigError("error: say where the pen is: --at X Y or --cords LEFT RIGHT "
@@ -39,7 +44,9 @@ def cmd_calibrate(args, argv=None) -> int:
     values = args.at if args.at is not None else args.cords
     if not all(math.isfinite(v) and abs(v) < 1e5 for v in values):
         raise ConfigError(f"error: {' '.join(f'{v:g}' for v in values)} is not a position on a wall")
-    if args.at is not None:
+    if cfg.machine.kind == "polar":
+        cords = _polar_cords(cfg, kin, args)
+    elif args.at is not None:
         xy = kin.to_machine(np.array([args.at]))
         if not xy[0, 1] > 0:
             raise MachineError(f"error: G-code point X{args.at[0]:g} Y{args.at[1]:g} is not below "
@@ -55,6 +62,8 @@ def cmd_calibrate(args, argv=None) -> int:
     held = lock.acquire(command_line(argv))
     try:
         pos = state.Position.at_cords(cords[0], cords[1], cfg.motors.steps_per_unit)
+        if cfg.machine.kind != "vplotter":
+            pos.extra["machine"] = cfg.machine.kind
         pos.extra["home"] = [float(v) for v in kin.to_gcode(kin.forward(cords[None, :]))[0]]
         state.save(pos)
         state.clear_journal()
@@ -62,6 +71,23 @@ def cmd_calibrate(args, argv=None) -> int:
         held.release()
     print(_describe(cfg, pos))
     return 0
+
+
+def _polar_cords(cfg, kin, args):
+    """Polar: --at X Y (the table angle that puts that paper point under the pen, in
+    -180..180) or --cords ANGLE RADIUS (the motor coordinates: --cords 0 R makes the table's
+    angle 0 where it stands)."""
+    import numpy as np
+
+    if args.at is not None:
+        cords = kin.inverse(kin.to_machine(np.array([args.at])))[0]
+    else:
+        cords = np.array(args.cords, dtype=float)
+    p = cfg.polar
+    if not p.radius_min_mm <= cords[1] <= p.radius_max_mm:
+        raise MachineError(f"error: the pen cannot be {cords[1]:g} mm from the table's centre "
+                           f"(the arm reaches {p.radius_min_mm:g}..{p.radius_max_mm:g} mm)")
+    return cords
 
 
 def _pen_xy(cfg, pos):
@@ -73,6 +99,10 @@ def _pen_xy(cfg, pos):
 def _describe(cfg, pos) -> str:
     xy = _pen_xy(cfg, pos) + 0.0     # no "-0.000"
     xy[abs(xy) < 5e-4] = 0.0
+    if cfg.machine.kind == "polar":
+        return (f"pen at X{xy[0]:.3f} Y{xy[1]:.3f}  "
+                f"table {pos.left_mm:.3f} deg ({pos.left_steps} steps) "
+                f"arm {pos.right_mm:.3f} mm ({pos.right_steps} steps)  pen {pos.pen}")
     return (f"pen at X{xy[0]:.3f} Y{xy[1]:.3f}  "
             f"cords left {pos.left_mm:.3f} mm ({pos.left_steps} steps) "
             f"right {pos.right_mm:.3f} mm ({pos.right_steps} steps)  pen {pos.pen}")
@@ -157,6 +187,13 @@ def cmd_goto(args, argv=None) -> int:
 
 def cmd_home(args, argv=None) -> int:
     cfg = load_config(args)
+    if cfg.machine.kind == "polar":
+        from vplotter.commands.home import home_polar
+
+        if cfg.polar.home_pin is None:
+            raise ConfigError(f"{cfg.path}: [polar] home_pin is missing: `home` needs the arm's "
+                              f"end switch")
+        return home_polar(args, cfg, command_line(argv))
     pos = position(cfg, args, args.dry_run)
     home = pos.extra.get("home", (0.0, 0.0))
     return run_records(args, cfg, command_line(argv), pos, moves_to(cfg, pos, tuple(home)))

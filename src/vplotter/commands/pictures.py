@@ -112,6 +112,10 @@ def cmd_simulate(args, argv=None) -> int:
 
     _check_picture_options(args)
     cfg = load_config(args)
+    if cfg.machine.kind != "vplotter" or cfg.motors.driver != "uln2003":
+        raise ConfigError(f"{cfg.path}: error: simulate decodes the coil traces of a V-plotter on "
+                          f"ULN2003 boards, not yet [machine] kind = \"{cfg.machine.kind}\" with "
+                          f"[motors] driver = \"{cfg.motors.driver}\"")
     kin = kinematics.from_config(cfg)
     if args.at is not None:
         if not all(np.isfinite(v) and abs(v) < 1e5 for v in args.at):

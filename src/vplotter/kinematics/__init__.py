@@ -12,6 +12,11 @@ A machine kind is an object with these methods (all vectorised over rows, machin
   one motor (piece index, target coordinate q, rising or not: one row each), the path distance
   along its piece at which the motor coordinate reaches q (the step solver; work per piece is
   done once per piece, not per step).
+Optional (`planner.motor_path` and the pipeline fall back when a kind has none):
+- `path(verts, q0) -> (q_before, q_after)`: motor coordinates along a polyline starting at the
+  motor coordinates q0, before and after each vertex (they differ where the motors must move
+  in place, the pen standing still: the polar table at the centre);
+- `first_unreachable(xy, start) -> index or -1`: reach check beyond the page rectangle.
 """
 
 from __future__ import annotations
@@ -20,6 +25,12 @@ from vplotter.config import Config
 
 
 def from_config(cfg: Config):
+    if cfg.machine.kind == "polar":
+        from vplotter.kinematics.polar import Polar
+
+        p = cfg.polar
+        return Polar(p.centre_x_mm, p.centre_y_mm, p.arm_angle_deg, p.radius_min_mm,
+                     p.radius_max_mm)
     from vplotter.kinematics.vplotter import TwoCord
 
     return TwoCord(cfg.machine.anchor_distance_mm, cfg.origin.x_mm, cfg.origin.y_mm)
