@@ -43,7 +43,8 @@ def _configs(seed: str) -> dict:
 
 
 FILE_COMMANDS = {"draw --dry-run": ["draw", "{file}", "--dry-run"],
-                 "estimate": ["estimate", "{file}"]}
+                 "estimate": ["estimate", "{file}"],
+                 "preview": ["preview", "{file}", "-o", "{file}.svg"]}
 OTHER_COMMANDS = {"calibrate --at": ["calibrate", "--at", "0", "0"],
                   "calibrate --cords": ["calibrate", "--cords", "480", "480"],
                   "status": ["status"],

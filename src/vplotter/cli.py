@@ -12,7 +12,7 @@ import argparse
 import sys
 from typing import Callable
 
-from vplotter.commands import draw, files, live, machine, serial
+from vplotter.commands import draw, files, live, machine, pictures, serial
 from vplotter.commands.common import eprint
 from vplotter.errors import BusyError, VplotterError
 
@@ -39,6 +39,10 @@ COMMANDS: dict[str, tuple[Callable, Callable, str]] = {
              "move the pen (up) to the last calibrated point; polar: find the arm's end switch"),
     "serial": (serial.cmd_serial, serial.add_serial,
                "a grbl controller on [serial] port: check its settings, or a console"),
+    "preview": (pictures.cmd_preview, pictures.add_preview,
+                "picture (PNG/SVG) of the planned drawing: order, travel, page, anchors"),
+    "simulate": (pictures.cmd_simulate, pictures.add_simulate,
+                 "picture (PNG/SVG) of what a GPIO trace draws"),
 }
 
 
