@@ -22,7 +22,7 @@ from vplotter.backends import Backend
 from vplotter.backends.grbl import (NOT_YET, READ_TIMEOUT_S, AlarmError, ControllerError,
                                     Link, LinkError, Streamer)
 from vplotter.errors import BackendError, Interrupted
-from vplotter.job import SIGNALS, Session, Stop
+from vplotter.job import _END, SIGNALS, Session, Stop, _Ahead, _Failure
 
 
 def open_port(cfg, timeout_s: float | None = None) -> Link:
@@ -268,42 +268,14 @@ class SerialSession(Session):
                 pass
 
 
-class _Prefetch:
+class _Prefetch(_Ahead):
     """Iterates `chunks` on a helper thread, a bounded number ahead, so that planning the next
     lines never holds up the stream (a Pi Zero plans a round of pieces in about a second).
-    Errors raised while planning are raised to the consumer."""
-
-    _END = object()
+    Errors raised while planning are raised to the consumer; while the next chunk is still
+    being planned, the iterator gives NOT_YET instead of waiting."""
 
     def __init__(self, chunks, depth: int = 16):
-        import queue
-        import threading
-
-        self.q = queue.Queue(maxsize=depth)
-        self.stopped = threading.Event()
-        self.thread = threading.Thread(target=self._run, args=(chunks,), daemon=True,
-                                       name="vplotter-lines")
-        self.thread.start()
-
-    def _put(self, item) -> bool:
-        import queue
-
-        while not self.stopped.is_set():
-            try:
-                self.q.put(item, timeout=0.05)
-                return True
-            except queue.Full:
-                continue
-        return False
-
-    def _run(self, chunks) -> None:
-        try:
-            for ch in chunks:
-                if not self._put(ch):
-                    return
-            self._put(self._END)
-        except BaseException as e:  # noqa: BLE001 - handed to the consumer
-            self._put(e)
+        super().__init__(chunks, depth, split=False)
 
     def __iter__(self):
         return self
@@ -315,14 +287,10 @@ class _Prefetch:
             item = self.q.get(timeout=0.005)
         except queue.Empty:
             return NOT_YET              # still planning: the stream goes on meanwhile
-        if item is self._END:
+        if item is _END:
             self.q.put(item)
             raise StopIteration
-        if isinstance(item, BaseException):
+        if isinstance(item, _Failure):
             self.q.put(item)
-            raise item
+            raise item.exc
         return item
-
-    def close(self) -> None:
-        self.stopped.set()
-        self.thread.join(timeout=5)
