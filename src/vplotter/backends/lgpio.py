@@ -113,11 +113,7 @@ class LgpioBackend(Backend):
         pen = self.pen
         if len(rows) == 0 or self.stop_requested or pen is None or pen.hung:
             return 0                         # after a hang the pen is up and the coils off
-        pen.plan(rows, self._player.pen_us)
-        try:
-            n = self._player.play(rows, lambda: self.stop_requested or pen.check())
-        except self.lg.error as e:
-            raise BackendError(f"error: lgpio failed while drawing: {e}") from None
+        n = pen.play(self._player, rows, lambda: self.stop_requested)
         if pen.hung:
             self._hang()
         return n

@@ -62,6 +62,15 @@ class PenTrains:
         self._suspect_ns: int | None = None
         self.hung = False
 
+    def play(self, player, rows: Rows, stop) -> int:
+        """Play rows on `player` with this pen's trains planned for them; an lgpio error is
+        a BackendError; the caller checks `hung` afterwards."""
+        self.plan(rows, player.pen_us)
+        try:
+            return player.play(rows, lambda: stop() or self.check())
+        except self.lg.error as e:
+            raise BackendError(f"error: lgpio failed while drawing: {e}") from None
+
     def plan(self, rows: Rows, pen_us: int) -> None:
         """Before rows are played: the pen changes they hold, pen_us the width before them."""
         self._planned = deque(plan_trains(rows, pen_us, self.settle_us))
