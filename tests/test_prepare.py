@@ -334,6 +334,10 @@ def test_pause_waits_for_enter_with_the_pen_up(capsys, config_path, tmp_path, sv
     drawn = tc.drawn_polylines(dec)
     assert len(drawn) >= 3                      # the red strokes, then the blue ones
     assert tc.released_at_end(tc.read_trace(trace), cfg) == []
+    # released at the pause in a one-coil phase, energised there again, and the half step
+    # taken back before the next move: legal all through, on the path
+    assert tc.two_coil_edges(tc.read_trace(trace), cfg) == []
+    assert tc.illegal_transitions(dec) == []
 
 
 def test_layer_option_draws_only_those_layers(capsys, config_path, tmp_path, svg_stub):

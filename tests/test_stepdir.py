@@ -293,11 +293,15 @@ def interrupt_after_step_high(monkeypatch, after_rows: int) -> None:
     orig, seen = FakeBackend.play, {"n": 0, "sent": False}
 
     def play(self, rows):
-        n = orig(self, rows)
-        seen["n"] += n
-        if not seen["sent"] and seen["n"] >= after_rows and n and rows.coils[n - 1] & 0b101:
-            seen["sent"] = True
-            os.kill(os.getpid(), signal.SIGINT)
+        high = np.flatnonzero(rows.coils & 0b101)
+        if seen["sent"] or seen["n"] < after_rows or not len(high):
+            n = orig(self, rows)
+            seen["n"] += n
+            return n
+        # the signal comes while this part is played, right after a rising STEP edge
+        n = orig(self, rows[:int(high[0]) + 1])
+        seen["sent"] = True
+        os.kill(os.getpid(), signal.SIGINT)
         return n
 
     monkeypatch.setattr(FakeBackend, "play", play)

@@ -747,6 +747,39 @@ def released_at_end(trace, cfg: dict | None = None) -> list[str]:
     return probs
 
 
+def two_coil_edges(trace, cfg: dict | None = None) -> list[str]:
+    """With the half-step table: every energise (0000 -> pattern) and release (pattern ->
+    0000) of a coil motor is at a one-coil pattern, so that pins written one at a time pass
+    through no other pattern (empty = OK). Instants (rows of one time) count as one change."""
+    tr = _as_trace(trace)
+    c = merge_config(cfg)
+    if tp.driver(c) == "stepdir" or c["motors"].get("drive", "half") != "half":
+        return []
+    order = np.argsort(tr.t_us, kind="stable")
+    t_us, pin, value = tr.t_us[order], tr.pin[order], tr.value[order]
+    new_group = np.ones(len(t_us), dtype=bool)
+    new_group[1:] = t_us[1:] != t_us[:-1]
+    gid = np.cumsum(new_group) - 1
+    G = int(gid[-1]) + 1 if len(gid) else 0
+    g_us = t_us[new_group]
+    coils = _coil_pins(c)
+    probs = []
+    for motor in tp.motor_names(c):
+        code = np.zeros(G, dtype=np.int64)
+        for bit, p in enumerate(coils[motor]):
+            m = pin == p
+            code |= _per_group_last(gid[m], (value[m] != 0).astype(np.int64), G, 0) << bit
+        prev = np.concatenate(([0], code[:-1]))
+        edge = (code != prev) & ((code == 0) | (prev == 0))
+        pattern = np.where(code == 0, prev, code)
+        ones = sum((pattern >> b) & 1 for b in range(4))
+        for k in np.flatnonzero(edge & (ones != 1)):
+            what = "released" if code[k] == 0 else "energised"
+            probs.append(f"{motor}: {what} at {int(pattern[k]):04b} (two coils) at "
+                         f"t={g_us[k] / 1e6:.6f}")
+    return probs
+
+
 def window_velocities(decoded: Decoded, motor: str, window_s: float = 0.1,
                       offset_s: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Signed step velocity (steps/s) per window ``[offset + k*w, offset + (k+1)*w)``.

@@ -44,6 +44,16 @@ class Coils:
         """The motors moved by delta_steps without rows (a validation pass)."""
         self.phase = (self.phase + np.asarray(delta_steps) * self.sign) % len(self.table)
 
+    def to_one_coil(self) -> np.ndarray:
+        """Per motor, the count change (-1, or 0) that takes a motor resting in a two-coil phase
+        of the half-step table to its one-coil neighbour. Motors are energised and released
+        only there: from or to a one-coil pattern that is one pin, so no pin written after
+        another (gpiozero) ever shows a half step that the schedule does not have."""
+        coils = np.array([bin(int(w)).count("1") for w in self.table])
+        if coils.min() == coils.max():          # full or wave drive: nothing to choose
+            return np.zeros(2, dtype=np.int64)
+        return np.where(coils[self.phase] == 2, -1, 0).astype(np.int64)
+
     def rows(self, t_us: np.ndarray, motor: np.ndarray, dirn: np.ndarray, floor_us: int,
              cl: np.ndarray, cr: np.ndarray):
         """Rows for step events sorted by time (cl, cr: each motor's steps so far after each
@@ -67,6 +77,9 @@ class StepDir:
     def hold_word(self) -> int:
         """ENABLE low, STEP low, DIR as last set."""
         return int(self.dir_level[0] << 1 | self.dir_level[1] << 3)
+
+    def to_one_coil(self) -> np.ndarray:
+        return np.zeros(2, dtype=np.int64)
 
     def advance(self, delta_steps) -> None:
         for m, d in enumerate(delta_steps):

@@ -18,7 +18,7 @@ from typing import Iterable
 
 import numpy as np
 
-from vplotter import state
+from vplotter import drivers, state
 from vplotter.errors import BackendError, Interrupted, MachineError, StateError
 from vplotter.schedule import Rows
 
@@ -100,6 +100,7 @@ class Session:
         self.line = 0
         self.pen_us = 0
         self.pen_down = False
+        self.coils: int | None = None     # the motor output word last played
         self._moved = False
         self.resume_info: dict | None = None
         self._writer: _Writer | None = None
@@ -266,6 +267,7 @@ class Session:
         self.counts = (int(done.steps[-1, 0]), int(done.steps[-1, 1]))
         self.t_us = int(done.t_us[-1])
         self.line = int(done.line[-1])
+        self.coils = int(done.coils[-1])
         pens = done.pen_us[done.pen_us > 0]
         if len(pens):
             self.pen_down = int(pens[-1]) == self.cfg.pen.down_us
@@ -290,10 +292,31 @@ class Session:
         # a STEP pulse that was just raised stays high its full width
         t = self.t_us + (m.step_pulse_us if m.driver == "stepdir" else 1) if self._moved else 0
         up, settle = self.cfg.pen.up_us, int(round(self.cfg.pen.settle_s * 1e6))
-        rows = Rows(np.array([t, t + settle], dtype=np.int64),
-                    np.full(2, self.backend.idle_word, dtype=np.uint8),
-                    np.array([up, 0], dtype=np.int32), np.full(2, self.line, dtype=np.int64),
-                    np.array([self.counts, self.counts], dtype=np.int64))
+        idle = self.backend.idle_word
+        held = self.coils if self._moved and self.coils is not None else idle
+        if m.driver == "stepdir" and held != idle:
+            held &= ~0b101                      # both STEP lines low (drivers.StepDir)
+        # the motors hold while the pen lifts, then are released from a one-coil phase
+        # (schedule.py): a motor in a two-coil phase first takes the half step back
+        drv = drivers.create(m, self.counts)
+        d = drv.to_one_coil() if held != idle else np.zeros(2, np.int64)
+        drv.advance(d)
+        end = np.asarray(self.counts) + d
+        t_off = t + max(settle, 1)
+        times, words, pens, steps = [t], [held], [up], [self.counts]
+        if d.any():
+            times.append(t_off)
+            words.append(drv.hold_word())
+            pens.append(0)
+            steps.append(end)
+            t_off += int(np.ceil(1e6 / m.max_step_rate)) + 1
+        times.append(t_off)
+        words.append(idle)
+        pens.append(0)
+        steps.append(end)
+        rows = Rows(np.array(times, dtype=np.int64), np.array(words, dtype=np.uint8),
+                    np.array(pens, dtype=np.int32), np.full(len(times), self.line, dtype=np.int64),
+                    np.array(steps, dtype=np.int64))
         try:
             n = self.backend.play(rows)
             self._played(rows, n)

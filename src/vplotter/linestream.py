@@ -58,6 +58,8 @@ def fmt(v: float) -> str:
 class LineScheduler(Scheduler):
     chord_share = CHORD_SHARE
 
+    one_coil_rest = False     # the controller drives the motors, not coil phases
+
     def __init__(self, cfg, kin, counts, ref_mm):
         super().__init__(cfg, kin, counts, ref_mm)
         self.ser = cfg.serial

@@ -8,10 +8,14 @@ from the pen's planned position through the inverse kinematics, crosses the next
 boundary (half-way between two step counts), so step targets are absolute and rounding never
 accumulates.
 
-Motors are energised only while moving: released at every pen change, dwell and at the end.
-Before moving again a motor's coils are energised at the phase they were released at (or a
-step/dir driver enabled) and held for one step interval, so no step is lost. A `Turn` (the
-polar table at its centre) moves the motors from rest to rest with the pen standing still.
+Motors are energised from the first move on and hold the gondola through pen changes and
+dwells; they are released at a pause and at the end. A motor is energised and released only in
+a one-coil phase of the half-step table: one resting in a two-coil phase is energised at its
+one-coil neighbour (one half step back, which its next move takes up) and takes that half step
+before it is released. Every energise and release is then one pin, so a board written one pin
+at a time never shows a half step that the rows do not have. Energised motors are held for one
+step interval before they move, so no step is lost. A `Turn` (the polar table at its centre)
+moves the motors from rest to rest with the pen standing still.
 """
 
 from __future__ import annotations
@@ -50,6 +54,8 @@ class Scheduler:
     """Turns a stream of planned blocks, turns and pen events into Rows. Keeps the clock and
     the step counts (the driver keeps the output state)."""
 
+    one_coil_rest = True      # energise and release in one-coil phases (see the module doc)
+
     def __init__(self, cfg: Config, kin, counts, ref_mm):
         m = cfg.motors
         self.cfg = cfg
@@ -84,6 +90,21 @@ class Scheduler:
                 rows.append(self._row(self.t_us, self.drv.hold_word(), 0))
             self.energized = True
             self.t_us += self.hold_us
+
+    def _take_up(self, rows: list, start: np.ndarray, emit: bool) -> None:
+        """Just energised a half step away from where the next move starts (released at the
+        one-coil neighbour at a pause): take that half step now, and hold again."""
+        d = np.clip(start - self.counts, -1, 1)
+        if not d.any():
+            return
+        self.drv.advance(d)
+        self.counts = self.counts + d
+        if emit:
+            rows.append(self._row(self.t_us, self.drv.hold_word(), 0))
+        for m in (0, 1):
+            if d[m]:
+                self.last_step_us[m] = self.t_us
+        self.t_us += self.hold_us
 
     def _steps(self, t_us, motor, dirn, line, head: Rows | None = None) -> Rows:
         """Rows for step events sorted by time (line: G-code line of each event), after the
@@ -132,23 +153,38 @@ class Scheduler:
         self.line = line
         self.pen_down = down
         width = self.cfg.pen.down_us if down else self.cfg.pen.up_us
-        rows = [self._row(self.t_us, self.idle, width),
-                self._row(self.t_us + self.settle_us, self.idle, 0)]
-        self.energized = False
+        coils = self.drv.hold_word() if self.energized else self.idle
+        rows = [self._row(self.t_us, coils, width),
+                self._row(self.t_us + self.settle_us, coils, 0)]
         self.t_us += self.settle_us
         return Rows.concat(rows)
 
     def release(self) -> Rows | None:
+        """Release the motors, from a one-coil phase: a motor in a two-coil phase first takes
+        the half step back to its neighbour (one step interval after its last step)."""
         if not self.energized:
             return None
         self.energized = False
-        return self._row(self.t_us, self.idle, 0)
+        d = self.drv.to_one_coil() if self.one_coil_rest else np.zeros(2, np.int64)
+        rows = []
+        if d.any():
+            t = max([self.t_us] + [self.last_step_us[m] + self.min_interval_us
+                                   for m in (0, 1) if d[m]])
+            self.drv.advance(d)
+            self.counts = self.counts + d
+            for m in (0, 1):
+                if d[m]:
+                    self.last_step_us[m] = t
+            rows.append(self._row(t, self.drv.hold_word(), 0))
+            self.t_us = t + self.hold_us
+        rows.append(self._row(self.t_us, self.idle, 0))
+        return Rows.concat(rows)
 
     def dwell(self, seconds: float, line: int = 0) -> Rows | None:
+        """Wait with the pen as it is and the motors held."""
         self.line = line
-        rows = self.release()
         self.t_us += int(round(seconds * 1e6))
-        return rows
+        return None
 
     def finish(self, lift: bool = True) -> Rows | None:
         parts = [r for r in (self.pen(False, self.line) if lift else None, self.release())
@@ -163,11 +199,14 @@ class Scheduler:
 
     def motion(self, block: Block, emit: bool = True) -> Rows | None:
         """Rows for one planned block; with emit=False only the clock and counts advance."""
+        rows = []
+        if not self.energized:
+            self._energize(rows, emit)
+            start = np.rint((block.cords[0] - self.ref) * self.spu).astype(np.int64)
+            self._take_up(rows, start, emit)
         targets = self.targets(block)
         dur = block.durations
         self.steps_total += np.abs(np.diff(targets, axis=0)).sum(axis=0)
-        rows = []
-        self._energize(rows, emit)
         t0 = self.t_us
         self.t_us_floor = t0
         starts = np.concatenate(([0.0], np.cumsum(dur)[:-1]))
@@ -257,8 +296,11 @@ class Scheduler:
         """The motors move to turn.q with the pen standing still (the polar table turning at the
         centre), from rest to rest within the rate and acceleration limits."""
         target = np.rint((np.asarray(turn.q) - self.ref) * self.spu).astype(np.int64)
-        delta = target - self.counts
         self.line = turn.line
+        head = []
+        if np.any(target != self.counts):
+            self._energize(head, emit)
+        delta = target - self.counts
         self.steps_total += np.abs(delta)
         m = self.cfg.motors
         v, a = m.max_step_rate * RATE_MARGIN, m.max_accel * ACCEL_MARGIN
@@ -270,14 +312,14 @@ class Scheduler:
                 self.drv.advance(delta)
                 self.counts = self.counts + delta
             return None
-        return self._rest_move(delta, v, a)
+        return self._rest_move(delta, v, a, head)
 
-    def _rest_move(self, delta_steps, v: float, a: float) -> Rows | None:
+    def _rest_move(self, delta_steps, v: float, a: float, head: list | None = None) -> Rows | None:
         delta = np.asarray(delta_steps, dtype=np.int64)
         lead = int(np.abs(delta).max())
+        rows = head or []
         if lead == 0:
-            return None
-        rows = []
+            return Rows.concat(rows) if rows else None
         self._energize(rows)
         times, motors, dirs = [], [], []
         for k in (0, 1):

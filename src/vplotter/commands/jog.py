@@ -81,11 +81,13 @@ def interactive(args, cfg, pos, session) -> int:
     old = termios.tcgetattr(fd)
     with session as s:
         pen_down = pos.pen == "down"
+        # where the pen was sent: the next arrow moves from there (the motors stop within a
+        # step of it, and a release may take a half step: schedule.py), so nothing drifts
+        xy = pen_xy(cfg, pos, s.counts)
         try:
             tty.setcbreak(fd)
             while True:
                 kin = kinematics.from_config(cfg)
-                xy = pen_xy(cfg, pos, s.counts)
                 sys.stdout.write(f"\rX{xy[0]:8.2f} Y{xy[1]:8.2f}  step {step:5.1f} mm  "
                                  f"pen {'down' if pen_down else 'up  '}  ")
                 sys.stdout.flush()
@@ -114,10 +116,12 @@ def interactive(args, cfg, pos, session) -> int:
                         recs = xy_records(cfg, pos, s.counts, target)
                         s.play(pipeline.stream(cfg, recs, s.counts, pos.ref_mm, "jog",
                                                pen_down=pen_down))
+                        xy = target
                     elif key in ("l", "L", "r", "R"):
                         mm = step if key.islower() else -step
                         left, right = (mm, 0.0) if key in "lL" else (0.0, mm)
                         s.play([cord_rows(cfg, pos, s.counts, left, right, pen_down)])
+                        xy = pen_xy(cfg, pos, s.counts)
                 except Interrupted:
                     break
                 except VplotterError as e:
