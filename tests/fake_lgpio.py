@@ -13,6 +13,12 @@ as unkind as the real one (read from lgpio's src/lgPthTx.c, lgGpio.c, lgpio.py):
 - tx_servo(pin, 0) cuts the pulse in flight (`truncated` counts them) and fails when no pulses
   run; finite trains (pulse_cycles) end after their last whole pulse, the pin low; a train
   starts on the thread's 20 ms grid;
+- wake-up latency: the thread sleeps between edges, and a wake-up after a long sleep (more than
+  LONG_SLEEP_US) is later than one after a short sleep (WAKE_LONG_US against WAKE_SHORT_US, as
+  measured with clock_nanosleep on the virtual machine these figures come from): a plain
+  `tx_servo` pulse, whose rise follows a 19 ms sleep, comes out WAKE_LONG_US - WAKE_SHORT_US
+  short; an entry with no high time (`tx_pulse(pin, 0, off)`) is a wake-up that changes nothing;
+- the queue of a pulse job holds `queue_size` (10) entries; one more is LG_TX_QUEUE_FULL;
 - tx_pwm takes the duty cycle as given (gpiozero's lgpio pin rounds it to whole percent before);
 - `import lgpio` makes the notify FIFO `.lgd-nfy0` in LG_WD (the C library chdirs the process
   there) or the working directory, and fails with FileNotFoundError('.lgd-nfy-3') when it
@@ -37,6 +43,9 @@ TX_WAVE = 1
 GROUP_ALL = 2**64 - 1
 FRAME_GRID_US = 20_000
 CATCHUP_US = 15                 # one pass of lgpio's tx thread while it catches up
+LONG_SLEEP_US = 5_000           # a wake-up after a sleep longer than this ...
+WAKE_LONG_US = 45               # ... comes this late (clock_nanosleep, 19.5 ms: 117 us)
+WAKE_SHORT_US = 5               # after a shorter one this late (0.5 ms: 69 us; the difference)
 
 
 class SimClock:
@@ -103,6 +112,7 @@ class PulseJob:
         self.entries = [list(entry)]
         self.next_t = start              # thread time of the next cycle start
         self.active = True
+        self.woke_t = start - FRAME_GRID_US    # thread time of its last wake-up
 
 
 class FakeLgpio:
@@ -219,12 +229,16 @@ class FakeLgpio:
             job.active = False
             self._pin(job.gpio, 0, self._when(job.next_t))
             return
-        rise = self._when(job.next_t)
-        fall = self._when(job.next_t + on)
+        slept = job.next_t - job.woke_t
+        rise = self._when(job.next_t) + (WAKE_LONG_US if slept > LONG_SLEEP_US else WAKE_SHORT_US)
+        fall = max(self._when(job.next_t + on) + WAKE_SHORT_US, rise)
         if on:
             self._pin(job.gpio, 1, rise)
             self._pin(job.gpio, 0, fall)
             self.pulses.append((job.gpio, rise, fall - rise))
+            job.woke_t = job.next_t + on
+        else:
+            job.woke_t = job.next_t
         job.next_t += on + off
         if cycles > 0:
             job.entries[0][2] = cycles - 1
@@ -399,6 +413,13 @@ class FakeLgpio:
         frame = int(1e6 / servo_frequency + 0.5)
         return self._pulses(handle, gpio, pulse_width, frame - pulse_width, pulse_cycles)
 
+    def tx_pulse(self, handle, gpio, pulse_on, pulse_off, pulse_offset=0, pulse_cycles=0):
+        self.calls.append(("tx_pulse", handle, gpio, pulse_on, pulse_off, pulse_cycles))
+        self._check(handle)
+        if (pulse_on or pulse_off) and pulse_on + pulse_off <= 10:
+            raise error("bad PWM micros")
+        return self._pulses(handle, gpio, pulse_on, pulse_off, pulse_cycles)
+
     def tx_pwm(self, handle, gpio, pwm_frequency, pwm_duty_cycle, pulse_offset=0,
                pulse_cycles=0):
         self.calls.append(("tx_pwm", handle, gpio, pwm_frequency, pwm_duty_cycle))
@@ -423,6 +444,8 @@ class FakeLgpio:
         if job is not None:                          # queued behind the running entry
             if len(job.entries) > 1 and job.entries[-1][2] == -1:
                 job.entries.pop()
+            if len(job.entries) >= self.queue_size:
+                raise error("tx queue full")
             job.entries.append(list(entry))
             return self.queue_size - len(job.entries)
         now = self._us()

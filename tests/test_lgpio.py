@@ -12,10 +12,11 @@ import numpy as np
 import pytest
 
 from fake_lgpio import FakeLgpio, SimClock, expected_coil_changes, pulse
-from test_backends import cfg, concat, make_rows, parts, rechunk, row_changes  # noqa: F401 (fixtures)
+from test_backends import cfg, concat, make_rows, parts, pen_changes, rechunk, row_changes  # noqa: F401 (fixtures)
 from vplotter import config, state
 from vplotter.backends import create, lgpio_setup
 from vplotter.backends.realtime import Folded
+from vplotter.backends.lgpio_pen import WARM_US
 from vplotter.backends.lgpio_setup import load_lgpio
 from vplotter.errors import BackendError
 from vplotter.job import Session
@@ -132,10 +133,15 @@ def test_pen_pulses_are_exact_and_whole(cfg, parts):
     pin, (up, down) = cfg.pen.pin, (cfg.pen.up_us, cfg.pen.down_us)
     widths = [w for _, w in pen_pulses(lg, pin)]
     assert widths and set(widths) == {up, down}
-    servo = [c for c in lg.calls if c[0] == "tx_servo"]
+    # every pulse is a wake-up entry and a pulse entry, one cycle each, 20 ms together
+    sent = [c for c in lg.calls if c[0] == "tx_pulse"]
+    assert all(c[5] == 1 for c in sent)
+    assert all((c[3], c[4]) == (0, WARM_US) for c in sent[0::2])
+    assert all(c[3] in (up, down) and c[3] + c[4] == FRAME_US - WARM_US for c in sent[1::2])
     per_train = int(round(cfg.pen.settle_s * 1e6 / FRAME_US))
-    assert all(c[3] in (up, down) and c[4] == 50 and c[5] == per_train for c in servo)
-    assert len(widths) == per_train * len(servo)
+    trains = sum(1 for _, w in pen_changes(parts) if w > 0)
+    assert len(widths) == per_train * trains == len(sent) // 2
+    assert not [c for c in lg.calls if c[0] == "tx_servo"]
     # never stopped with tx_servo(pin, 0): no pulse cut short, the pin low at the end
     assert lg.truncated == 0 and lg.levels[pin] == 0
     assert lg.skips == 0 and not lg.hung
@@ -148,7 +154,7 @@ def test_pen_changes_at_one_time_are_one_train_behind_the_other(cfg):
     rows = make_rows([0, 300_000, 300_000, 600_000, 900_000],
                      [0, 0, 0, 0, 0], [up, 0, down, 0, 0])
     play_all(b, [rows])
-    assert [(c[3], c[5]) for c in lg.calls if c[0] == "tx_servo"] == [(up, 15), (down, 15)]
+    assert [c[3] for c in lg.calls if c[0] == "tx_pulse" and c[3]] == [up] * 15 + [down] * 15
     pulses = pen_pulses(lg, cfg.pen.pin)
     assert [w for _, w in pulses] == [up] * 15 + [down] * 15
     assert set(np.diff([t for t, _ in pulses]).tolist()) == {FRAME_US}   # no gap, no overlap
@@ -184,15 +190,15 @@ def test_the_stand_in_hangs_when_the_head_job_is_freed():
 def test_watchdog_stops_with_the_pen_up_and_the_coils_off(cfg, parts, monkeypatch):
     clock = SimClock()
     b, lg = lgpio_backend(cfg, clock)
-    orig = FakeLgpio.tx_servo
+    orig = FakeLgpio.tx_pulse
 
     def hang_on_second_train(self, *a):
         r = orig(self, *a)
-        if sum(1 for c in self.calls if c[0] == "tx_servo") == 2:
+        if len({c[3] for c in self.calls if c[0] == "tx_pulse" and c[3]}) == 2:
             self.hung = True                  # lgpio's thread spins from now on
         return r
 
-    monkeypatch.setattr(FakeLgpio, "tx_servo", hang_on_second_train)
+    monkeypatch.setattr(FakeLgpio, "tx_pulse", hang_on_second_train)
     b.open()
     with pytest.raises(BackendError) as e:
         for part in parts:
@@ -212,14 +218,14 @@ def test_watchdog_stops_with_the_pen_up_and_the_coils_off(cfg, parts, monkeypatc
 def test_a_hang_leaves_the_position_uncertain(cfg, parts, monkeypatch):
     clock = SimClock()
     b, lg = lgpio_backend(cfg, clock)
-    orig = FakeLgpio.tx_servo
+    orig = FakeLgpio.tx_pulse
 
     def hang(self, *a):
         r = orig(self, *a)
         self.hung = True
         return r
 
-    monkeypatch.setattr(FakeLgpio, "tx_servo", hang)
+    monkeypatch.setattr(FakeLgpio, "tx_pulse", hang)
     monkeypatch.setattr("vplotter.backends.create", lambda *a, **k: b)
     pos = state.Position.at_cords(480.0, 480.0, cfg.motors.steps_per_unit)
     state.save(pos)

@@ -99,12 +99,25 @@ def _remove_fifo(lg, where) -> None:
             pass
 
 
+_latency_fd: int | None = None
+
+
 def tight_timers() -> None:
     """Timer slack 1 ns for this thread and the threads it starts (lgpio starts its tx thread
     at the first gpiochip_open): Linux lets a sleeping thread wake up to 50 us late by default,
-    which would show in every servo pulse lgpio times."""
+    which would show in every servo pulse lgpio times. Where allowed (root), also ask for no
+    deep CPU idle states while the process runs (/dev/cpu_dma_latency 0, as cyclictest does):
+    a CPU waking from one makes the next edge later; the request ends with the process."""
+    global _latency_fd
     if not sys.platform.startswith("linux"):
         return
+    if _latency_fd is None:
+        try:
+            fd = os.open("/dev/cpu_dma_latency", os.O_WRONLY | os.O_CLOEXEC)
+            os.write(fd, (0).to_bytes(4, sys.byteorder))
+            _latency_fd = fd
+        except OSError:
+            _latency_fd = -1
     try:
         import ctypes
 
