@@ -342,7 +342,9 @@ class Session:
 
 
 def _split(rows: Rows) -> Iterable[Rows]:
-    """Cut rows into stretches of at most JOURNAL_EVERY_US, also right after pen changes."""
+    """Cut rows into stretches of at most JOURNAL_EVERY_US, also right after pen changes.
+    The stretches are copies: a view would keep the whole computed part (up to STEPS_PER_PART
+    steps, megabytes) in memory until its last stretch is played."""
     n = len(rows)
     if n == 0:
         return
@@ -350,12 +352,9 @@ def _split(rows: Rows) -> Iterable[Rows]:
     cuts = set(np.searchsorted(t, np.arange(t[0] + JOURNAL_EVERY_US, t[-1] + 1, JOURNAL_EVERY_US)).tolist())
     pen_rows = np.flatnonzero(rows.pen_us > 0)
     cuts.update((pen_rows + 1).tolist())
-    start = 0
-    for c in sorted(cuts):
-        if start < c < n:
-            yield rows[start:c]
-            start = c
-    yield rows[start:]
+    bounds = [0] + [c for c in sorted(cuts) if 0 < c < n] + [n]
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        yield rows[a:b].copy()
 
 
 _END = object()
@@ -401,6 +400,7 @@ class _Ahead:
                 for part in (_split(rows) if self.split and isinstance(rows, Rows) else (rows,)):
                     if not self._put(part):
                         return
+                rows = part = None      # the stretches are copies: the computed part can go
             self._put(_END)
         except BaseException as e:  # noqa: BLE001 - handed to the main thread
             self._put(_Failure(e))

@@ -58,7 +58,7 @@ class StartAt:
     xy: tuple[float, float] | None = None
 
 
-STEPS_PER_PART = 50_000  # steps: the rows of one part of a block are a few MB at most
+STEPS_PER_PART = 10_000  # steps: the rows of one part of a block are about 400 kB
 PLAN_LIMIT = 100_000   # pieces (about 11 MB): a validated plan up to this size is kept for the draw
 
 
@@ -121,6 +121,7 @@ def _schedule(cfg, ops, counts, ref_mm, emit: bool, summary: Summary,
                 rows = sched.motion(part, emit)
                 if rows is not None and emit:
                     yield rows
+                rows = None             # not kept alive while the player plays it
             continue
         elif kind == "pen":
             rows = sched.pen(op[1], op[2])

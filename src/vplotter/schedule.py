@@ -44,6 +44,10 @@ class Rows:
         return Rows(self.t_us[rows], self.coils[rows], self.pen_us[rows], self.line[rows],
                     self.steps[rows])
 
+    def copy(self) -> "Rows":
+        return Rows(self.t_us.copy(), self.coils.copy(), self.pen_us.copy(), self.line.copy(),
+                    self.steps.copy())
+
     @staticmethod
     def concat(parts: list["Rows"]) -> "Rows":
         return Rows(*(np.concatenate([getattr(p, f) for p in parts])
