@@ -37,19 +37,6 @@ def square(side: float) -> str:
             f"G01 X{-h} Y{h}\nG01 X{-h} Y{-h}\nG00 Z5\nG00 X0 Y0\nM2\n")
 
 
-def patterns(t_us, pin, value, pins, grouped: bool) -> list[int]:
-    """The coil patterns one motor went through: after every pin change (grouped=False: what
-    a decoder of pin timestamps sees), or after every instant (rows of one time together)."""
-    bits = {p: i for i, p in enumerate(pins)}
-    word, out, rows = 0, [0], list(zip(t_us.tolist(), pin.tolist(), value.tolist()))
-    for i, (t, p, v) in enumerate(rows):
-        if p in bits:
-            word = word | 1 << bits[p] if v else word & ~(1 << bits[p])
-        if (not grouped or i + 1 == len(rows) or rows[i + 1][0] != t) and word != out[-1]:
-            out.append(word)
-    return out
-
-
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--burners", type=int, default=2)
@@ -111,8 +98,8 @@ def main() -> None:
     for m, motor in enumerate(("left", "right")):
         iv = np.diff(dec.steps[motor].t_us)
         # every pin change on its own against the dry run's instants: no pattern in between
-        same = (patterns(got.t_us, got.pin, got.value, pins[4 * m:4 * m + 4], False)
-                == patterns(dry.t_us, dry.pin, dry.value, pins[4 * m:4 * m + 4], True)
+        same = (tc.coil_patterns(got, pins[4 * m:4 * m + 4], grouped=False)
+                == tc.coil_patterns(dry, pins[4 * m:4 * m + 4])
                 and np.array_equal(dec.steps[motor].dirs, ref.steps[motor].dirs))
         print(f"  {motor}: {len(dec.steps[motor])} steps (dry run {len(ref.steps[motor])}), "
               f"shortest interval {iv.min():.0f} us (limit {limit_us:.1f} us, "

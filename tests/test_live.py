@@ -19,19 +19,8 @@ from vplotter import live, lock, state
 from vplotter.cli import main
 
 from conftest import REPO
+from test_safety import SHORT  # the same short drawing
 
-SHORT = """G21 G90
-G00 Z5
-G00 X2 Y2
-G01 Z-1 F600
-G01 X6 Y2
-G01 X6 Y6
-G02 X2 Y6 R2
-G01 X2 Y2
-G00 Z5
-G00 X0 Y0
-M2
-"""
 MEDIUM = """G21 G90
 G01 Z-1 F600
 G01 X4 Y0

@@ -106,19 +106,8 @@ def planned_trace(parts) -> tc.Trace:
 
 
 def motor_patterns(trace: tc.Trace, motor: int, grouped: bool = True) -> list[int]:
-    """Distinct successive coil patterns of one motor: changes at one time count as one
-    (grouped), or after every single pin change (what pin timestamps show)."""
-    bits = {p: i for i, p in enumerate(PINS[4 * motor:4 * motor + 4])}
-    order = np.argsort(trace.t_us, kind="stable")
-    word, out, rows = 0, [0], zip(trace.t_us[order].tolist(), trace.pin[order].tolist(),
-                                  trace.value[order].tolist())
-    rows = list(rows)
-    for i, (t, p, v) in enumerate(rows):
-        if p in bits:
-            word = word | 1 << bits[p] if v else word & ~(1 << bits[p])
-        if (not grouped or i + 1 == len(rows) or rows[i + 1][0] != t) and word != out[-1]:
-            out.append(word)
-    return out
+    """Distinct successive coil patterns of one motor (tracecheck.coil_patterns)."""
+    return tc.coil_patterns(trace, PINS[4 * motor:4 * motor + 4], grouped)
 
 
 def gaps_around_pen(trace: tc.Trace) -> list[tuple[float, float]]:

@@ -747,6 +747,24 @@ def released_at_end(trace, cfg: dict | None = None) -> list[str]:
     return probs
 
 
+def coil_patterns(trace, pins, grouped: bool = True) -> list[int]:
+    """The distinct successive patterns of the pins ``pins`` (bit i = pins[i]), starting from
+    0: after every instant (rows of one time together, as the contract says), or with
+    grouped=False after every single row (what a log of pin timestamps shows when pins are
+    written one at a time)."""
+    tr = _as_trace(trace)
+    bits = {int(p): i for i, p in enumerate(pins)}
+    order = np.argsort(tr.t_us, kind="stable")
+    rows = list(zip(tr.t_us[order].tolist(), tr.pin[order].tolist(), tr.value[order].tolist()))
+    word, out = 0, [0]
+    for i, (t, p, v) in enumerate(rows):
+        if p in bits:
+            word = word | 1 << bits[p] if v else word & ~(1 << bits[p])
+        if (not grouped or i + 1 == len(rows) or rows[i + 1][0] != t) and word != out[-1]:
+            out.append(word)
+    return out
+
+
 def two_coil_edges(trace, cfg: dict | None = None) -> list[str]:
     """With the half-step table: every energise (0000 -> pattern) and release (pattern ->
     0000) of a coil motor is at a one-coil pattern, so that pins written one at a time pass
