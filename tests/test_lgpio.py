@@ -11,12 +11,12 @@ import sys
 import numpy as np
 import pytest
 
-from fake_lgpio import FakeLgpio, SimClock, expected_coil_changes, pulse
+from fake_lgpio import (COLD_WRITE_US, HOT_WRITE_US, FakeLgpio, SimClock, expected_coil_changes,
+                        pulse)
 from test_backends import cfg, concat, make_rows, parts, pen_changes, rechunk, row_changes  # noqa: F401 (fixtures)
 from vplotter import config, state
 from vplotter.backends import create, lgpio_setup
 from vplotter.backends.realtime import Folded
-from vplotter.backends.lgpio_pen import WARM_US
 from vplotter.backends.lgpio_setup import load_lgpio
 from vplotter.errors import BackendError
 from vplotter.job import Session
@@ -47,10 +47,6 @@ def step_times(changes, motor: int) -> np.ndarray:
             out.append(t)
         prev = nib
     return np.array(out, dtype=np.int64)
-
-
-def pen_pulses(lg, pin):
-    return [(t, w) for g, t, w in lg.pulses if g == pin]
 
 
 # ---------------------------------------------------------------- coils: vplotter's timeline
@@ -126,25 +122,48 @@ def test_the_stand_in_retains_finished_waves():
 
 
 # ---------------------------------------------------------------- the pen
-def test_pen_pulses_are_exact_and_whole(cfg, parts):
+def test_pen_pulses_are_exact_whole_and_written_by_the_player(cfg, parts):
     clock = SimClock()
     b, lg = lgpio_backend(cfg, clock)
+    before = os.sched_getscheduler(0), os.sched_getparam(0).sched_priority
     play_all(b, parts)
     pin, (up, down) = cfg.pen.pin, (cfg.pen.up_us, cfg.pen.down_us)
-    widths = [w for _, w in pen_pulses(lg, pin)]
-    assert widths and set(widths) == {up, down}
-    # every pulse is a wake-up entry and a pulse entry, one cycle each, 20 ms together
-    sent = [c for c in lg.calls if c[0] == "tx_pulse"]
-    assert all(c[5] == 1 for c in sent)
-    assert all((c[3], c[4]) == (0, WARM_US) for c in sent[0::2])
-    assert all(c[3] in (up, down) and c[3] + c[4] == FRAME_US - WARM_US for c in sent[1::2])
-    per_train = int(round(cfg.pen.settle_s * 1e6 / FRAME_US))
+    pulses = lg.widths(pin)
+    assert pulses and all(min(abs(w - up), abs(w - down)) <= 1 for _, w in pulses)
+    # each pen change gets the pulses that fit whole in its settle time, 20 ms apart
+    per_train = int(cfg.pen.settle_s * 1e6 // FRAME_US)
     trains = sum(1 for _, w in pen_changes(parts) if w > 0)
-    assert len(widths) == per_train * trains == len(sent) // 2
-    assert not [c for c in lg.calls if c[0] == "tx_servo"]
-    # never stopped with tx_servo(pin, 0): no pulse cut short, the pin low at the end
-    assert lg.truncated == 0 and lg.levels[pin] == 0
-    assert lg.skips == 0 and not lg.hung
+    assert len(pulses) == per_train * trains
+    gaps = np.diff([t for t, _ in pulses])
+    assert gaps.min() >= FRAME_US - 1
+    # lgpio's tx thread never gets a job: nothing it could play late, cut short or hang on
+    assert not [c for c in lg.calls if c[0].startswith("tx_")] and not lg.jobs
+    assert lg.levels[pin] == 0 and lg.truncated == 0
+    assert (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority) == before
+
+
+def test_without_the_warm_up_write_the_stand_in_makes_pulses_short(cfg, monkeypatch):
+    """The first write after a sleep reaches the pin late (stand-in, as measured): a pulse
+    whose rise follows a sleep directly is short, which the test above would catch."""
+    from vplotter.backends import realtime
+
+    clock = SimClock()
+    b, lg = lgpio_backend(cfg, clock)
+    orig = realtime.Player._train
+
+    def no_warm_up(self, due, stop):
+        pulse = self.pulse
+        self.pulse = lambda level: None if level == 0 and lg.levels.get(cfg.pen.pin) == 0 \
+            else pulse(level)
+        try:
+            return orig(self, due, stop)
+        finally:
+            self.pulse = pulse
+
+    monkeypatch.setattr(realtime.Player, "_train", no_warm_up)
+    play_all(b, [make_rows([0, 300_000], [0, 0], [cfg.pen.up_us, 0])])
+    widths = [w for _, w in lg.widths(cfg.pen.pin)]
+    assert widths.count(cfg.pen.up_us - (COLD_WRITE_US - HOT_WRITE_US)) >= 13        # all but the first pulse or two
 
 
 def test_pen_changes_at_one_time_are_one_train_behind_the_other(cfg):
@@ -154,22 +173,25 @@ def test_pen_changes_at_one_time_are_one_train_behind_the_other(cfg):
     rows = make_rows([0, 300_000, 300_000, 600_000, 900_000],
                      [0, 0, 0, 0, 0], [up, 0, down, 0, 0])
     play_all(b, [rows])
-    assert [c[3] for c in lg.calls if c[0] == "tx_pulse" and c[3]] == [up] * 15 + [down] * 15
-    pulses = pen_pulses(lg, cfg.pen.pin)
+    pulses = lg.widths(cfg.pen.pin)
     assert [w for _, w in pulses] == [up] * 15 + [down] * 15
-    assert set(np.diff([t for t, _ in pulses]).tolist()) == {FRAME_US}   # no gap, no overlap
+    gaps = np.diff([t for t, _ in pulses])
+    assert gaps.min() >= FRAME_US - 1 and gaps.max() <= FRAME_US + 200   # no gap, no overlap
 
 
-def test_close_waits_for_the_last_pulse(cfg, parts):
-    """A stop right after a pen change (Ctrl+C): close lets the train end by its count."""
+def test_a_stop_comes_between_two_pulses(cfg):
+    """Ctrl+C in the middle of a pen change: the pulses end whole, the pin low."""
     clock = SimClock()
     b, lg = lgpio_backend(cfg, clock)
     b.open()
-    b.play(make_rows([0, 1], [0, 0], [cfg.pen.up_us, cfg.pen.up_us]))
-    b.stop_requested = True
+    for k in range(1, 12):                   # a stop request at odd moments, inside pulses too
+        clock.at(clock.ns + k * 13_700_000, lambda: setattr(b, "stop_requested", True))
+    n = b.play(make_rows([0, 300_000, 600_000], [0, 0, 0], [cfg.pen.up_us, 0, 0]))
     b.close()
-    assert lg.truncated == 0 and lg.levels[cfg.pen.pin] == 0
-    assert [w for _, w in pen_pulses(lg, cfg.pen.pin)] == [cfg.pen.up_us] * 15
+    assert n < 3
+    pulses = lg.widths(cfg.pen.pin)
+    assert pulses and all(abs(w - cfg.pen.up_us) <= 1 for _, w in pulses)
+    assert lg.levels[cfg.pen.pin] == 0
 
 
 def test_the_stand_in_hangs_when_the_head_job_is_freed():
@@ -187,54 +209,18 @@ def test_the_stand_in_hangs_when_the_head_job_is_freed():
     assert lg.hung and lg.tx_busy(h, 0, lg.TX_WAVE) and len(lg.log) == before
 
 
-def test_watchdog_stops_with_the_pen_up_and_the_coils_off(cfg, parts, monkeypatch):
+def test_the_stand_in_makes_plain_servo_pulses_short():
+    """lgpio's own servo train: its tx thread wakes later after the long sleep before a rise
+    than after the short one before a fall (why vplotter times the pulses itself)."""
     clock = SimClock()
-    b, lg = lgpio_backend(cfg, clock)
-    orig = FakeLgpio.tx_pulse
-
-    def hang_on_second_train(self, *a):
-        r = orig(self, *a)
-        if len({c[3] for c in self.calls if c[0] == "tx_pulse" and c[3]}) == 2:
-            self.hung = True                  # lgpio's thread spins from now on
-        return r
-
-    monkeypatch.setattr(FakeLgpio, "tx_pulse", hang_on_second_train)
-    b.open()
-    with pytest.raises(BackendError) as e:
-        for part in parts:
-            b.play(part)
-    msg = str(e.value)
-    assert "\n" not in msg and "lifted" in msg and "calibrate" in msg
-    pin = cfg.pen.pin
-    assert lg.levels[pin] == 0 and [w for _, w in lg.coil_changes()][-1] == 0
-    # pen-up pulses written by hand after the hang
-    hand = [c for c in lg.calls if c[0] == "gpio_write" and c[2] == pin]
-    assert len(hand) >= 2 * 15
-    assert b.play(parts[-1]) == 0             # nothing more moves
-    b.close()
-    assert not lg.open_handles
-
-
-def test_a_hang_leaves_the_position_uncertain(cfg, parts, monkeypatch):
-    clock = SimClock()
-    b, lg = lgpio_backend(cfg, clock)
-    orig = FakeLgpio.tx_pulse
-
-    def hang(self, *a):
-        r = orig(self, *a)
-        self.hung = True
-        return r
-
-    monkeypatch.setattr(FakeLgpio, "tx_pulse", hang)
-    monkeypatch.setattr("vplotter.backends.create", lambda *a, **k: b)
-    pos = state.Position.at_cords(480.0, 480.0, cfg.motors.steps_per_unit)
-    state.save(pos)
-    with pytest.raises(BackendError):
-        with Session(cfg, "draw", "lgpio", dry_run=False, position=pos) as s:
-            s.play(iter(parts))
-    saved = state.load()
-    assert saved is not None and not saved.clean
-    assert not lg.open_handles
+    lg = FakeLgpio(clock)
+    h = lg.gpiochip_open(0)
+    lg.gpio_claim_output(h, 24, 0)
+    lg.tx_servo(h, 24, 1500, 50, 0, 10)
+    clock.ns += 300_000_000
+    lg.tx_busy(h, 24, lg.TX_PWM)
+    widths = {w for _, w in lg.widths(24)}
+    assert widths == {1500 - (45 - 5)}
 
 
 # ---------------------------------------------------------------- memory
@@ -389,7 +375,7 @@ def test_the_stand_in_rounds_where_gpiozero_rounds(cfg, lgpio_factory):
     servo.value = 1
     clock.ns += 100_000_000
     servo.close()
-    widths = {w for _, w in pen_pulses(lg, cfg.pen.pin) if w}
+    widths = {w for _, w in lg.widths(cfg.pen.pin) if w}
     assert widths and cfg.pen.up_us not in widths and cfg.pen.down_us not in widths
 
 
@@ -398,17 +384,9 @@ def test_gpiozero_on_its_lgpio_factory_makes_exact_pulses(cfg, parts, lgpio_fact
     b = create("gpiozero", cfg, pin_factory=factory, clock=clock.now, sleep=clock.sleep,
                spin_us=200)
     play_all(b, parts)
-    widths = [w for _, w in pen_pulses(lg, cfg.pen.pin)]
-    assert widths and set(widths) == {cfg.pen.up_us, cfg.pen.down_us}
-    assert not [c for c in lg.calls if c[0] == "tx_pwm"]
-    assert lg.truncated == 0 and lg.levels[cfg.pen.pin] == 0 and not lg.hung
-
-
-def test_only_the_tx_thread_keeps_real_time_priority():
-    """The caller runs at real-time priority only while lgpio starts its tx thread (where
-    that is allowed at all), and is back to what it was after."""
-    before = (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority)
-    with lgpio_setup.tx_thread_priority():
-        inside = os.sched_getscheduler(0)
-    assert (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority) == before
-    assert inside in (before[0], os.SCHED_FIFO)
+    widths = [w for _, w in lg.widths(cfg.pen.pin)]
+    up, down = cfg.pen.up_us, cfg.pen.down_us
+    assert widths and all(min(abs(w - up), abs(w - down)) <= 1 for w in widths)
+    assert {up, down} <= set(widths)
+    assert not [c for c in lg.calls if c[0].startswith("tx_")]
+    assert lg.truncated == 0 and lg.levels[cfg.pen.pin] == 0

@@ -248,7 +248,7 @@ def test_lgpio_plays_step_dir_waves_and_leaves_enable_high(sd_parts):
     # the player writes in real time: never an interval shorter than planned (pulse widths,
     # DIR set-up), lateness only moves the timeline on
     gaps = np.diff([t for t, _ in got]) - np.diff([t for t, _ in expect])
-    assert gaps.min() >= 0
+    assert gaps.min() >= -1                               # (the pin log is in whole us)
     assert lg.levels[4] == 1                              # ENABLE high: motors free
 
 

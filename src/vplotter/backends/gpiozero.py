@@ -2,10 +2,10 @@
 timed in software by `realtime.Player` (absolute deadlines, sleep then spin).
 
 Coils are DigitalOutputDevices (written through their `pin.state`, the fastest public path).
-The pen: on gpiozero's lgpio factory (what gpiozero uses on a Pi) lgpio's servo trains
-(`lgpio_pen.PenTrains`: the configured width to the microsecond, ended by a pulse count, with
-the watchdog), because gpiozero sets PWM through a duty cycle in whole percent (gpiozero issue
-1209: 500 us is sent as 400 us). Other factories get a gpiozero Servo whose min/max pulse widths
+The pen: on gpiozero's lgpio factory (what gpiozero uses on a Pi) the player writes the servo
+pulses itself through lgpio (`realtime.Player`'s pulse trains: the configured width to the
+microsecond, every pulse whole), because gpiozero sets PWM through a duty cycle in whole percent
+(gpiozero issue 1209: 500 us is sent as 400 us). Other factories get a gpiozero Servo whose min/max pulse widths
 are the pen's up/down widths (value -1/+1, None stops the pulses); it needs a factory with PWM
 (software PWM is fine); gpiozero's mock factory gets a PWM-capable mock pen pin
 (GPIOZERO_PIN_FACTORY=mock simulates the whole machine).
@@ -42,7 +42,6 @@ class GpiozeroBackend(Backend):
         self._coils = []
         self._servo = None
         self._pen_dev = None                 # the pen pin on the lgpio factory
-        self.pen = None                      # lgpio_pen.PenTrains on the lgpio factory
         self._kind_pen = None                # a solenoid or a cam (pens.py)
         self._pen_devices = []
         lo, hi = sorted((cfg.pen.up_us, cfg.pen.down_us))
@@ -67,9 +66,6 @@ class GpiozeroBackend(Backend):
     def _write_pen(self, pulse_us: int) -> None:
         if self._kind_pen is not None:       # a solenoid or the cam (pens.py)
             self._kind_pen.set(pulse_us)
-            return
-        if self.pen is not None:
-            self.pen.start(pulse_us)
             return
         if pulse_us <= 0:
             self._servo.value = None  # detach: no pulses
@@ -145,25 +141,21 @@ class GpiozeroBackend(Backend):
 
     def _prepare_lgpio(self):
         """When gpiozero may pick its lgpio factory: import lgpio safely first (its notify
-        FIFO in the state directory, not in the working directory), tight timers, and the
-        context in which lgpio starts its tx thread (the first device opens the chip).
-        Without lgpio gpiozero picks another factory."""
+        FIFO in the state directory, not in the working directory) and tight timers. Without
+        lgpio gpiozero picks another factory."""
         wanted = os.environ.get("GPIOZERO_PIN_FACTORY", "").lower()
         if self.pin_factory is None and wanted in ("", "lgpio"):
-            from vplotter.backends.lgpio_setup import load_lgpio, tight_timers, tx_thread_priority
+            from vplotter.backends.lgpio_setup import load_lgpio, tight_timers
 
             try:
                 load_lgpio()
             except BackendError:
                 return contextlib.nullcontext()
             tight_timers()
-            return tx_thread_priority()
         return contextlib.nullcontext()
 
     def _lgpio_pen(self, factory) -> None:
         from gpiozero import DigitalOutputDevice
-
-        from vplotter.backends.lgpio_pen import PenTrains
 
         for w in (self.cfg.pen.up_us, self.cfg.pen.down_us):
             if not 500 <= w <= 2500:
@@ -171,9 +163,8 @@ class GpiozeroBackend(Backend):
                                  f"up_us/down_us)")
         self._pen_dev = DigitalOutputDevice(self.pen_pin, initial_value=False,
                                             pin_factory=factory)
-        self.pen = PenTrains(_lgpio_of(factory), factory._handle, self.pen_pin,
-                             self.cfg.pen.up_us, int(round(self.cfg.pen.settle_s * 1e6)),
-                             self._clock, self._sleep)
+        lg, handle, pin = _lgpio_of(factory), factory._handle, self.pen_pin
+        self._player.pulse = lambda level: lg.gpio_write(handle, pin, level)
 
     def _make_servo(self, factory):
         from gpiozero import Servo
@@ -190,27 +181,11 @@ class GpiozeroBackend(Backend):
                 factory.pin_class = old
 
     def play(self, rows: Rows) -> int:
-        pen = self.pen
-        if pen is None:
-            return self._player.play(rows, lambda: self.stop_requested)
-        if pen.hung:
-            return 0                         # after a hang the pen is up and the coils off
-        n = pen.play(self._player, rows, lambda: self.stop_requested)
-        if pen.hung:
-            self._hang()
-        return n
-
-    def drain(self) -> None:
-        if self.pen is not None and not self.pen.wait():
-            self._hang()
-
-    def _hang(self):
-        self._idle()
-        raise self.pen.emergency()
+        return self._player.play(rows, lambda: self.stop_requested)
 
     def close(self) -> None:
-        """Motor outputs at the idle word (coils low, ENABLE high), the pen's last pulse whole
-        then pulses off, pins released; never raises."""
+        """Motor outputs at the idle word (coils low, ENABLE high), pen pulses off (a pulse the
+        player writes is always whole when play() returns), pins released; never raises."""
         self._idle()
         for dev in self._pen_devices:
             for action in (getattr(dev, "off", lambda: None), dev.close):
@@ -219,14 +194,8 @@ class GpiozeroBackend(Backend):
                 except Exception:  # noqa: BLE001
                     pass
         self._pen_devices, self._kind_pen = [], None
-        if self.pen is not None:
-            for action in (self.pen.wait, self.pen.release):
-                try:
-                    action()
-                except BaseException:  # noqa: BLE001
-                    pass
-            self.pen = None
         if self._pen_dev is not None:
+            self._player.pulse = None
             for action in (self._pen_dev.off, self._pen_dev.close):
                 try:
                     action()

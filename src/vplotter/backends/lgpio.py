@@ -1,5 +1,5 @@
-"""lgpio backend: the coils as one lgpio group written by vplotter's own player, the pen as
-lgpio servo pulse trains that end by their own pulse count (`lgpio_pen.PenTrains`).
+"""lgpio backend: the coils as one lgpio group and the pen's servo pulses, all written by
+vplotter's own player (`realtime.Player`); lgpio's tx thread is never given a job.
 
 Why not lgpio's waves (tx_wave): lgpio's tx thread is software-timed against a timeline of its
 own that never looks at the clock again. When it is late (the process was stopped, the SD card
@@ -10,6 +10,14 @@ queued behind it (24 bytes per pulse, never freed). So the coil timeline is vplo
 coil pins are one lgpio group, and `realtime.Player` writes each change with one `group_write`
 (both motors change in one write) at its time; a late change shifts the rest of the timeline
 instead of being caught up.
+
+The pen: lgpio's servo trains (tx_servo, tx_pulse) are timed by the same tx thread, which sleeps
+between edges: on the virtual machine measured here a rise after its 19 ms sleep came ~50 us
+later than a fall after its short one, and even with a wake-up entry before every rise one pulse
+in ten to forty was more than 20 us off (one in a hundred by milliseconds). Freeing a train's job
+while another is queued is also what hangs lgpio 0.2's thread. So the player writes the pen pin
+itself (gpio_write), spinning through each pulse from rise to fall: exact to the microsecond, and
+nothing is left in lgpio that could hang.
 
 lgpio is imported lazily and safely by `lgpio_setup.load_lgpio()` (notify FIFO in the state
 directory, working directory unchanged); every failure is one line that says what to do.
@@ -22,9 +30,7 @@ import time
 
 
 from vplotter.backends import Backend
-from vplotter.backends.lgpio_pen import PenTrains
-from vplotter.backends.lgpio_setup import (chip_error, lean_malloc, load_lgpio, tight_timers,
-                                           tx_thread_priority)
+from vplotter.backends.lgpio_setup import chip_error, lean_malloc, load_lgpio, tight_timers
 from vplotter.backends.realtime import Player
 from vplotter.errors import BackendError
 from vplotter.schedule import Rows
@@ -46,11 +52,10 @@ class LgpioBackend(Backend):
         self.clock = clock or time.perf_counter_ns
         self.sleep = sleep or time.sleep
         self.handle: int | None = None
-        self.pen: PenTrains | None = None
         if "min_step_us" in inspect.signature(Player).parameters and cfg.motors.driver == "uln2003":
             timing = {"min_step_us": 1e6 / cfg.motors.max_step_rate, **timing}   # coils only
-        self._player = Player(self._write_coils, self._write_pen, self.clock, self.sleep,
-                              **timing)
+        self._player = Player(self._write_coils, None, self.clock, self.sleep,
+                              pulse=self._write_pen, **timing)
         self._player.coils = self.idle_word
 
     # ------------------------------------------------------------ open / close
@@ -60,14 +65,13 @@ class LgpioBackend(Backend):
                                f"\"{self.cfg.pen.kind}\" use --backend gpiozero")
         for w in (self.cfg.pen.up_us, self.cfg.pen.down_us):
             if not 500 <= w <= 2500:
-                raise BackendError(f"error: lgpio makes servo pulses of 500..2500 us, not {w} "
+                raise BackendError(f"error: servo pulses are 500..2500 us, not {w} "
                                    f"([pen] up_us/down_us)")
         lg = self.lg = self.lg or load_lgpio()
-        tight_timers()                       # before lgpio starts its tx thread
+        tight_timers()
         lean_malloc()
         try:
-            with tx_thread_priority():
-                h = lg.gpiochip_open(self.chip)
+            h = lg.gpiochip_open(self.chip)
         except lg.error as e:
             raise chip_error(self.chip, str(e)) from None
         if h < 0:
@@ -82,19 +86,15 @@ class LgpioBackend(Backend):
             raise BackendError(f"error: cannot claim GPIO {list(self.coil_pins)} and "
                                f"{self.pen_pin} on gpiochip{self.chip} ({e}); is another program "
                                f"using them? (or change the pins in the config)") from None
-        self.pen = PenTrains(lg, h, self.pen_pin, self.cfg.pen.up_us,
-                             int(round(self.cfg.pen.settle_s * 1e6)), self.clock, self.sleep)
 
     def close(self) -> None:
-        """Let the pen train finish its last pulse, then all coils low, the pen pin low, pins and
+        """All coils low, the pen pin low (a pulse is always whole when play() returns), pins and
         chip released. Never raises."""
         lg, h = self.lg, self.handle
         if h is None:
             return
-        steps = [lambda: lg.group_write(h, self.leader, self.idle_word, self.mask)]
-        if self.pen is not None:
-            steps += [self.pen.wait, self.pen.release]
-        steps += [lambda: lg.gpio_write(h, self.pen_pin, 0),
+        steps = [lambda: lg.group_write(h, self.leader, self.idle_word, self.mask),
+                 lambda: lg.gpio_write(h, self.pen_pin, 0),
                   lambda: lg.group_free(h, self.leader),
                   lambda: lg.gpio_free(h, self.pen_pin),
                   lambda: lg.gpiochip_close(h)]
@@ -103,38 +103,26 @@ class LgpioBackend(Backend):
                 step()
             except BaseException:  # noqa: BLE001 - an error or a second Ctrl+C: go on releasing
                 pass
-        self.handle = self.pen = None
+        self.handle = None
 
     def lateness(self) -> dict | None:
         return self._player.lateness.stats()
 
     # ------------------------------------------------------------ play
     def play(self, rows: Rows) -> int:
-        pen = self.pen
-        if len(rows) == 0 or self.stop_requested or pen is None or pen.hung:
-            return 0                         # after a hang the pen is up and the coils off
-        n = pen.play(self._player, rows, lambda: self.stop_requested)
-        if pen.hung:
-            self._hang()
-        return n
-
-    def drain(self) -> None:
-        """Every change handed over is written when play() returns; wait for the pen train."""
-        if self.pen is not None and not self.pen.wait():
-            self._hang()
-
-    def _hang(self):
+        """Every change is written when this returns (drain() has nothing to wait for)."""
+        if len(rows) == 0 or self.stop_requested or self.handle is None:
+            return 0
         try:
-            self.lg.group_write(self.handle, self.leader, self.idle_word, self.mask)
-        except Exception:  # noqa: BLE001
-            pass
-        raise self.pen.emergency()
+            return self._player.play(rows, lambda: self.stop_requested)
+        except self.lg.error as e:
+            raise BackendError(f"error: lgpio failed while drawing: {e}") from None
 
     def _write_coils(self, word: int, changed: int) -> None:
         self.lg.group_write(self.handle, self.leader, word, self.mask)
 
-    def _write_pen(self, width: int) -> None:
-        self.pen.start(width)
+    def _write_pen(self, level: int) -> None:
+        self.lg.gpio_write(self.handle, self.pen_pin, level)
 
     def read_input(self, pin: int) -> bool:
         lg, h = self.lg, self.handle

@@ -103,9 +103,8 @@ _latency_fd: int | None = None
 
 
 def tight_timers() -> None:
-    """Timer slack 1 ns for this thread and the threads it starts (lgpio starts its tx thread
-    at the first gpiochip_open): Linux lets a sleeping thread wake up to 50 us late by default,
-    which would show in every servo pulse lgpio times. Where allowed (root), also ask for no
+    """Timer slack 1 ns for this thread and the threads it starts: Linux lets a sleeping
+    thread wake up to 50 us late by default, which every write the player times would show. Where allowed (root), also ask for no
     deep CPU idle states while the process runs (/dev/cpu_dma_latency 0, as cyclictest does):
     a CPU waking from one makes the next edge later; the request ends with the process."""
     global _latency_fd
@@ -124,41 +123,6 @@ def tight_timers() -> None:
         ctypes.CDLL(None, use_errno=True).prctl(29, ctypes.c_ulong(1), 0, 0, 0)  # PR_SET_TIMERSLACK
     except (OSError, AttributeError):
         pass
-
-
-TX_PRIORITY = 10   # SCHED_FIFO priority for lgpio's tx thread: above every normal thread, below
-                   # the kernel's interrupt threads (50)
-
-
-def tx_thread_priority():
-    """A context for the call that makes lgpio start its tx thread (the first gpiochip_open):
-    the calling thread runs at real-time priority meanwhile, so the tx thread inherits it (its
-    servo pulses then keep their width on a busy machine), and goes back to normal after. Only
-    where allowed (root, or an rtprio limit), and only with two or more CPUs: should lgpio's
-    thread ever spin (the lgpio 0.2 fault), a single CPU would be its alone and no signal
-    would get through. The tx thread only ever holds vplotter's one pen train, so it sleeps
-    nearly all the time."""
-    import contextlib
-
-    @contextlib.contextmanager
-    def ctx():
-        before = None
-        try:
-            if (os.cpu_count() or 1) < 2:
-                raise OSError("one CPU")
-            before = (os.sched_getscheduler(0), os.sched_getparam(0))
-            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(TX_PRIORITY))
-        except (OSError, AttributeError):
-            before = None
-        try:
-            yield
-        finally:
-            if before is not None:
-                try:
-                    os.sched_setscheduler(0, before[0], before[1])
-                except OSError:
-                    pass
-    return ctx()
 
 
 def lean_malloc() -> None:

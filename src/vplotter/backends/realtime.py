@@ -17,6 +17,16 @@ load. Whatever the load, it guarantees:
 - a pen change never sooner than planned after the change before it, and the change after a pen
   change never sooner than planned after it (the settle time is kept whole).
 
+pulse: a backend that can write the servo pin's level directly (lgpio) hands it over, and the
+player times the servo's 50 Hz pulses itself, in the pen's settle time when no coil changes
+(`_train`): it sleeps until PULSE_LEAD_NS before a rise, writes the pin low once (it is low
+already: the first write after a sleep reaches the pin ~30 us late, the ones after it in ~1 us),
+then spins through the rise and the fall (at SCHED_FIFO priority where allowed, so no other
+thread on the machine gets in between), and measures the width from the clock it spins on. Every pulse is whole and exactly as wide as
+configured, to the clock's resolution and the time one write takes; a sleep that wakes late
+delays a pulse, never shortens or lengthens it. A pen change that lasts `d` gets the pulses
+that fit in `d` whole; with width 0 the pulses stop.
+
 pin_at_a_time: the backend sets one pin per call (gpiozero): every coil transition is written one
 bit at a time in an order whose every intermediate pattern is a legal one (`bit_order`), so a
 stall between two bit writes never leaves a two-phase jump on a motor.
@@ -29,6 +39,7 @@ ever played: the real-time trace is what happened, not the plan).
 from __future__ import annotations
 
 import gc
+import os
 import time
 from array import array
 from typing import Callable
@@ -38,6 +49,10 @@ import numpy as np
 from vplotter.schedule import Rows
 
 SHIFT_NS = 100_000     # a move of the timeline by more than 0.1 ms counts as a shift
+SERVO_FRAME_NS = 20_000_000     # 50 Hz servo pulses
+PULSE_LEAD_NS = 300_000         # spin this long before a pulse's rise
+PULSE_PRIORITY = 10             # SCHED_FIFO priority while spinning through a pulse: above every
+                                # normal thread, below the kernel's interrupt threads (50)
 
 
 class Folded:
@@ -147,7 +162,9 @@ class Player:
     write_coils(word, changed_bits) and write_pen(pulse_us) (0 = pulses off).
 
     min_step_us: the shortest time between two coil changes of one motor (0: only the planned
-    intervals are kept); pin_at_a_time: write one coil bit per write_coils call, in a legal order.
+    intervals are kept); pin_at_a_time: write one coil bit per write_coils call, in a legal order;
+    pulse(level): writes the servo pin; given, the player times the servo pulses itself and
+    write_pen is not called.
     catchup and stall_us (the old rules for making up lateness) are accepted and ignored:
     lateness is never made up.
     """
@@ -157,9 +174,13 @@ class Player:
                  sleep: Callable[[float], None] | None = None,
                  spin_us: int = 2000, poll_us: int = 2000, min_step_us: float = 0,
                  pin_at_a_time: bool = False, catchup: float | None = None,
-                 stall_us: int | None = None):
+                 stall_us: int | None = None, pulse: Callable[[int], None] | None = None):
         self.write_coils = write_coils
         self.write_pen = write_pen
+        self.pulse = pulse
+        self.train_ns = 0                    # width of the servo pulses being played (0: none)
+        self.next_rise_ns = 0                # and when the next one rises
+        self.fifo: bool | None = None        # may the player spin at real-time priority?
         self.clock = clock or time.perf_counter_ns
         self.sleep = sleep or time.sleep
         self.spin_ns = spin_us * 1000
@@ -233,6 +254,8 @@ class Player:
                               motor_end[m] + min_step)
             if pen_changed or self.last_pen:
                 due = max(due, self.last_end_ns + (t - self.last_t_us) * 1000)
+            if self.train_ns and not self._train(due, stop):
+                return i
             now = clock()
             while due - now > spin:
                 sleep(min(due - now - spin, poll) / 1e9)
@@ -253,7 +276,10 @@ class Player:
             if changed:
                 self._write(word, changed, clock)
             if pen_changed:
-                self.write_pen(pen)
+                if self.pulse is None:
+                    self.write_pen(pen)
+                else:
+                    self.train_ns, self.next_rise_ns = max(pen, 0) * 1000, start
                 self.pen_us = pen
             self.last_end_ns = clock()
             self.last_t_us, self.last_pen = t, pen_changed
@@ -263,6 +289,56 @@ class Player:
                     if not self.pin_at_a_time:
                         motor_start[m], motor_end[m] = start, self.last_end_ns
         return n
+
+    def _train(self, due: int, stop: Callable[[], bool]) -> bool:
+        """The servo pulses of the running train that fit whole before `due`; False if stop()
+        turned true first (between two pulses, never inside one)."""
+        clock, sleep, width = self.clock, self.sleep, self.train_ns
+        while self.next_rise_ns + width <= due:
+            rise = self.next_rise_ns
+            now = clock()
+            while rise - now > PULSE_LEAD_NS:
+                sleep(min(rise - now - PULSE_LEAD_NS, self.poll_ns) / 1e9)
+                if stop():
+                    return False
+                now = clock()
+            before = self._urgent()
+            try:
+                self.pulse(0)                # the pin is low: this only warms the write path (the
+                now = clock()                # first write after a sleep takes ~30 us longer)
+                while now < rise:            # the width counts from the read just before the rise
+                    now = clock()
+                self.pulse(1)
+                fall = now + width
+                while clock() < fall:
+                    pass
+                self.pulse(0)
+            finally:
+                self._relax(before)
+            self.next_rise_ns = now + SERVO_FRAME_NS     # a late rise moves the ones after it
+        return True
+
+    def _urgent(self):
+        """Real-time priority for this thread, where allowed: the policy to go back to."""
+        if self.fifo is False:
+            return None
+        try:
+            before = (os.sched_getscheduler(0), os.sched_getparam(0))
+            if before[0] != os.SCHED_FIFO:
+                os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(PULSE_PRIORITY))
+                self.fifo = True
+                return before
+        except (OSError, AttributeError):
+            self.fifo = False
+        return None
+
+    @staticmethod
+    def _relax(before) -> None:
+        if before is not None:
+            try:
+                os.sched_setscheduler(0, before[0], before[1])
+            except OSError:
+                pass
 
     def _write(self, word: int, changed: int, clock) -> None:
         if not self.pin_at_a_time:
