@@ -43,7 +43,7 @@ class GrblStandin:
     def __init__(self, rx_buffer: int = 128, blocks: int = 15, tick_s: float = 0.05,
                  error_on: str | None = None, reply_delay: int = 0,
                  disconnect_after: int | None = None, silent: bool = False, settings=None,
-                 alarm_after: int | None = None):
+                 alarm_after: int | None = None, freeze_after: int | None = None):
         self.master, self.slave = os.openpty()
         fcntl.ioctl(self.master, termios.TIOCPKT, struct.pack("i", 1))
         self.port = os.ttyname(self.slave)
@@ -55,6 +55,7 @@ class GrblStandin:
         self.disconnect_after = disconnect_after
         self.silent = silent
         self.alarm_after = alarm_after
+        self.freeze_after = freeze_after      # stops moving (reports Run for ever) after N answers
         self.settings = {**SETTINGS, **(settings or {})}
         self.overflow = 0
         self.max_rx = 0
@@ -187,6 +188,9 @@ class GrblStandin:
         return s + ">"
 
     def _execute(self, dt: float) -> None:
+        if self.freeze_after is not None and self.answered >= self.freeze_after and self.planner:
+            self.state = "Run"                # grbl-sim with its interrupts lost: no more steps
+            return
         while dt > 0 and self.planner:
             b = self.planner[0]
             dx, dy = b["end"][0] - self.mpos[0], b["end"][1] - self.mpos[1]

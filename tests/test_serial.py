@@ -293,6 +293,20 @@ def test_pulled_cable_saves_the_place_and_exits_1(tmp_path, standins, capsys):
     assert state.load().clean
 
 
+def test_a_controller_that_stops_moving_is_an_error_not_a_hang(tmp_path, standins, capsys,
+                                                              monkeypatch):
+    """It answers `?` with Run and the same position for ever (grbl-sim can do that)."""
+    monkeypatch.setattr(grbl, "STALL_S", 1.0)
+    g = standins(tick_s=0.05, freeze_after=40)
+    cfg_path = serial_config(tmp_path, g.port)
+    calibrated(cfg_path)
+    assert run(cfg_path, "draw", str(SQUARE), "--backend", "serial") == 1
+    err = capsys.readouterr().err
+    assert "has not moved for 1 s" in err and "Traceback" not in err and "--resume" in err
+    assert not state.load().clean
+    assert state.last_journal_record()["line"] > 0
+
+
 def test_alarm_stops_with_the_alarm_named_and_an_unclean_position(tmp_path, standins, capsys):
     g = standins(tick_s=0.5, alarm_after=30)
     cfg_path = serial_config(tmp_path, g.port)

@@ -27,6 +27,7 @@ BANNER = re.compile(r"^Grbl(HAL)? \S+ \[.*help")
 READ_TIMEOUT_S = 0.02          # the port's read timeout: how long one read() may block
 NOT_YET = object()             # a chunk source with nothing ready yet (still planning)
 SAME_MM = 0.02                 # reported positions this close to two moves: the earlier one
+STALL_S = 30.0                 # reports Run, same position, no answer for this long: stalled
 
 ERRORS = {
     1: "G-code words need a command letter and a value", 2: "bad number",
@@ -252,6 +253,7 @@ class Streamer:
         self._used = 0
         self._next_poll = 0.0
         self._last_rx = 0.0
+        self._moved = 0.0                  # when the reported position or an answer last changed
 
     # -- the window of lines
     def _add(self, chunk) -> None:
@@ -308,6 +310,7 @@ class Streamer:
                 return
             self._used -= self._inflight.pop(0)
             self.acked += 1
+            self._moved = self.link.clock()
             if ln != "ok":
                 raise ControllerError(_code(ln), self.acked - 1)
         elif ln.startswith("ALARM:"):
@@ -324,6 +327,12 @@ class Streamer:
             if st.state == "Alarm":
                 raise AlarmError(0)
             pos = self.link.work_position(st)
+            now = self.link.clock()
+            if pos != self.pos or st.state != "Run":
+                self._moved = now
+            elif now - self._moved > STALL_S:
+                raise LinkError(f"the controller on {self.link.name} reports Run but has not "
+                                f"moved for {STALL_S:g} s (stalled?)")
             if pos is not None and self.start_q is not None:
                 self.pos = pos
                 self.current = self.locate(pos)
@@ -350,7 +359,7 @@ class Streamer:
         answer, False as soon as stop() is true (nothing more is sent then)."""
         clock = self.link.clock
         self.start_q = tuple(start_q)
-        self._last_rx = clock()
+        self._last_rx = self._moved = clock()
         it = iter(chunks)
         exhausted = False
         idle_seen = False

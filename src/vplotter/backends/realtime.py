@@ -21,7 +21,8 @@ pulse: a backend that can write the servo pin's level directly (lgpio) hands it 
 player times the servo's 50 Hz pulses itself, in the pen's settle time when no coil changes
 (`_train`): it sleeps until PULSE_LEAD_NS before a rise, writes the pin low once (it is low
 already: the first write after a sleep reaches the pin ~30 us late, the ones after it in ~1 us),
-then spins through the rise and the fall (at SCHED_FIFO priority where allowed, so no other
+then spins through the rise and the fall, writing the pin high again WARM_NS before the fall
+(measured over the shim: the fall then reaches the pin 0.8 us after its time, not 6.5 us) (at SCHED_FIFO priority where allowed, so no other
 thread on the machine gets in between), and measures the width from the clock it spins on. Every pulse is whole and exactly as wide as
 configured, to the clock's resolution and the time one write takes; a sleep that wakes late
 delays a pulse, never shortens or lengthens it. A pen change that lasts `d` gets the pulses
@@ -51,6 +52,7 @@ from vplotter.schedule import Rows
 SHIFT_NS = 100_000     # a move of the timeline by more than 0.1 ms counts as a shift
 SERVO_FRAME_NS = 20_000_000     # 50 Hz servo pulses
 PULSE_LEAD_NS = 300_000         # spin this long before a pulse's rise
+WARM_NS = 40_000                # and write the level it has this long before each edge
 PULSE_PRIORITY = 10             # SCHED_FIFO priority while spinning through a pulse: above every
                                 # normal thread, below the kernel's interrupt threads (50)
 
@@ -310,6 +312,9 @@ class Player:
                     now = clock()
                 self.pulse(1)
                 fall = now + width
+                while clock() < fall - WARM_NS:
+                    pass
+                self.pulse(1)                # warms the path again (the fall came ~5 us late)
                 while clock() < fall:
                     pass
                 self.pulse(0)
