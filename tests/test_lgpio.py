@@ -243,6 +243,21 @@ def test_lateness_is_kept_in_fixed_memory(cfg, parts, monkeypatch):
     assert b._player.lateness.folded.counts.nbytes == size
 
 
+def test_freed_pages_are_given_back_between_parts_at_most_every_few_seconds(monkeypatch):
+    from vplotter import memory
+
+    calls = []
+    libc = type("libc", (), {"malloc_trim": lambda self, pad: calls.append(("trim", pad)),
+                             "mallopt": lambda self, k, v: calls.append((k, v))})()
+    monkeypatch.setattr(memory, "_libc", libc)
+    monkeypatch.setattr(memory, "_last", 0.0)
+    memory.lean_malloc()
+    assert (memory.M_ARENA_MAX, 1) in calls and (memory.M_MMAP_THRESHOLD, memory.MMAP_FROM) in calls
+    for t in (100.0, 101.0, 104.9, 105.0, 106.0):
+        memory.give_back(t)
+    assert calls.count(("trim", 0)) == 2
+
+
 def test_folded_percentiles_match_the_exact_ones():
     rng = np.random.default_rng(1)
     ns = np.concatenate((rng.exponential(30_000, 5000), rng.exponential(5e6, 50))).astype(np.int64)

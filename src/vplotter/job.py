@@ -18,7 +18,7 @@ from typing import Iterable
 
 import numpy as np
 
-from vplotter import drivers, state
+from vplotter import drivers, memory, state
 from vplotter.errors import BackendError, Interrupted, MachineError, StateError
 from vplotter.schedule import Rows
 
@@ -401,6 +401,7 @@ class _Ahead:
                     if not self._put(part):
                         return
                 rows = part = None      # the stretches are copies: the computed part can go
+                memory.give_back()
             self._put(_END)
         except BaseException as e:  # noqa: BLE001 - handed to the main thread
             self._put(_Failure(e))

@@ -19,6 +19,7 @@ import sys
 import time
 import warnings
 
+from vplotter import memory
 from vplotter.backends import Backend
 from vplotter.backends.realtime import Player
 from vplotter.errors import BackendError
@@ -81,6 +82,7 @@ class GpiozeroBackend(Backend):
             raise BackendError(f"error: the gpiozero backend needs the gpiozero package; {HINT}") \
                 from None
         prepared = self._prepare_lgpio()
+        memory.lean_malloc()
         try:
             with warnings.catch_warnings(), prepared:
                 warnings.simplefilter("ignore")  # gpiozero warns about each factory it skips

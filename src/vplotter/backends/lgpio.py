@@ -30,7 +30,8 @@ import time
 
 
 from vplotter.backends import Backend
-from vplotter.backends.lgpio_setup import chip_error, lean_malloc, load_lgpio, tight_timers
+from vplotter.backends.lgpio_setup import chip_error, load_lgpio, tight_timers
+from vplotter import memory
 from vplotter.backends.realtime import Player
 from vplotter.errors import BackendError
 from vplotter.schedule import Rows
@@ -69,7 +70,7 @@ class LgpioBackend(Backend):
                                    f"([pen] up_us/down_us)")
         lg = self.lg = self.lg or load_lgpio()
         tight_timers()
-        lean_malloc()
+        memory.lean_malloc()
         try:
             h = lg.gpiochip_open(self.chip)
         except lg.error as e:

@@ -125,20 +125,6 @@ def tight_timers() -> None:
         pass
 
 
-def lean_malloc() -> None:
-    """Large blocks (numpy arrays of a planned stretch) from their own mappings, given back
-    when freed: glibc otherwise raises that threshold after the first large free and keeps
-    such blocks in the heap, so the resident size stays at the largest stretch ever planned."""
-    if not sys.platform.startswith("linux"):
-        return
-    try:
-        import ctypes
-
-        ctypes.CDLL(None).mallopt(-3, 128 * 1024)   # M_MMAP_THRESHOLD (fixed: no raising)
-    except (OSError, AttributeError):
-        pass
-
-
 def chip_errno(chip: int) -> int:
     """Why /dev/gpiochipN cannot be opened (lgpio says only "can not open gpiochip")."""
     try:
