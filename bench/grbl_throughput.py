@@ -3,7 +3,8 @@
     python bench/grbl_throughput.py --sim /tmp/grblbuild/grbl/grbl-sim/grbl_sim.exe \
         [--file gcode_samples/square.ngc] [--lines N] [--config config.toml] [--only a|b]
 
-grbl-sim (github.com/grbl/grbl-sim, built against gnea/grbl 1.1) compiles grbl's own planner,
+grbl-sim (github.com/grbl/grbl-sim, built against gnea/grbl 1.1 by `bench/build_grbl_sim.sh DIR`,
+with three fixes to the simulator's host code: see there) compiles grbl's own planner,
 stepper and serial code and runs it in real time (time factor 1; it reads one byte per baud tick
 at 115200 into grbl's 128-byte receive buffer). This script starts it with its stdin/stdout on a
 pty, and relays bytes between that pty and a second pty whose slave the client opens as its
@@ -22,7 +23,8 @@ max_step_rate, $120/$121 acceleration = max_accel, converted to mm).
 
 --lines N cuts the G-code FILE to its first N lines; (a) then streams exactly the dry-run stream
 of that cut file, which is what (b) sends. Prints both times, the ratio (a)/(b) (vplotter's
-throughput relative to the reference), lines acknowledged and errors.
+throughput relative to the reference), lines acknowledged and errors, and after (b) the work
+position grbl reports against the last X/Y of the stream (the planned end).
 """
 
 from __future__ import annotations
@@ -114,6 +116,25 @@ class Sim:
                 else:
                     os.write(self.ma, data)
                     self.log.append((t, "rx", data))
+
+    def work_position(self) -> tuple[float, float] | None:
+        """Ask grbl itself (`?`, several times until a report carries WCO): MPos - WCO."""
+        wco = None
+        mpos = None
+        for _ in range(40):
+            n = len(self.log)
+            os.write(self.mb, b"?")
+            time.sleep(0.1)
+            rx = b"".join(d for _, k, d in self.log[n:] if k == "rx").decode(errors="replace")
+            m = re.search(r"MPos:([-\d.]+),([-\d.]+)", rx)
+            w = re.search(r"WCO:([-\d.]+),([-\d.]+)", rx)
+            if m:
+                mpos = (float(m.group(1)), float(m.group(2)))
+            if w:
+                wco = (float(w.group(1)), float(w.group(2)))
+            if mpos and wco:
+                return (mpos[0] - wco[0], mpos[1] - wco[1])
+        return None
 
     def close(self) -> None:
         self._stop = True
@@ -218,6 +239,18 @@ def stream_reference(port: str, lines: list[str], rx_buffer: int = 128) -> None:
     os.close(fd)
 
 
+def planned_end(lines: list[str]) -> tuple[float, float] | None:
+    """The last X and Y the stream commands (work coordinates: after its G92)."""
+    x = y = None
+    for ln in lines:
+        for letter, val in re.findall(r"([XY])(-?[\d.]+)", ln.split(";")[0]):
+            if letter == "X":
+                x = float(val)
+            else:
+                y = float(val)
+    return (x, y) if x is not None and y is not None else None
+
+
 def grbl_settings(cfg: dict) -> dict[str, float]:
     m = cfg["motors"]
     spm = m["steps_per_rev"] / m["spool_circumference_mm"]
@@ -318,6 +351,12 @@ def main() -> int:
             if p.returncode:
                 print(str(p.stdout)[-2000:], str(p.stderr)[-2000:])
             report(res, "b", len(lines))
+            end = planned_end(lines)
+            got = sim.work_position()
+            if end and got:
+                print(f"(b) final work position {got[0]:.3f}, {got[1]:.3f}; planned end "
+                      f"{end[0]:.3f}, {end[1]:.3f}; off by {max(abs(got[0] - end[0]), abs(got[1] - end[1])):.3f} mm",
+                      flush=True)
         finally:
             sim.close()
 

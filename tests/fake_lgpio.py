@@ -321,16 +321,8 @@ class FakeLgpio:
             raise error("GPIO busy")
         self.claimed.add(gpio)
         self.outputs.add(gpio)
-        self._pin(gpio, 1 if level else 0, self._cold())
+        self._pin(gpio, 1 if level else 0, self._us())
         return 0
-
-    def _cold(self) -> int:
-        """When a write called now reaches the pin, at the end of the call: COLD_WRITE_US
-        later after a sleep, HOT_WRITE_US after another write."""
-        cold = self.clock.sleeps != self._woke
-        self._woke = self.clock.sleeps
-        self.clock.ns += (COLD_WRITE_US if cold else HOT_WRITE_US) * 1000
-        return self._us()
 
     def gpio_claim_input(self, handle, gpio, lFlags=0):
         self.calls.append(("gpio_claim_input", handle, gpio))

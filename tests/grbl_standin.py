@@ -43,7 +43,8 @@ class GrblStandin:
     def __init__(self, rx_buffer: int = 128, blocks: int = 15, tick_s: float = 0.05,
                  error_on: str | None = None, reply_delay: int = 0,
                  disconnect_after: int | None = None, silent: bool = False, settings=None,
-                 alarm_after: int | None = None, freeze_after: int | None = None):
+                 alarm_after: int | None = None, freeze_after: int | None = None,
+                 lose_holds: int = 0):
         self.master, self.slave = os.openpty()
         fcntl.ioctl(self.master, termios.TIOCPKT, struct.pack("i", 1))
         self.port = os.ttyname(self.slave)
@@ -56,6 +57,7 @@ class GrblStandin:
         self.silent = silent
         self.alarm_after = alarm_after
         self.freeze_after = freeze_after      # stops moving (reports Run for ever) after N answers
+        self.lose_holds = lose_holds          # the first N `!` are lost (grbl-sim's flag race)
         self.settings = {**SETTINGS, **(settings or {})}
         self.overflow = 0
         self.max_rx = 0
@@ -132,6 +134,8 @@ class GrblStandin:
                 self.realtime.append(c)
                 if c == b"?":
                     self.status_due = True
+                elif c == b"!" and self.lose_holds > 0:
+                    self.lose_holds -= 1
                 elif c == b"!":
                     if self.state == "Run":
                         self.state = "Hold:1"

@@ -223,15 +223,18 @@ def interrupt_after_lines(monkeypatch, lines, signum=signal.SIGINT):
     return orig
 
 
-def test_ctrl_c_holds_lifts_resets_and_resume_completes(tmp_path, standins, monkeypatch, capsys):
-    g = standins(tick_s=0.5)
+@pytest.mark.parametrize("lost", [0, 1])
+def test_ctrl_c_holds_lifts_resets_and_resume_completes(tmp_path, standins, monkeypatch, capsys,
+                                                         lost):
+    """lost: the controller drops that many `!` (grbl-sim can): the hold is sent again."""
+    g = standins(tick_s=0.5, lose_holds=lost)
     cfg_path = serial_config(tmp_path, g.port)
     calibrated(cfg_path)
     orig = interrupt_after_lines(monkeypatch, 200)
     assert run(cfg_path, "draw", str(CIRCLES), "--backend", "serial") == 130
     err = capsys.readouterr().err
     assert "pen lifted" in err and "--resume" in err and "Traceback" not in err
-    assert b"!" in g.realtime and b"\x18" in g.realtime
+    assert g.realtime.count(b"!") == 1 + lost and b"\x18" in g.realtime
     assert g.realtime.index(b"!") < g.realtime.index(b"\x18")
     assert not g.pen_down and g.state == "Idle"              # held before the reset: no alarm
     pos = state.load()

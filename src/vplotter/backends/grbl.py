@@ -27,6 +27,7 @@ BANNER = re.compile(r"^Grbl(HAL)? \S+ \[.*help")
 READ_TIMEOUT_S = 0.02          # the port's read timeout: how long one read() may block
 NOT_YET = object()             # a chunk source with nothing ready yet (still planning)
 SAME_MM = 0.02                 # reported positions this close to two moves: the earlier one
+HOLD_AGAIN_S = 0.5             # a feed hold not taken after this long is sent again
 STALL_S = 30.0                 # reports Run, same position, no answer for this long: stalled
 
 ERRORS = {
@@ -408,7 +409,7 @@ class Streamer:
         clock = self.link.clock
         self.link.write(b"!")
         self._next_poll = 0.0
-        t0 = clock()
+        t0 = sent = clock()
         while True:
             status = self.status
             try:
@@ -417,6 +418,10 @@ class Streamer:
                 pass                  # a refused line behind the hold changes nothing now
             if self.status is not status and self.status.state == "Hold:0":
                 return self.status
+            if self.status is not status and not self.status.state.startswith("Hold") \
+                    and clock() - sent > HOLD_AGAIN_S:
+                self.link.write(b"!")         # not taken (grbl-sim can lose one): again
+                sent = clock()
             if clock() - t0 > timeout_s:
                 raise LinkError(f"the controller on {self.link.name} did not report a "
                                 f"finished feed hold within {timeout_s:g} s")
