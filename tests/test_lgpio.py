@@ -126,6 +126,7 @@ def test_pen_pulses_are_exact_whole_and_written_by_the_player(cfg, parts):
     clock = SimClock()
     b, lg = lgpio_backend(cfg, clock)
     before = os.sched_getscheduler(0), os.sched_getparam(0).sched_priority
+    switch = sys.getswitchinterval()
     play_all(b, parts)
     pin, (up, down) = cfg.pen.pin, (cfg.pen.up_us, cfg.pen.down_us)
     pulses = lg.widths(pin)
@@ -140,6 +141,7 @@ def test_pen_pulses_are_exact_whole_and_written_by_the_player(cfg, parts):
     assert not [c for c in lg.calls if c[0].startswith("tx_")] and not lg.jobs
     assert lg.levels[pin] == 0 and lg.truncated == 0
     assert (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority) == before
+    assert sys.getswitchinterval() == switch
 
 
 def test_without_the_warm_up_write_the_stand_in_makes_pulses_short(cfg, monkeypatch):

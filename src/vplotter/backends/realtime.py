@@ -19,11 +19,15 @@ load. Whatever the load, it guarantees:
 
 pulse: a backend that can write the servo pin's level directly (lgpio) hands it over, and the
 player times the servo's 50 Hz pulses itself, in the pen's settle time when no coil changes
-(`_train`): it sleeps until PULSE_LEAD_NS before a rise, writes the pin low once (it is low
-already: the first write after a sleep reaches the pin ~30 us late, the ones after it in ~1 us),
-then spins through the rise and the fall, writing the pin high again WARM_NS before the fall
-(measured over the shim: the fall then reaches the pin 0.8 us after its time, not 6.5 us) (at SCHED_FIFO priority where allowed, so no other
-thread on the machine gets in between), and measures the width from the clock it spins on. Every pulse is whole and exactly as wide as
+(`_train`). For each pulse it sleeps until PULSE_LEAD_NS before the rise, writes the pin low
+once (it is low already: the first write after a sleep reaches the pin ~30 us late, the ones
+after it ~1 us), spins to the rise and writes it, writes the pin high again WARM_NS before the
+fall (the fall then comes 0.8 us after its time, not 6.5 us; measured over the shim), spins to
+the fall and writes it. The width is measured on the clock it spins on. While it spins it runs
+at SCHED_FIFO priority where allowed (no other thread on the machine gets in between), and
+while a train plays Python's switch interval is SWITCH_S: the player gives the GIL away in every
+sleep between pulses and never has to give it up inside one (a planning thread that asked for
+it there would stretch the pulse by milliseconds). Every pulse is whole and as wide as
 configured, to the clock's resolution and the time one write takes; a sleep that wakes late
 delays a pulse, never shortens or lengthens it. A pen change that lasts `d` gets the pulses
 that fit in `d` whole; with width 0 the pulses stop.
@@ -41,6 +45,7 @@ from __future__ import annotations
 
 import gc
 import os
+import sys
 import time
 from array import array
 from typing import Callable
@@ -53,6 +58,7 @@ SHIFT_NS = 100_000     # a move of the timeline by more than 0.1 ms counts as a 
 SERVO_FRAME_NS = 20_000_000     # 50 Hz servo pulses
 PULSE_LEAD_NS = 300_000         # spin this long before a pulse's rise
 WARM_NS = 40_000                # and write the level it has this long before each edge
+SWITCH_S = 0.05                 # Python's switch interval while a pen train plays (default 5 ms)
 PULSE_PRIORITY = 10             # SCHED_FIFO priority while spinning through a pulse: above every
                                 # normal thread, below the kernel's interrupt threads (50)
 
@@ -183,6 +189,7 @@ class Player:
         self.train_ns = 0                    # width of the servo pulses being played (0: none)
         self.next_rise_ns = 0                # and when the next one rises
         self.fifo: bool | None = None        # may the player spin at real-time priority?
+        self._switch: float | None = None    # the switch interval to go back to
         self.clock = clock or time.perf_counter_ns
         self.sleep = sleep or time.sleep
         self.spin_ns = spin_us * 1000
@@ -229,6 +236,7 @@ class Player:
                 self.lateness.fold()
             if enabled:
                 gc.enable()
+            self._share_gil()
 
     def _play(self, rows: Rows, stop: Callable[[], bool], written: array) -> int:
         n = len(rows)
@@ -282,6 +290,8 @@ class Player:
                     self.write_pen(pen)
                 else:
                     self.train_ns, self.next_rise_ns = max(pen, 0) * 1000, start
+                    if not self.train_ns:
+                        self._share_gil()
                 self.pen_us = pen
             self.last_end_ns = clock()
             self.last_t_us, self.last_pen = t, pen_changed
@@ -296,14 +306,19 @@ class Player:
         """The servo pulses of the running train that fit whole before `due`; False if stop()
         turned true first (between two pulses, never inside one)."""
         clock, sleep, width = self.clock, self.sleep, self.train_ns
+        self._hold_gil()
         while self.next_rise_ns + width <= due:
             rise = self.next_rise_ns
             now = clock()
+            slept = False
             while rise - now > PULSE_LEAD_NS:
                 sleep(min(rise - now - PULSE_LEAD_NS, self.poll_ns) / 1e9)
+                slept = True
                 if stop():
                     return False
                 now = clock()
+            if not slept:                    # let the other threads have the GIL now, so that
+                sleep(0)                     # none can ask for it back during the pulse
             before = self._urgent()
             try:
                 self.pulse(0)                # the pin is low: this only warms the write path (the
@@ -322,6 +337,19 @@ class Player:
                 self._relax(before)
             self.next_rise_ns = now + SERVO_FRAME_NS     # a late rise moves the ones after it
         return True
+
+    def _hold_gil(self) -> None:
+        """While a pen train plays, another thread asks for the GIL only after SWITCH_S (the
+        player releases it in every sleep between pulses): a request during a pulse would
+        stretch it by as long as that thread then keeps the GIL."""
+        if self._switch is None:
+            self._switch = sys.getswitchinterval()
+            sys.setswitchinterval(max(self._switch, SWITCH_S))
+
+    def _share_gil(self) -> None:
+        if self._switch is not None:
+            sys.setswitchinterval(self._switch)
+            self._switch = None
 
     def _urgent(self):
         """Real-time priority for this thread, where allowed: the policy to go back to."""
