@@ -46,8 +46,9 @@ class Backend:
         raise NotImplementedError
 
     def drain(self) -> None:
-        """Wait until every row handed to play() has been output (backends that queue ahead
-        of the motors, lgpio, override this)."""
+        """Wait until every row handed to play() has been output (a backend that queued rows
+        ahead of the motors would override this; every backend here has written them all when
+        play() returns)."""
 
     def read_input(self, pin: int) -> bool:
         """The level of an input pin (a switch), True = high."""
