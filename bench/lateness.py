@@ -26,8 +26,8 @@ sys.path.insert(0, str(ROOT / "src"))
 
 from vplotter import config  # noqa: E402
 from vplotter.backends import create  # noqa: E402
-from vplotter.schedule import Rows  # noqa: E402
-from vplotter.sequencer import TABLES, coil_words  # noqa: E402
+from vplotter.motion.schedule import Rows  # noqa: E402
+from vplotter.motion.sequencer import TABLES, coil_words  # noqa: E402
 
 
 def synthetic(cfg, seconds: float) -> list[Rows]:

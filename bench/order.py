@@ -22,14 +22,17 @@ import numpy as np
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "src"))
 
-from vplotter import config, kinematics, order, pipeline, state  # noqa: E402
+from vplotter import config, kinematics, pipeline  # noqa: E402
+from vplotter.drawing import order  # noqa: E402
+from vplotter.machine import state  # noqa: E402
 from vplotter.inputs import gcode, strokes  # noqa: E402
-from vplotter.prepare import Prepared  # noqa: E402
+from vplotter.motion.segment import CHORD_SHARE  # noqa: E402
+from vplotter.prepare import Prepared, gcode_strokes  # noqa: E402
 
 
 def car(cfg) -> list[strokes.Stroke]:
     recs = gcode.read(os.path.join(ROOT, "gcode_samples", "car.ngc"), warn=lambda m: None)
-    return strokes.from_records(recs, cfg.motion.tolerance_mm * pipeline.CHORD_SHARE)
+    return gcode_strokes(recs, cfg.motion.tolerance_mm * CHORD_SHARE)
 
 
 def random_strokes(n: int = 20_000) -> list[strokes.Stroke]:

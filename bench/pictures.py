@@ -25,7 +25,8 @@ sys.path.insert(0, HERE)
 
 from samples import rosettes_file  # noqa: E402
 
-from vplotter import config, trace  # noqa: E402
+from vplotter import config  # noqa: E402
+from vplotter.machine import trace  # noqa: E402
 from vplotter.cli import main  # noqa: E402
 
 

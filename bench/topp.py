@@ -31,7 +31,7 @@ def strokes_of(cfg, path):
     """Runs of the true path between full stops, sampled every DS_MM: tuples of arrays
     (points (S, 2) machine mm, unit tangents (S, 2), signed curvature (S,), cap (S,),
     corner (S,) True where a move starts), and the pen, dwell and hold time to add."""
-    from vplotter import segment
+    from vplotter.motion import segment
 
     kin = kinematics.from_config(cfg)
     mo = cfg.motion

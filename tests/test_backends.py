@@ -12,13 +12,14 @@ import pytest
 from gpiozero.pins.mock import MockFactory, MockPWMPin
 
 from fake_lgpio import FakeLgpio, SimClock
-from vplotter import config, kinematics, pipeline, state
+from vplotter import config, kinematics, pipeline
+from vplotter.machine import state
 from vplotter.inputs import gcode
 from vplotter.backends import create
 from vplotter.backends.realtime import Player
 from vplotter.errors import BackendError
-from vplotter.job import _split
-from vplotter.schedule import Rows
+from vplotter.machine.job import _split
+from vplotter.motion.schedule import Rows
 
 from conftest import REPO
 

@@ -45,7 +45,7 @@ def test_estimate_equals_dry_run(config_path, tmp_path, capsys):
 
 
 def test_dry_run_does_not_touch_the_stored_position(config_path, tmp_path):
-    from vplotter import state
+    from vplotter.machine import state
 
     trace = tmp_path / "t.csv"
     assert draw(config_path, REPO / "gcode_samples" / "square.ngc", trace) == 0
@@ -54,7 +54,7 @@ def test_dry_run_does_not_touch_the_stored_position(config_path, tmp_path):
 
 
 def test_draw_on_the_fake_machine_stores_the_end_position(config_path, tmp_path):
-    from vplotter import state
+    from vplotter.machine import state
 
     gfile = REPO / "gcode_samples" / "square.ngc"
     assert main(["--config", str(config_path), "calibrate", "--at", "0", "0"]) == 0

@@ -18,7 +18,9 @@ from scipy.spatial import cKDTree
 
 import tracecheck as tc
 from conftest import REPO
-from vplotter import fit, pattern, state
+from vplotter.calibration import fit
+from vplotter.calibration import pattern
+from vplotter.machine import state
 from vplotter.cli import main
 
 TEST_DRAWING = """G21 G90

@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 
 from vplotter.inputs.gcode import Move
 from vplotter.kinematics.vplotter import TwoCord
-from vplotter.segment import arc_sweep, points
+from vplotter.motion.segment import arc_sweep, points
 
 KIN = TwoCord(422.5, 211.25, 430.0)
 coord = st.floats(-180, 180, allow_nan=False)

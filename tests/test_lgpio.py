@@ -14,12 +14,13 @@ import pytest
 from fake_lgpio import (COLD_WRITE_US, HOT_WRITE_US, FakeLgpio, SimClock, expected_coil_changes,
                         pulse)
 from test_backends import cfg, concat, make_rows, parts, pen_changes, rechunk, row_changes  # noqa: F401 (fixtures)
-from vplotter import config, state
+from vplotter import config
+from vplotter.machine import state
 from vplotter.backends import create, lgpio_setup
 from vplotter.backends.realtime import Folded
 from vplotter.backends.lgpio_setup import load_lgpio
 from vplotter.errors import BackendError
-from vplotter.job import Session
+from vplotter.machine.job import Session
 
 FRAME_US = 20_000
 
@@ -246,7 +247,7 @@ def test_lateness_is_kept_in_fixed_memory(cfg, parts, monkeypatch):
 
 
 def test_freed_pages_are_given_back_between_parts_at_most_every_few_seconds(monkeypatch):
-    from vplotter import memory
+    from vplotter.backends import memory
 
     calls = []
     libc = type("libc", (), {"malloc_trim": lambda self, pad: calls.append(("trim", pad)),

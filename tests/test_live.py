@@ -15,7 +15,9 @@ import numpy as np
 import pytest
 
 import tracecheck as tc
-from vplotter import live, lock, state
+from vplotter.machine import live
+from vplotter.machine import lock
+from vplotter.machine import state
 from vplotter.cli import main
 
 from conftest import REPO
@@ -196,7 +198,8 @@ def test_dry_run_after_an_unclean_stop_says_how_uncertain(config_path, capsys):
     capsys.readouterr()
     assert run(config_path, "draw", str(REPO / "gcode_samples" / "square.ngc"), "--dry-run") == 0
     err = capsys.readouterr().err
-    from vplotter import config, job
+    from vplotter import config
+    from vplotter.machine import job
 
     mm = job.uncertainty_mm(config.load(config_path),
                             state.recovered(state.load()).rebased(pos.steps_per_unit))

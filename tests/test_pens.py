@@ -9,7 +9,8 @@ import pytest
 from gpiozero.pins.mock import MockFactory, MockPin
 
 from fake_lgpio import FakeLgpio, SimClock
-from vplotter import config, kinematics, pipeline, state
+from vplotter import config, kinematics, pipeline
+from vplotter.machine import state
 from vplotter.backends import create
 from vplotter.cli import main
 from vplotter.errors import MachineError

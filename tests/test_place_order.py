@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from vplotter import order, place
+from vplotter.drawing import order
+from vplotter.drawing import place
 from vplotter.inputs.strokes import Stroke
-from vplotter.place import Box, Placement
+from vplotter.drawing.place import Box, Placement
 
 coord = st.floats(-100, 100, allow_nan=False).map(lambda v: round(v, 3))
 point = st.tuples(coord, coord)

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from vplotter import config, kinematics
-from vplotter.planner import RATE_MARGIN, Planner
-from vplotter.schedule import Scheduler
+from vplotter.motion.planner import RATE_MARGIN, Planner
+from vplotter.motion.schedule import Scheduler
 
 from conftest import REPO
 
@@ -89,7 +89,8 @@ def test_cord_move_rest_to_rest():
 # ---------------------------------------------------------------- plan once, draw as planned
 from hypothesis import given, strategies as st  # noqa: E402
 
-from vplotter import pipeline, segment  # noqa: E402
+from vplotter import pipeline  # noqa: E402
+from vplotter.motion import segment  # noqa: E402
 from vplotter.inputs import gcode  # noqa: E402
 
 STROKES = REPO / "gcode_samples" / "strokes.ngc"
@@ -120,7 +121,7 @@ def test_a_plan_too_long_to_keep_is_planned_again(monkeypatch):
 
 
 def test_pen_changes_are_stops_inside_the_look_ahead(monkeypatch):
-    from vplotter.planner import Planner as P
+    from vplotter.motion.planner import Planner as P
 
     rounds = []
     orig = P._profile
@@ -160,7 +161,7 @@ def test_cutting_many_moves_at_once_equals_one_by_one(raw, tol):
 def test_corners_and_ramps_share_the_acceleration_budget():
     """On every piece, what the ramps use plus the corner at either end stays within the
     budget: |slope| x a + jump x v x max(1/TAU, v/ds) <= max_accel (per motor, steps/s^2)."""
-    from vplotter.planner import ACCEL_MARGIN, TAU_S
+    from vplotter.motion.planner import ACCEL_MARGIN, TAU_S
 
     counts, ref = _start()
     acc = CFG.motors.max_accel * ACCEL_MARGIN / SPM

@@ -16,12 +16,13 @@ from hypothesis import given, settings, strategies as st
 import tracecheck as tc
 from fake_lgpio import SimClock
 from test_backends import SHORT, concat, make_rows, steady
-from vplotter import config, kinematics, pipeline, state
+from vplotter import config, kinematics, pipeline
+from vplotter.machine import state
 from vplotter.backends import create
 from vplotter.backends.realtime import ORDER, Player, bit_order
 from vplotter.inputs import gcode
-from vplotter.job import _split
-from vplotter.sequencer import TABLES
+from vplotter.machine.job import _split
+from vplotter.motion.sequencer import TABLES
 
 from conftest import REPO
 

@@ -13,7 +13,8 @@ from hypothesis import assume, given, settings, strategies as st
 
 import tracecheck as tc
 import tracecheck_polar as tp
-from vplotter import config, state
+from vplotter import config
+from vplotter.machine import state
 from vplotter.cli import main
 from vplotter.kinematics.polar import Polar
 
@@ -342,7 +343,7 @@ def test_random_strokes_across_the_pole(pts):
 
     from vplotter import kinematics, pipeline
     from vplotter.inputs import gcode as gc
-    from vplotter.trace import TraceWriter
+    from vplotter.machine.trace import TraceWriter
 
     cfg = config.load(POLAR)
     text = "G21 G90\n" + f"G0 X{pts[0][0]:.4f} Y{pts[0][1]:.4f}\nM3\n" + "".join(

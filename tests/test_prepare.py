@@ -15,12 +15,13 @@ from hypothesis import given, strategies as st
 
 import tracecheck as tc
 from conftest import REPO
-from vplotter import config, order
+from vplotter import config
+from vplotter.drawing import order
 from vplotter.cli import main
 from vplotter.commands.files import write_gcode
-from vplotter.inputs import gcode, strokes as strokes_mod
+from vplotter.inputs import gcode
 from vplotter.inputs.strokes import Drawing, Stroke
-from vplotter.prepare import Prepared
+from vplotter.prepare import Prepared, gcode_strokes
 
 CAR = REPO / "gcode_samples" / "car.ngc"
 
@@ -176,7 +177,7 @@ def test_info_and_convert_on_bad_input(capsys, config_path, tmp_path, command, c
 # ------------------------------------------------------------------ convert
 def _strokes_of(text: str) -> list[Stroke]:
     recs = gcode.parse_lines(text.splitlines(), "out.ngc", gcode.detect_pen_mode(text.splitlines()))
-    return strokes_mod.from_records(recs, 0.001)
+    return gcode_strokes(recs, 0.001)
 
 
 def test_convert_reads_back_and_converts_to_itself(capsys, config_path, tmp_path):
@@ -373,7 +374,7 @@ def test_interrupted_ordered_draw_resumes_on_the_placed_path(capsys, config_path
     from scipy.spatial import cKDTree
 
     from test_safety import interrupt_after
-    from vplotter import state
+    from vplotter.machine import state
     from vplotter.backends.fake import FakeBackend
 
     opts = ["--order", "best", "--rotate", "15", "--scale", "0.9"]
@@ -424,10 +425,10 @@ def test_pause_goes_on_when_stdin_is_closed(capsys, tmp_path):
 
 
 def test_progress_line_shows_travel_pen_lifts_and_time(capsys):
-    from vplotter.commands.draw import _Progress
+    from vplotter.commands.common import Progress
     from vplotter.pipeline import Summary
 
-    p = _Progress(Summary(travel_mm=1234.0, pen_downs=17, time_s=3725.0))
+    p = Progress(Summary(travel_mm=1234.0, pen_downs=17, time_s=3725.0))
     p(1_862_500_000, 42)
     err = capsys.readouterr().err
     assert "50%" in err and "line 42" in err and "31:02 left" in err

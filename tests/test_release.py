@@ -11,7 +11,7 @@ import pytest
 
 import tracecheck as tc
 from test_safety import interrupt_after
-from vplotter import drivers
+from vplotter.motion import drivers
 from vplotter.cli import main
 from vplotter.config import load
 

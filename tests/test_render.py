@@ -15,9 +15,11 @@ from hypothesis import given, settings, strategies as st
 from PIL import Image
 
 from test_cli_errors import GARBAGE, run
-from vplotter import config, kinematics, render, trace
-from vplotter.schedule import Rows
-from vplotter.sequencer import TABLES, coil_words
+from vplotter import config, kinematics
+from vplotter.drawing import render
+from vplotter.machine import trace
+from vplotter.motion.schedule import Rows
+from vplotter.motion.sequencer import TABLES, coil_words
 
 SAMPLES = Path(__file__).resolve().parent.parent / "gcode_samples"
 SVG = "{http://www.w3.org/2000/svg}"

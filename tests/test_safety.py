@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 
 import tracecheck as tc
-from vplotter import lock, state
+from vplotter.machine import lock
+from vplotter.machine import state
 from vplotter.backends.fake import FakeBackend
 from vplotter.cli import main
 
@@ -204,7 +205,7 @@ def test_crash_leaves_an_unclean_stop_with_a_bound_that_holds(config_path, tmp_p
 
 HOLD = r"""
 import sys
-from vplotter import lock
+from vplotter.machine import lock
 lock.acquire(sys.argv[1])
 print("held", flush=True)
 sys.stdin.read()

@@ -19,7 +19,10 @@ from hypothesis import given, strategies as st
 
 import tracecheck as tc
 from grbl_standin import GrblStandin
-from vplotter import config, kinematics, linestream, motorcut, state
+from vplotter import config, kinematics
+from vplotter.motion import linestream
+from vplotter.motion import motorcut
+from vplotter.machine import state
 from vplotter.backends import grbl
 from vplotter.cli import main
 
@@ -337,7 +340,7 @@ def test_a_second_vplotter_is_refused_before_the_port_is_opened(tmp_path, standi
     cfg_path = serial_config(tmp_path, g.port)
     calibrated(cfg_path)
     holder = subprocess.Popen(
-        [sys.executable, "-c", "import sys; from vplotter import lock; lock.acquire('vplotter "
+        [sys.executable, "-c", "import sys; from vplotter.machine import lock; lock.acquire('vplotter "
          "draw car.ngc'); print('held', flush=True); sys.stdin.read()"],
         stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
         env={**os.environ, "PYTHONPATH": str(REPO / "src")})

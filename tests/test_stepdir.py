@@ -14,12 +14,14 @@ from hypothesis import given, strategies as st
 import tracecheck as tc
 import tracecheck_polar as tp
 from fake_lgpio import FakeLgpio, SimClock
-from vplotter import config, drivers, kinematics, pipeline, state
+from vplotter import config, kinematics, pipeline
+from vplotter.motion import drivers
+from vplotter.machine import state
 from vplotter.backends import create
 from vplotter.cli import main
 from vplotter.errors import ConfigError
 from vplotter.inputs import gcode
-from vplotter.job import _split
+from vplotter.machine.job import _split
 
 from conftest import REPO
 from test_safety import interrupt_after

@@ -72,6 +72,10 @@ def main(argv: list[str] | None = None) -> int:
         return _run(handler, args, argv)
     except VplotterError as e:
         msg = str(e)
+        if isinstance(e, BusyError) and e.holder:
+            from vplotter.machine import live
+
+            msg = live.busy_line(e.holder)
         if isinstance(e, BusyError) or "error:" in msg:
             eprint(msg if not msg.startswith("error:") else f"vplotter: {msg}")
         else:
@@ -90,7 +94,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _run(handler, args, argv) -> int:
-    from vplotter import lock
+    from vplotter.machine import lock
 
     try:
         return handler(args, argv)

@@ -7,6 +7,7 @@ key nobody declared is an error (it is usually a typo), and every error names th
 from __future__ import annotations
 
 import difflib
+import os
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -135,7 +136,7 @@ class Pen:
     the pen is down (a solenoid). "switch": `pin` runs the cam motor: up until `switch_pin`
     closes (at most timeout_s), down for down_s. The schedule's pen rows carry up_us/down_us
     for every kind (1 and 2 for output and switch): the backend turns them into what the kind
-    needs (pens.py)."""
+    needs (backends/pens.py)."""
 
     pin: int
     up_us: int
@@ -516,3 +517,11 @@ def load(path: str | Path) -> Config:
     except tomllib.TOMLDecodeError as e:
         raise ConfigError(f"{p}: error: not valid TOML: {e}") from None
     return from_dict(data, str(p))
+
+
+def state_dir() -> Path:
+    """Where vplotter keeps the machine's truth: $XDG_STATE_HOME/vplotter (default
+    ~/.local/state/vplotter): the stored position, the journal, the lock, live progress, and
+    lgpio's notify FIFO."""
+    base = os.environ.get("XDG_STATE_HOME") or os.path.join(os.path.expanduser("~"), ".local", "state")
+    return Path(base) / "vplotter"

@@ -38,9 +38,14 @@ class BackendError(VplotterError, RuntimeError):
 
 
 class BusyError(VplotterError):
-    """Another vplotter process holds the plotter."""
+    """Another vplotter process holds the plotter; `holder` is the lock file's {"pid",
+    "command", "since"} (`machine.live.busy_line` adds the draw's progress to the message)."""
 
     exit_code = 3
+
+    def __init__(self, message: str, holder: dict | None = None):
+        super().__init__(message)
+        self.holder = holder or {}
 
 
 class Interrupted(VplotterError):

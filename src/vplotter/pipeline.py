@@ -12,19 +12,18 @@ from typing import Iterable, Iterator
 
 import numpy as np
 
-from vplotter import kinematics, segment
-from vplotter.inputs import gcode
+from vplotter import kinematics
 from vplotter.config import Config
 from vplotter.errors import ConfigError, InputError
-from vplotter.planner import Block, Planner, Turn, _slice
-from vplotter.prepare import Pause
-from vplotter.schedule import Rows, Scheduler
+from vplotter.inputs import gcode
+from vplotter.inputs.gcode import Pause
+from vplotter.motion import segment
+from vplotter.motion.planner import Block, Planner, Turn, _slice
+from vplotter.motion.schedule import Rows, Scheduler
+from vplotter.motion.segment import CHORD_SHARE
 
 
 BATCH = 512  # moves per batch handed to the planner
-# Share of tolerance_mm given to the chords of arcs; the rest is left for the step quantisation
-# (half a step of each cord moves the pen by up to ~0.008 mm on the seed machine's page).
-CHORD_SHARE = 0.75
 
 
 @dataclass

@@ -1,5 +1,5 @@
 """From a file to the records the pipeline draws: read (G-code or SVG) -> Drawing ->
-placement (`place.py`) -> ordering (`order.py`) -> records.
+placement (`drawing/place.py`) -> ordering (`drawing/order.py`) -> records.
 
 A G-code file drawn as it is (--order keep, no placement option) streams its own records
 unchanged: exact arcs, dwells, feeds and line numbers, flat memory; resume and --from-line
@@ -16,7 +16,7 @@ import bisect
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Callable, Iterator
+from typing import Callable, Iterable, Iterator
 
 from vplotter.errors import ConfigError, InputError
 
@@ -79,7 +79,7 @@ def add_file_options(p: argparse.ArgumentParser) -> None:
 
 
 def placement(args):
-    from vplotter.place import Placement
+    from vplotter.drawing.place import Placement
 
     return Placement(scale=getattr(args, "scale", None) or 1.0,
                      rotate_deg=getattr(args, "rotate", None) or 0.0,
@@ -103,14 +103,47 @@ def is_svg(path: str) -> bool:
     return head.lstrip(b"\xef\xbb\xbf \t\r\n").startswith(b"<")
 
 
-# ------------------------------------------------------------------ records
-@dataclass(frozen=True, slots=True)
-class Pause:
-    """Lift the pen (already up) and wait for the person: between layers."""
+# ------------------------------------------------------------------ G-code as strokes
+def gcode_strokes(records: Iterable, tol_mm: float) -> list:
+    """Group the pen-down moves of a record stream into strokes (arcs cut within tol_mm).
+    Pen-up moves are travel and are dropped: ordering and placement make their own."""
+    import numpy as np
 
-    line: int
-    col: int
-    message: str
+    from vplotter.inputs.gcode import Dwell, Move, Pen
+    from vplotter.inputs.strokes import Stroke
+    from vplotter.motion import segment
+
+    strokes: list = []
+    down = False
+    cur: list[np.ndarray] = []
+    first = None
+    feed = None
+
+    def close() -> None:
+        if first is not None and cur:
+            strokes.append(Stroke(np.concatenate(cur), first.line, first.col, feed))
+
+    xy = np.zeros((1, 2))
+    for rec in records:
+        if isinstance(rec, Pen):
+            if rec.down and not down:
+                cur, first, feed = [xy.copy()], rec, None
+            elif down and not rec.down:
+                close()
+                cur, first = [], None
+            down = rec.down
+        elif isinstance(rec, Move):
+            pts = segment.points(rec, tol_mm)
+            if down and len(pts):
+                cur.append(pts)
+                if rec.feed_mm_s is not None and not rec.rapid:
+                    feed = rec.feed_mm_s if feed is None else min(feed, rec.feed_mm_s)
+            xy = np.array([[rec.x1, rec.y1]])
+        elif isinstance(rec, Dwell):
+            continue
+    if down:
+        close()
+    return strokes
 
 
 # ------------------------------------------------------------------ the prepared drawing
@@ -148,9 +181,7 @@ class Prepared:
         return self._strokes
 
     def _read_gcode_strokes(self) -> list:
-        from vplotter.inputs import strokes
-
-        return strokes.from_records(self._gcode(), self.tol_mm)
+        return gcode_strokes(self._gcode(), self.tol_mm)
 
     def _gcode(self):
         from vplotter.inputs import gcode
@@ -167,8 +198,8 @@ class Prepared:
         return self._stroke_records()
 
     def _stroke_records(self) -> Iterator:
-        from vplotter import order
-        from vplotter.inputs.gcode import Move, Pen
+        from vplotter.drawing import order
+        from vplotter.inputs.gcode import Move, Pause, Pen
 
         strokes = self.strokes
         joined = order.joined(strokes, self.join_mm)
@@ -233,7 +264,7 @@ def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
             start_xy=(0.0, 0.0)) -> Prepared:
     """Read, place and order `path` as the file options in `args` say. The pen starts at
     start_xy (G-code mm) for the travel."""
-    from vplotter import pipeline
+    from vplotter.motion.segment import CHORD_SHARE
 
     svg = is_svg(path)
     place_opts = placement(args)
@@ -245,7 +276,7 @@ def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
     join_mm = getattr(args, "join", 0.05)
     join_mm = 0.05 if join_mm is None else join_mm
     pause = bool(getattr(args, "pause_between_layers", False))
-    tol = cfg.motion.tolerance_mm * pipeline.CHORD_SHARE
+    tol = cfg.motion.tolerance_mm * CHORD_SHARE
     key = options_key(path, args)
     prep = Prepared(path, not svg, passthrough=False, strict=strict, join_mm=join_mm,
                     pause=pause, key=key, warn=warn,
@@ -263,7 +294,8 @@ def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
 
         drawing = Drawing(path, prep._read_gcode_strokes())
     prep._drawing = drawing
-    from vplotter import order, place
+    from vplotter.drawing import order
+    from vplotter.drawing import place
 
     pg = cfg.page
     page = place.Box(pg.x_min_mm, pg.y_min_mm, pg.x_max_mm, pg.y_max_mm)

@@ -7,10 +7,10 @@ machine (`vplotter draw FILE --dry-run --realtime --verbose`).
 
 from __future__ import annotations
 
-from vplotter import pens
-from vplotter.backends import Backend
+from vplotter.backends import pens
+from vplotter.backends.base import Backend
 from vplotter.backends.realtime import Player
-from vplotter.schedule import Rows
+from vplotter.motion.schedule import Rows
 
 
 class FakeBackend(Backend):

@@ -19,11 +19,11 @@ import sys
 import time
 import warnings
 
-from vplotter import memory
-from vplotter.backends import Backend
+from vplotter.backends import memory
+from vplotter.backends.base import Backend
 from vplotter.backends.realtime import Player
 from vplotter.errors import BackendError
-from vplotter.schedule import Rows
+from vplotter.motion.schedule import Rows
 
 HINT = "use --dry-run to simulate, or GPIOZERO_PIN_FACTORY=mock"
 
@@ -114,7 +114,7 @@ class GpiozeroBackend(Backend):
         """The pen pin as a plain output (and the cam's switch as an input)."""
         from gpiozero import DigitalInputDevice, DigitalOutputDevice
 
-        from vplotter import pens
+        from vplotter.backends import pens
 
         pen, factory = self.cfg.pen, self._coils[0].pin_factory
         try:

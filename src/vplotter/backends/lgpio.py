@@ -29,12 +29,12 @@ import inspect
 import time
 
 
-from vplotter.backends import Backend
+from vplotter.backends.base import Backend
 from vplotter.backends.lgpio_setup import chip_error, load_lgpio, tight_timers
-from vplotter import memory
+from vplotter.backends import memory
 from vplotter.backends.realtime import Player
 from vplotter.errors import BackendError
-from vplotter.schedule import Rows
+from vplotter.motion.schedule import Rows
 
 
 class LgpioBackend(Backend):

@@ -34,7 +34,7 @@ def load_lgpio(importer=None):
         def importer():
             import lgpio
             return lgpio
-    from vplotter.state import state_dir
+    from vplotter.config import state_dir
 
     where = state_dir()
     try:

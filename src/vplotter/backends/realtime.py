@@ -52,7 +52,7 @@ from typing import Callable
 
 import numpy as np
 
-from vplotter.schedule import Rows
+from vplotter.motion.schedule import Rows
 
 SHIFT_NS = 100_000     # a move of the timeline by more than 0.1 ms counts as a shift
 SERVO_FRAME_NS = 20_000_000     # 50 Hz servo pulses

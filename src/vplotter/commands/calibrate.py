@@ -2,8 +2,8 @@
 
 - `calibrate steps`: measure a cord before and after a known number of steps and write the
   corrected spool_circumference_mm into config.toml, keeping its comments and layout.
-- `calibrate pattern`: draw numbered marks over the page and write pattern.csv (pattern.py).
-- `calibrate fit`: fit the machine to the distances measured between the marks (fit.py),
+- `calibrate pattern`: draw numbered marks over the page and write pattern.csv (calibration/pattern.py).
+- `calibrate fit`: fit the machine to the distances measured between the marks (calibration/fit.py),
   write the new values into config.toml and keep the stored position where the pen really is.
 """
 
@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from vplotter import state
+from vplotter.machine import state
 from vplotter.errors import ConfigError, InputError
 
 
@@ -46,15 +46,15 @@ def write_circumference(path: str | Path, value: float, motor: str | None = None
 
 
 def calibrate_steps(args, cfg, command: str) -> int:
-    from vplotter import job
-    from vplotter.schedule import Scheduler
+    from vplotter.machine import job
+    from vplotter.motion.schedule import Scheduler
 
     if args.motor is None:
         raise ConfigError("error: calibrate steps needs --motor left|right")
     if not 0 < args.steps <= 100_000:
         raise ConfigError(f"error: --steps must be 1..100000 (got {args.steps})")
     if not args.dry_run:            # the plotter first: a busy one fails before any question
-        from vplotter import lock
+        from vplotter.machine import lock
 
         lock.acquire(command)
     m = 0 if args.motor == "left" else 1
@@ -109,7 +109,8 @@ def calibrate_pattern(args, cfg, command: str) -> int:
     """Draw numbered marks over the page and write pattern.csv with the pairs to measure."""
     import numpy as np
 
-    from vplotter import pattern, pipeline
+    from vplotter import pipeline
+    from vplotter.calibration import pattern
     from vplotter.commands.common import position, session, stream_rows
     from vplotter.inputs.strokes import to_records
 
@@ -165,7 +166,7 @@ def _vplotter_only(cfg, what: str) -> None:
 
 
 def _machine_from(cfg, reference):
-    from vplotter import fit
+    from vplotter.calibration import fit
 
     m = cfg.motors
     left, right = m.circumferences_mm
@@ -186,7 +187,10 @@ def calibrate_fit(args, cfg, command: str) -> int:
 
     import numpy as np
 
-    from vplotter import config, fit, kinematics, lock, pattern
+    from vplotter import config, kinematics
+    from vplotter.calibration import fit
+    from vplotter.machine import lock
+    from vplotter.calibration import pattern
 
     _vplotter_only(cfg, "fit")
     if not args.file:

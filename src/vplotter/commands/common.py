@@ -6,6 +6,7 @@ import argparse
 import sys
 
 from vplotter.errors import InputError, MachineError
+from vplotter.machine.live import clock_text
 
 
 def eprint(msg: str) -> None:
@@ -35,7 +36,10 @@ def position(cfg, args, dry_run: bool):
     running one is changing); the session shares it, and it is released when the command ends.
     A dry run takes no lock; without a stored position it assumes X0 Y0, after an unclean stop
     it goes on but says how uncertain the stored position is."""
-    from vplotter import job, kinematics, lock, state
+    from vplotter import kinematics
+    from vplotter.machine import job
+    from vplotter.machine import lock
+    from vplotter.machine import state
 
     if not dry_run:
         lock.acquire(lock_command(args))
@@ -81,7 +85,7 @@ def add_machine_options(p: argparse.ArgumentParser) -> None:
 
 
 def session(args, cfg, command: str, pos):
-    from vplotter.job import Session
+    from vplotter.machine.job import Session
 
     dry = getattr(args, "dry_run", False)
     if args.backend == "serial":
@@ -138,3 +142,26 @@ def run_records(args, cfg, command: str, pos, records) -> int:
                else stream_rows(cfg, records, pos, command))
     return 0
 
+
+class Progress:
+    """A one-line progress bar on stderr (only on a terminal): done, line, time left, and the
+    drawing's travel, pen lifts and plot time."""
+
+    def __init__(self, summary):
+        self.total_us = max(summary.time_s * 1e6, 1.0)
+        self.tail = (f"travel {summary.travel_mm / 1000:.2f} m, {summary.pen_downs} pen lifts, "
+                     f"plot time {clock_text(summary.time_s)}")
+        self.last = -1
+
+    def __call__(self, t_us: int, line: int) -> None:
+        pct = min(100, int(100 * t_us / self.total_us))
+        if pct == self.last:
+            return
+        self.last = pct
+        left = max(0.0, (self.total_us - t_us) / 1e6)
+        bar = "#" * (pct // 4) + "-" * (25 - pct // 4)
+        say(f"\r[{bar}] {pct:3d}%  line {line}  {clock_text(left)} left; {self.tail} ",
+             sys.stderr, end="")
+
+    def done(self) -> None:
+        say("", sys.stderr)

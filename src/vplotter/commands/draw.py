@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from vplotter.commands.common import (command_line, load_config, eprint, file_hash, position,
-                                      add_machine_options, say, session)
+from vplotter.commands.common import (Progress, add_machine_options, command_line, eprint,
+                                      file_hash, load_config, position, say, session)
 from vplotter.errors import ConfigError, MachineError
 
 
@@ -72,7 +72,7 @@ def cmd_draw(args, argv=None) -> int:
     from vplotter.errors import Interrupted
     from vplotter.prepare import options_key
 
-    from vplotter import live
+    from vplotter.machine import live
 
     cfg = load_config(args)
     if args.detach and args.dry_run:
@@ -117,7 +117,7 @@ def cmd_draw(args, argv=None) -> int:
                                    start_at=begin, where=prep.where)
         if s.tracer is not None:
             s.tracer.comment(f"file {os.path.abspath(args.file)}")
-        progress = (_Progress(summary) if summary and sys.stderr.isatty() and not s.dry_run
+        progress = (Progress(summary) if summary and sys.stderr.isatty() and not s.dry_run
                     else None)
         s.on_pause = _pause_handler(s, progress)
         try:
@@ -167,7 +167,7 @@ def _detach(args, argv, s) -> int:
     import os
     import subprocess
 
-    from vplotter import live
+    from vplotter.machine import live
 
     rest = [a for a in (argv if argv is not None else sys.argv[1:]) if a != "--detach"]
     held = s.hand_over_pins()
@@ -224,36 +224,6 @@ def wait_enter(stdin, stop, poll_s: float = 0.2) -> None:
             return
     if stdin.readline() == "":
         eprint("vplotter: warning: standard input is closed: not waiting at the pause")
-
-
-class _Progress:
-    """A one-line progress bar on stderr (only on a terminal): done, line, time left, and the
-    drawing's travel, pen lifts and plot time."""
-
-    def __init__(self, summary):
-        self.total_us = max(summary.time_s * 1e6, 1.0)
-        self.tail = (f"travel {summary.travel_mm / 1000:.2f} m, {summary.pen_downs} pen lifts, "
-                     f"plot time {_hms(summary.time_s)}")
-        self.last = -1
-
-    def __call__(self, t_us: int, line: int) -> None:
-        pct = min(100, int(100 * t_us / self.total_us))
-        if pct == self.last:
-            return
-        self.last = pct
-        left = max(0.0, (self.total_us - t_us) / 1e6)
-        bar = "#" * (pct // 4) + "-" * (25 - pct // 4)
-        say(f"\r[{bar}] {pct:3d}%  line {line}  {_hms(left)} left; {self.tail} ",
-             sys.stderr, end="")
-
-    def done(self) -> None:
-        say("", sys.stderr)
-
-
-def _hms(seconds: float) -> str:
-    m, s = divmod(int(round(seconds)), 60)
-    h, m = divmod(m, 60)
-    return f"{h}:{m:02d}:{s:02d}" if h else f"{m}:{s:02d}"
 
 
 def cmd_estimate(args, argv=None) -> int:

@@ -7,6 +7,7 @@ import json
 import os
 
 from vplotter.commands.common import eprint, load_config, position, say
+from vplotter.machine.live import clock_text
 from vplotter.errors import InputError
 
 
@@ -49,7 +50,7 @@ def _timed(cfg, pos, prep):
 
 
 def cmd_info(args, argv=None) -> int:
-    from vplotter import place
+    from vplotter.drawing import place
 
     cfg = load_config(args)
     pos = position(cfg, args, True)
@@ -87,7 +88,7 @@ def cmd_info(args, argv=None) -> int:
         if t is None:
             say(f"  {what}: does not fit the page")
         else:
-            say(f"  {what}: travel {t / 1000:.2f} m, plot time {_hms(s)} ({s:.1f} s)")
+            say(f"  {what}: travel {t / 1000:.2f} m, plot time {clock_text(s)} ({s:.1f} s)")
     say(f"  ordering took {best.order_s:.2f} s")
     for lay in out["layers"]:
         say(f"  layer {lay['label'] or lay['id']!s} (id {lay['id']}): "
@@ -103,12 +104,6 @@ def cmd_info(args, argv=None) -> int:
 
 def _r(v):
     return None if v is None else round(float(v), 3)
-
-
-def _hms(seconds: float) -> str:
-    m, s = divmod(int(round(seconds)), 60)
-    h, m = divmod(m, 60)
-    return f"{h}:{m:02d}:{s:02d}" if h else f"{m}:{s:02d}"
 
 
 # ------------------------------------------------------------------ convert
@@ -170,7 +165,7 @@ def _num(v: float) -> str:
 def write_gcode(prep, cfg, f) -> None:
     """The strokes as G-code: G0 travel, G1 drawing, the pen by `pen_words`; a stroke that
     starts within --join of the previous end is drawn on without lifting."""
-    from vplotter import order
+    from vplotter.drawing import order
 
     strokes = prep.strokes
     joined = order.joined(strokes, prep.join_mm)

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from vplotter import state
+from vplotter.machine import state
 from vplotter.commands.common import eprint, session
 from vplotter.errors import MachineError
 
@@ -21,7 +21,7 @@ BACK_OFF_MM = 2.0
 
 
 def home_polar(args, cfg, command: str) -> int:
-    from vplotter.schedule import Scheduler
+    from vplotter.motion.schedule import Scheduler
 
     p = cfg.polar
     spu = np.asarray(cfg.motors.steps_per_unit)

@@ -19,7 +19,7 @@ import numpy as np
 from vplotter import kinematics, pipeline
 from vplotter.inputs import gcode
 from vplotter.errors import ConfigError, Interrupted, MachineError, VplotterError
-from vplotter.schedule import Scheduler
+from vplotter.motion.schedule import Scheduler
 
 KEYS = {"\x1b[A": (0, 1), "\x1b[B": (0, -1), "\x1b[C": (1, 0), "\x1b[D": (-1, 0)}
 STEP_MIN, STEP_MAX = 0.1, 50.0
@@ -82,7 +82,7 @@ def interactive(args, cfg, pos, session) -> int:
     with session as s:
         pen_down = pos.pen == "down"
         # where the pen was sent: the next arrow moves from there (the motors stop within a
-        # step of it, and a release may take a half step: schedule.py), so nothing drifts
+        # step of it, and a release may take a half step: motion/schedule.py), so nothing drifts
         xy = pen_xy(cfg, pos, s.counts)
         try:
             tty.setcbreak(fd)

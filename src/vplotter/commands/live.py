@@ -1,7 +1,7 @@
 """status, stop and log: what people use while a draw runs (over SSH, from a phone).
 
 None of them takes the plotter lock: they read the stored position, the lock file's holder and
-what the running draw publishes (vplotter.live).
+what the running draw publishes (vplotter.machine.live).
 """
 
 from __future__ import annotations
@@ -24,7 +24,10 @@ def add_status(p) -> None:
 
 def _snapshot(cfg):
     """(stored position or None, lock holder or None, running draw or None)."""
-    from vplotter import job, live, lock, state
+    from vplotter.machine import job
+    from vplotter.machine import live
+    from vplotter.machine import lock
+    from vplotter.machine import state
 
     holder = lock.holder()
     drawing = live.read(holder) if holder else None
@@ -57,7 +60,8 @@ def _busy(holder):
 def _print_json(cfg, pos, holder, drawing) -> None:
     import json
 
-    from vplotter import job, state
+    from vplotter.machine import job
+    from vplotter.machine import state
     from vplotter.commands.machine import _pen_xy
 
     if pos is None:
@@ -78,7 +82,9 @@ def _print_json(cfg, pos, holder, drawing) -> None:
 
 
 def _print_text(cfg, pos, holder, drawing) -> None:
-    from vplotter import job, live, state
+    from vplotter.machine import job
+    from vplotter.machine import live
+    from vplotter.machine import state
     from vplotter.commands.machine import _describe
 
     if holder is not None:
@@ -118,7 +124,8 @@ def _print_text(cfg, pos, holder, drawing) -> None:
 
 def _watch() -> None:
     """One live line (progress bar, line, times) until no draw runs any more."""
-    from vplotter import live, lock
+    from vplotter.machine import live
+    from vplotter.machine import lock
 
     shown = False
     while True:
@@ -152,7 +159,8 @@ def cmd_stop(args, argv=None) -> int:
     import os
     import signal
 
-    from vplotter import lock, state
+    from vplotter.machine import lock
+    from vplotter.machine import state
 
     cfg = load_config(args)
     holder = lock.holder()
@@ -194,7 +202,8 @@ def add_log(p) -> None:
 
 def cmd_log(args, argv=None) -> int:
     """Print the log of the last background draw (`draw --detach`)."""
-    from vplotter import live, lock
+    from vplotter.machine import live
+    from vplotter.machine import lock
 
     path = live.log_path()
     try:

@@ -35,7 +35,9 @@ def cmd_calibrate(args, argv=None) -> int:
 
     import numpy as np
 
-    from vplotter import kinematics, lock, state
+    from vplotter import kinematics
+    from vplotter.machine import lock
+    from vplotter.machine import state
 
     cfg = load_config(args)
     if args.what == "steps":
@@ -134,7 +136,7 @@ def add_pen(p) -> None:
 def cmd_pen(args, argv=None) -> int:
     import dataclasses
 
-    from vplotter.schedule import Rows, Scheduler
+    from vplotter.motion.schedule import Rows, Scheduler
 
     cfg = load_config(args)
     for name in ("up_us", "down_us"):

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from vplotter.commands.common import load_config, position, say
+from vplotter.machine.live import clock_text
 from vplotter.errors import ConfigError
 
 
@@ -35,7 +36,9 @@ def add_preview(p: argparse.ArgumentParser) -> None:
 def cmd_preview(args, argv=None) -> int:
     import numpy as np
 
-    from vplotter import kinematics, pipeline, render
+    from vplotter import kinematics, pipeline
+    from vplotter.motion.segment import CHORD_SHARE
+    from vplotter.drawing import render
     from vplotter.commands.files import prepare_file
 
     _check_picture_options(args)
@@ -48,7 +51,7 @@ def cmd_preview(args, argv=None) -> int:
     prep = prepare_file(args, cfg, pos, start_xy=start)
     strokes = prep.strokes
     travel: list = []
-    tol = cfg.motion.tolerance_mm * pipeline.CHORD_SHARE
+    tol = cfg.motion.tolerance_mm * CHORD_SHARE
     summary = pipeline.validate(cfg, _tap_travel(prep.records(), start, tol, travel), pos.counts,
                                 pos.ref_mm, args.file, where=prep.where)
     pic = render.preview([s.pts for s in strokes], start, kin, cfg.page,
@@ -67,7 +70,7 @@ def _tap_travel(records, start_xy, tol_mm: float, out: list):
     the travel the legend counts."""
     import numpy as np
 
-    from vplotter import segment
+    from vplotter.motion import segment
     from vplotter.inputs.gcode import Move, Pen
 
     here = np.asarray(start_xy, dtype=float).reshape(1, 2)
@@ -88,13 +91,7 @@ def _tap_travel(records, start_xy, tol_mm: float, out: list):
 def _legend(summary) -> str:
     return (f"drawn {summary.drawn_mm / 1000:.2f} m, travel "
             f"{summary.travel_mm / 1000:.2f} m, {summary.pen_downs} pen lifts, plot time "
-            f"{_hms(summary.time_s)} ({summary.time_s:.1f} s)")
-
-
-def _hms(t_s: float) -> str:
-    m, s = divmod(int(round(t_s)), 60)
-    h, m = divmod(m, 60)
-    return f"{h}:{m:02d}:{s:02d}" if h else f"{m}:{s:02d}"
+            f"{clock_text(summary.time_s)} ({summary.time_s:.1f} s)")
 
 
 def add_simulate(p: argparse.ArgumentParser) -> None:
@@ -108,7 +105,9 @@ def add_simulate(p: argparse.ArgumentParser) -> None:
 def cmd_simulate(args, argv=None) -> int:
     import numpy as np
 
-    from vplotter import kinematics, render, trace
+    from vplotter import kinematics
+    from vplotter.drawing import render
+    from vplotter.machine import trace
 
     _check_picture_options(args)
     cfg = load_config(args)
@@ -136,7 +135,7 @@ def cmd_simulate(args, argv=None) -> int:
     lifts = int(np.count_nonzero(steps.down[:-1] & ~steps.down[1:]) + steps.down[-1])
     end_s = float(steps.t_s[-1])
     legend = (f"{args.trace}: pen down {drawn_mm / 1000:.2f} m, pen up {up_mm / 1000:.2f} m, "
-              f"{lifts} pen lifts, {_hms(end_s)} ({end_s:.1f} s)")
+              f"{lifts} pen lifts, {clock_text(end_s)} ({end_s:.1f} s)")
     x0, y0 = np.round(xy[0], 2) + 0.0          # no "-0.00"
     start = f"start X{x0:.2f} Y{y0:.2f}" + (" (--at)" if args.at else "")
     pic = render.simulate(xy, steps.down, kin, cfg.page, legend, args.size, start)

@@ -6,7 +6,7 @@ import argparse
 import os
 import sys
 
-from vplotter.commands.common import (command_line, eprint, file_hash, load_config, say)
+from vplotter.commands.common import Progress, command_line, eprint, file_hash, load_config, say
 from vplotter.errors import ConfigError, Interrupted
 
 
@@ -14,11 +14,11 @@ def draw(args, argv, cfg, pos, begin) -> int:
     """cmd_draw hands the serial case here: validate, then stream the lines to the controller."""
     import numpy as np
 
-    from vplotter import live, pipeline
-    from vplotter.backends.serial import SerialSession
-    from vplotter.commands.draw import _Progress
+    from vplotter import pipeline
+    from vplotter.machine import live
+    from vplotter.machine.serial_job import SerialSession
     from vplotter.inputs import gcode
-    from vplotter.linestream import LineScheduler
+    from vplotter.motion.linestream import LineScheduler
 
     if args.backend != "serial":
         raise ConfigError("error: --save-stream goes with --backend serial")
@@ -49,7 +49,7 @@ def draw(args, argv, cfg, pos, begin) -> int:
             say(f"{args.file}: {made[-1].lines_total} lines to stream "
                 f"({cfg.serial.axes} axes, {cfg.serial.port})")
         quiet = gcode.read(args.file, strict=args.strict, warn=lambda m: None)
-        progress = (_Progress(summary.time_s) if summary and sys.stderr.isatty() and not s.dry_run
+        progress = (Progress(summary) if summary and sys.stderr.isatty() and not s.dry_run
                     else None)
         try:
             s.play(pipeline.stream(cfg, quiet, pos.counts, pos.ref_mm, args.file,

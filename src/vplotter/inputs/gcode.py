@@ -61,7 +61,17 @@ class Dwell:
     seconds: float
 
 
-Record = Move | Pen | Dwell
+@dataclass(frozen=True, slots=True)
+class Pause:
+    """Lift the pen (already up) and wait for the person: between layers (made by `prepare`
+    for --pause-between-layers; the player waits there with the coils released)."""
+
+    line: int
+    col: int
+    message: str
+
+
+Record = Move | Pen | Dwell | Pause
 Warn = Callable[[str], None]
 
 

@@ -1,7 +1,7 @@
 """Strokes: what every input gives the shared pipeline once its own syntax is gone.
 
 A stroke is one pen-down polyline in G-code millimetres (+Y up); a stroke of one point is a dot
-(pen down and up at that point). Placement (`place.py`) and ordering (`order.py`) work on
+(pen down and up at that point). Placement (`drawing/place.py`) and ordering (`drawing/order.py`) work on
 strokes; `to_records` turns them back into the records the pipeline draws (travel with the pen
 up between strokes), so G-code and SVG go through one pipeline.
 
@@ -17,7 +17,7 @@ from typing import Iterable, Iterator
 
 import numpy as np
 
-from vplotter.inputs.gcode import Dwell, Move, Pen, Record
+from vplotter.inputs.gcode import Move, Pen, Record
 
 
 @dataclass
@@ -47,44 +47,6 @@ class Drawing:
     height_mm: float | None = None
     layers: list[dict] = field(default_factory=list)      # [{"id", "label", "visible"}]
     skipped: dict = field(default_factory=lambda: {"text": 0, "image": 0, "hidden": 0})
-
-
-def from_records(records: Iterable[Record], tol_mm: float) -> list[Stroke]:
-    """Group the pen-down moves of a record stream into strokes (arcs cut within tol_mm).
-    Pen-up moves are travel and are dropped: ordering and placement make their own."""
-    from vplotter import segment
-
-    strokes: list[Stroke] = []
-    down = False
-    cur: list[np.ndarray] = []
-    first: Move | Pen | None = None
-    feed = None
-
-    def close() -> None:
-        if first is not None and cur:
-            strokes.append(Stroke(np.concatenate(cur), first.line, first.col, feed))
-
-    xy = np.zeros((1, 2))
-    for rec in records:
-        if isinstance(rec, Pen):
-            if rec.down and not down:
-                cur, first, feed = [xy.copy()], rec, None
-            elif down and not rec.down:
-                close()
-                cur, first = [], None
-            down = rec.down
-        elif isinstance(rec, Move):
-            pts = segment.points(rec, tol_mm)
-            if down and len(pts):
-                cur.append(pts)
-                if rec.feed_mm_s is not None and not rec.rapid:
-                    feed = rec.feed_mm_s if feed is None else min(feed, rec.feed_mm_s)
-            xy = np.array([[rec.x1, rec.y1]])
-        elif isinstance(rec, Dwell):
-            continue
-    if down:
-        close()
-    return strokes
 
 
 def to_records(strokes: Iterable[Stroke]) -> Iterator[Record]:

@@ -20,7 +20,7 @@ from typing import TextIO
 import numpy as np
 
 from vplotter.errors import InputError
-from vplotter.schedule import Rows
+from vplotter.motion.schedule import Rows
 
 HEADER = "# vplotter trace v1\nt,pin,value\n"
 
@@ -95,7 +95,7 @@ def read_steps(path: str, motors, pen) -> Steps:
     """Decode a trace v1 with the pins and coil table of config's [motors] and [pen].
 
     Raises InputError (one line naming the file) for anything that is not such a trace."""
-    from vplotter.sequencer import TABLES
+    from vplotter.motion.sequencer import TABLES
 
     t_us, pin, value = _load(path)
     coil = {"left": np.asarray(motors.left_pins), "right": np.asarray(motors.right_pins)}

@@ -12,14 +12,10 @@ import tempfile
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
+from vplotter.config import state_dir  # noqa: F401 - where the files below live
 from vplotter.errors import StateError
 
 VERSION = 1
-
-
-def state_dir() -> Path:
-    base = os.environ.get("XDG_STATE_HOME") or os.path.join(os.path.expanduser("~"), ".local", "state")
-    return Path(base) / "vplotter"
 
 
 def state_path() -> Path:

@@ -135,7 +135,7 @@ def write(path: str | Path, pattern: Pattern) -> None:
     for p in pattern.pairs:
         dist = "" if p.distance_mm is None else f"{p.distance_mm:.2f}"
         lines.append(f"pair,{p.a},{p.b},,,,,{dist}")
-    from vplotter.state import atomic_write
+    from vplotter.machine.state import atomic_write
 
     atomic_write(Path(path), "\n".join(lines) + "\n")
 

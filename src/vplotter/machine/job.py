@@ -18,9 +18,11 @@ from typing import Iterable
 
 import numpy as np
 
-from vplotter import drivers, memory, state
+from vplotter.motion import drivers
+from vplotter.backends import memory
+from vplotter.machine import state
 from vplotter.errors import BackendError, Interrupted, MachineError, StateError
-from vplotter.schedule import Rows
+from vplotter.motion.schedule import Rows
 
 JOURNAL_EVERY_US = 500_000     # journal at least every 0.5 s of motion
 SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
@@ -115,8 +117,9 @@ class Session:
 
     # ------------------------------------------------------------ context
     def __enter__(self) -> "Session":
-        from vplotter import backends, lock
-        from vplotter.trace import TraceWriter
+        from vplotter import backends
+        from vplotter.machine import lock
+        from vplotter.machine.trace import TraceWriter
 
         if self.saves_state:
             self._lock = lock.acquire(self.command)
@@ -297,7 +300,7 @@ class Session:
         if m.driver == "stepdir" and held != idle:
             held &= ~0b101                      # both STEP lines low (drivers.StepDir)
         # the motors hold while the pen lifts, then are released from a one-coil phase
-        # (schedule.py): a motor in a two-coil phase first takes the half step back
+        # (motion/schedule.py): a motor in a two-coil phase first takes the half step back
         drv = drivers.create(m, self.counts)
         d = drv.to_one_coil() if held != idle else np.zeros(2, np.int64)
         drv.advance(d)

@@ -18,7 +18,8 @@ import os
 import tempfile
 import time
 
-from vplotter.state import state_dir
+from vplotter.config import state_dir
+from vplotter.machine import lock
 
 EVERY_S = 0.25
 
@@ -83,8 +84,6 @@ def read(holder: dict | None = None, now: float | None = None) -> dict | None:
     lock holder (lock.holder()); a live.json whose writer does not hold the lock is left over
     from a crash and means nothing."""
     if holder is None:
-        from vplotter import lock
-
         holder = lock.holder()
     if holder is None:
         return None
@@ -123,3 +122,13 @@ def clock_text(seconds: float) -> str:
 def bar(percent: float, width: int = 25) -> str:
     full = int(width * min(max(percent, 0.0), 100.0) / 100)
     return "#" * full + "-" * (width - full)
+
+
+def busy_line(holder: dict) -> str:
+    """The line a second vplotter (or the web page) shows when the plotter is taken: the lock
+    holder and, while it draws, its progress."""
+    msg = lock.holder_line(holder)
+    drawing = read(holder)
+    if drawing:
+        msg += f"; {describe(drawing)}"
+    return msg

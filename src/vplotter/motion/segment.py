@@ -15,6 +15,10 @@ import numpy as np
 
 from vplotter.inputs.gcode import Move
 
+# Share of tolerance_mm given to the chords of arcs; the rest is left for the step quantisation
+# (half a step of each cord moves the pen by up to ~0.008 mm on the seed machine's page).
+CHORD_SHARE = 0.75
+
 TWO_PI = 2.0 * math.pi
 _EMPTY = np.empty((0, 2))
 

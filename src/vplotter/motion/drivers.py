@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from vplotter.sequencer import TABLES, coil_words
+from vplotter.motion.sequencer import TABLES, coil_words
 
 ENABLE_BIT = 4
 

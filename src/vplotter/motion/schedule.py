@@ -24,9 +24,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vplotter import drivers
+from vplotter.motion import drivers
 from vplotter.config import Config
-from vplotter.planner import ACCEL_MARGIN, RATE_MARGIN, Block, Turn
+from vplotter.motion.planner import ACCEL_MARGIN, RATE_MARGIN, Block, Turn
 
 
 @dataclass

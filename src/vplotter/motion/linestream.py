@@ -22,9 +22,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vplotter import motorcut
-from vplotter.planner import Block
-from vplotter.schedule import Scheduler
+from vplotter.motion import motorcut
+from vplotter.motion.planner import Block
+from vplotter.motion.schedule import Scheduler
 
 CHORD_SHARE = 0.5       # of tolerance_mm for the chords of arcs (as on the GPIO path: 0.75)
 CUT_SHARE = 0.45        # for the motor-space cut; the rest covers rounding to DECIMALS

@@ -20,7 +20,7 @@ import os
 import time
 
 from vplotter.errors import BusyError
-from vplotter.state import state_dir
+from vplotter.config import state_dir
 
 ENV_FD = "VPLOTTER_LOCK_FD"
 
@@ -96,7 +96,7 @@ def acquire(command: str) -> Lock:
     except BlockingIOError:
         info = _read(fd)
         os.close(fd)
-        raise BusyError(busy_message(info)) from None
+        raise BusyError(holder_line(info), info) from None
     lock = Lock(fd, command)
     lock.write_info()
     _held = lock
@@ -161,13 +161,8 @@ def alive(pid: int) -> bool:
         return True
 
 
-def busy_message(info: dict) -> str:
-    from vplotter import live
-
+def holder_line(info: dict) -> str:
+    """plotter busy: pid 1234 (vplotter draw car.ngc) since 12:03"""
     since = time.strftime("%H:%M", time.localtime(info.get("since", time.time())))
-    msg = (f"plotter busy: pid {info.get('pid', '?')} ({info.get('command', 'vplotter')}) "
-           f"since {since}")
-    drawing = live.read(info)
-    if drawing:
-        msg += f"; {live.describe(drawing)}"
-    return msg
+    return (f"plotter busy: pid {info.get('pid', '?')} ({info.get('command', 'vplotter')}) "
+            f"since {since}")
