@@ -1,0 +1,24 @@
+"""Every key of the config schema is described (config_keys), and nothing else is."""
+
+from vplotter.config import SCHEMA
+from vplotter.config_keys import DESCRIPTIONS, SECTIONS
+
+
+def test_every_schema_key_has_a_description():
+    missing = [f"{s}.{k}" for s, keys in SCHEMA.items() for k in keys
+               if not DESCRIPTIONS.get(f"{s}.{k}", "").strip()]
+    assert missing == []
+
+
+def test_no_description_names_a_missing_key():
+    known = {f"{s}.{k}" for s, keys in SCHEMA.items() for k in keys}
+    assert sorted(set(DESCRIPTIONS) - known) == []
+
+
+def test_every_section_is_described_and_no_other():
+    assert set(SECTIONS) == set(SCHEMA)
+    assert all(text.strip() for text in SECTIONS.values())
+
+
+def test_descriptions_are_one_line():
+    assert [k for k, text in DESCRIPTIONS.items() if "\n" in text or "|" in text] == []
