@@ -1,7 +1,7 @@
-"""Every key of the config schema is described (config_keys), and nothing else is."""
+"""Every key of the config schema is described (config/keys.py), and nothing else is."""
 
 from vplotter.config import SCHEMA
-from vplotter.config_keys import DESCRIPTIONS, SECTIONS
+from vplotter.config.keys import DESCRIPTIONS, SECTIONS
 
 
 def test_every_schema_key_has_a_description():

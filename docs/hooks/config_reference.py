@@ -2,7 +2,7 @@
 
 `<!-- config-reference -->` in configuration.md is replaced at build time by one table per
 section of `vplotter.config.SCHEMA` (key, type, default, range or choices, what it applies to)
-with the one-line descriptions of `vplotter.config_keys`. A key without a description fails
+with the one-line descriptions of `vplotter.config.keys`. A key without a description fails
 the build (tests/test_config_docs.py says the same earlier).
 """
 
@@ -60,7 +60,7 @@ def _applies(when: str | None, choices: dict) -> str:
 
 def reference() -> str:
     from vplotter import config
-    from vplotter.config_keys import DESCRIPTIONS, SECTIONS
+    from vplotter.config.keys import DESCRIPTIONS, SECTIONS
 
     out = []
     for section, keys in config.SCHEMA.items():
@@ -81,7 +81,7 @@ def reference() -> str:
             when = spec[4] if len(spec) > 4 else None
             name = f"{section}.{key}"
             if name not in DESCRIPTIONS:
-                raise KeyError(f"config key {name} has no description in vplotter/config_keys.py")
+                raise KeyError(f"config key {name} has no description in vplotter/config/keys.py")
             out.append(f"| `{key}` | {TYPES[kind.rstrip('+')]} | {_default(default, config.UNSET)} "
                        f"| {_range(kind, lo, hi)} | {_applies(when, config.SCHEMA_CHOICES)} "
                        f"| {DESCRIPTIONS[name]} |")

@@ -1,6 +1,6 @@
 """One line about every key of config.toml, "section.key" -> description.
 
-config.SCHEMA says what a key is (type, default, bounds, whose it is); this says what it means.
+`schema.py` says what a key is (type, default, bounds, whose it is); this says what it means.
 The docs' configuration reference is generated from both (docs/hooks/config_reference.py), and
 tests/test_config_docs.py checks that every SCHEMA key has a description and no description
 names a key SCHEMA lacks. Markdown is allowed (the text goes into a table cell).
