@@ -53,18 +53,43 @@ def error(tmp_path, text: str, layers=None) -> str:
 
 # ------------------------------------------------------------------ reference geometry
 def seg_dist(p: np.ndarray, poly: np.ndarray) -> np.ndarray:
-    """Distance of each point p (N, 2) to the polyline poly (M, 2)."""
+    """Distance of each point p (N, 2) to the polyline poly (M, 2), exactly: long segments are
+    cut into pieces no longer than the mean (the same polyline), and each point is measured
+    against every piece whose midpoint is near enough to hold its nearest point (k nearest
+    midpoints, k doubled until the k-th is beyond that bound)."""
+    p, poly = np.asarray(p, dtype=float).reshape(-1, 2), np.asarray(poly, dtype=float)
     if len(poly) == 1:
         return np.hypot(*(p - poly[0]).T)
-    a, b = poly[:-1], poly[1:]
-    ab = b - a
-    out = np.full(len(p), np.inf)
-    for i in range(0, len(p), 512):
-        q = p[i:i + 512, None, :]
-        t = np.clip(np.sum((q - a) * ab, axis=2) / np.maximum(np.sum(ab * ab, axis=1), 1e-300),
-                    0, 1)
-        d = np.hypot(*np.moveaxis(q - (a + t[..., None] * ab), 2, 0))
-        out[i:i + 512] = d.min(axis=1)
+    from scipy.spatial import cKDTree
+
+    lengths = np.hypot(*np.diff(poly, axis=0).T)
+    cap = max(float(lengths.mean()), 1e-12)
+    cuts = np.maximum(1, np.ceil(lengths / cap).astype(int))
+    seg = np.repeat(np.arange(len(lengths)), cuts)
+    frac = (np.arange(len(seg)) - np.repeat(np.cumsum(cuts) - cuts, cuts)) / np.repeat(cuts, cuts)
+    d = np.diff(poly, axis=0)
+    a = poly[seg] + frac[:, None] * d[seg]
+    ab = d[seg] / np.repeat(cuts, cuts)[:, None]
+    half = float(np.hypot(*ab.T).max()) / 2
+    tree = cKDTree(a + ab / 2)
+
+    def exact(q, idx):          # q (n, 2), idx (n, k) pieces -> (n,) nearest distance
+        aa, vv = a[idx], ab[idx]
+        t = np.clip(np.sum((q[:, None] - aa) * vv, axis=2) / np.maximum(np.sum(vv * vv, axis=2), 1e-300), 0, 1)
+        return np.hypot(*np.moveaxis(q[:, None] - (aa + t[..., None] * vv), 2, 0)).min(axis=1)
+
+    out = np.empty(len(p))
+    todo = np.arange(len(p))
+    k = 8
+    while len(todo):
+        k = min(k, len(a))
+        dist, idx = tree.query(p[todo], k=k)
+        dist, idx = dist.reshape(len(todo), -1), idx.reshape(len(todo), -1)
+        best = exact(p[todo], idx)
+        done = (dist[:, -1] > best + half) | (k == len(a))
+        out[todo[done]] = best[done]
+        todo = todo[~done]
+        k *= 2
     return out
 
 
