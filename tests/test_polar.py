@@ -12,7 +12,7 @@ import pytest
 from hypothesis import assume, given, settings, strategies as st
 
 import tracecheck as tc
-import tracecheck_polar as tp
+from tracecheck import polar as tp
 from vplotter import config, state
 from vplotter.cli import main
 from vplotter.kinematics.polar import Polar
