@@ -2,7 +2,7 @@
 `calibrate fit`, for several true machines (tests/test_fit.py's procedure).
 
 For each wall: `calibrate --at 0 0`, `calibrate pattern --backend fake`, the dots decoded
-through the TRUE geometry by tests/tracecheck.py, the pairs "measured" with 0.3 mm noise
+through the TRUE geometry by tests/tracecheck/, the pairs "measured" with 0.3 mm noise
 (and once more with one of them mistyped, x10), `calibrate fit`, the test drawing drawn from
 the stored position and decoded through the true geometry, matched to the ideal by a rigid
 move only (ICP, Kabsch without scale): the worst distance both ways.

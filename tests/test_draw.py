@@ -1,5 +1,5 @@
 """End to end: draw files with the fake backend, decode the trace independently (tests/
-tracecheck.py knows nothing of vplotter) and check what the motors would physically draw."""
+tracecheck/ knows nothing of vplotter) and check what the motors would physically draw."""
 
 import signal  # noqa: F401  (kept for symmetry with test_safety)
 

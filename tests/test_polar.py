@@ -12,7 +12,6 @@ import pytest
 from hypothesis import assume, given, settings, strategies as st
 
 import tracecheck as tc
-import tracecheck_polar as tp
 from vplotter import config
 from vplotter.machine import state
 from vplotter.cli import main

@@ -1,5 +1,5 @@
 """prepare(), info and convert, the file options on draw/estimate, and what the motors draw for a
-placed and ordered file (decoded by tests/tracecheck.py)."""
+placed and ordered file (decoded by tests/tracecheck/)."""
 
 from __future__ import annotations
 

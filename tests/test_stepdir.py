@@ -12,7 +12,7 @@ from gpiozero.pins.mock import MockFactory
 from hypothesis import given, strategies as st
 
 import tracecheck as tc
-import tracecheck_polar as tp
+from tracecheck import polar as tp
 from fake_lgpio import FakeLgpio, SimClock
 from vplotter import config, kinematics, pipeline
 from vplotter.motion import drivers

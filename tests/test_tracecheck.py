@@ -1,4 +1,4 @@
-"""Tests of the independent trace checker (tests/tracecheck.py) itself.
+"""Tests of the independent trace checker (tests/tracecheck/) itself.
 
 All traces here are synthetic and built in the tests; nothing from the
 vplotter package is used.

@@ -1,4 +1,4 @@
-"""Independent verifier, part two: step/dir drivers and the polar plotter (for tracecheck.py).
+"""Independent verifier, part two: step/dir drivers and the polar plotter (tracecheck.polar).
 
 Written from the contracts only (README, issue 13), importing nothing of vplotter:
 
