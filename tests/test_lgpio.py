@@ -294,6 +294,18 @@ def test_import_without_lgpio_says_how_to_get_it(monkeypatch):
         load_lgpio(importer=missing)
     msg = str(e.value)
     assert "\n" not in msg and "python3-lgpio" in msg and "[pi]" in msg and "--dry-run" in msg
+    want = "adafruit-lgpio" if sys.version_info >= (3, 13) else "`pip install lgpio`"
+    assert want in msg and f"Python {sys.version_info[0]}.{sys.version_info[1]}" in msg
+
+
+@pytest.mark.parametrize("version, package", [((3, 11), "lgpio"), ((3, 12), "lgpio"),
+                                              ((3, 13), "adafruit-lgpio"),
+                                              ((3, 14), "adafruit-lgpio")])
+def test_the_missing_message_names_the_package_for_the_python(version, package):
+    from vplotter.backends.lgpio_setup import missing
+
+    assert f"`pip install {package}`" in missing(version)
+    assert f"Python {version[0]}.{version[1]}" in missing(version)
 
 
 def test_import_failing_on_the_fifo_is_one_line(tmp_path, monkeypatch):

@@ -17,10 +17,16 @@ import sys
 
 from vplotter.errors import BackendError
 
-MISSING = ("error: the lgpio backend needs the lgpio module: on Raspberry Pi OS `sudo apt install "
-           "python3-lgpio` (in a venv made with --system-site-packages), or `pip install "
-           "'.[pi]'` in vplotter's directory where lgpio has a wheel (Python <= 3.12); or use "
-           "--dry-run to simulate")
+def missing(version: tuple[int, int] = tuple(sys.version_info[:2])) -> str:
+    """What to install when `import lgpio` fails, for this Python: the lgpio project's wheels
+    stop at 3.12, Adafruit's adafruit-lgpio (the same `import lgpio`) starts at 3.13."""
+    pkg = "lgpio" if version < (3, 13) else "adafruit-lgpio"
+    py = f"Python {version[0]}.{version[1]}"
+    return (f"error: the lgpio backend needs the lgpio module; for {py}: `pip install {pkg}` "
+            f"in this environment (or `pip install '.[pi]'` in vplotter's directory; where pip "
+            f"has to build it, first `sudo apt install swig python3-dev`), or `sudo apt install "
+            f"python3-lgpio` with a venv made with --system-site-packages; or use --dry-run to "
+            f"simulate")
 
 
 def load_lgpio(importer=None):
@@ -49,7 +55,7 @@ def load_lgpio(importer=None):
     try:
         lg = importer()
     except ImportError:
-        raise BackendError(MISSING) from None
+        raise BackendError(missing()) from None
     except Exception as e:  # noqa: BLE001 - lgpio fails at import when its FIFO cannot be made
         raise BackendError(f"error: lgpio cannot start ({type(e).__name__}: {e}); is {where} "
                            f"writable? or use --dry-run") from None
