@@ -30,6 +30,9 @@ def add_preview(p: argparse.ArgumentParser) -> None:
     _add_picture_options(p)
     p.add_argument("--strict", action="store_true",
                    help="treat warnings about inconsistent arcs as errors")
+    p.add_argument("--ink", action="store_true",
+                   help="the drawing as ink on paper: black lines of the pen's width "
+                        "(--pen-width, default 0.5 mm), no travel: judge a photo's tone")
     add_file_options(p)
 
 
@@ -54,13 +57,18 @@ def cmd_preview(args, argv=None) -> int:
     tol = cfg.motion.tolerance_mm * CHORD_SHARE
     summary = pipeline.validate(cfg, _tap_travel(prep.records(), start, tol, travel), pos.counts,
                                 pos.ref_mm, args.file, where=prep.where)
-    pic = render.preview([s.pts for s in strokes], start, kin, cfg.page,
-                         f"{args.file}: {_legend(summary)}", args.size,
-                         np.concatenate(travel) if travel else np.zeros((0, 2, 2)))
+    legend = f"{args.file}: {_legend(summary)}"
+    if args.ink:
+        pen_mm = getattr(args, "pen_width", None) or 0.5
+        pic = render.ink([s.pts for s in strokes], kin, cfg.page, pen_mm, legend, args.size)
+        what = f"ink of a pen {pen_mm:g} mm wide"
+    else:
+        pic = render.preview([s.pts for s in strokes], start, kin, cfg.page, legend, args.size,
+                             np.concatenate(travel) if travel else np.zeros((0, 2, 2)))
+        what = "strokes from red (first) to violet (last), travel in grey"
     render.write(pic, args.output)
     say(f"{args.file}: {summary.text()}")
-    say(f"{args.output}: {pic.width_px} x {pic.height_px} px, strokes from red (first) to "
-        f"violet (last), travel in grey")
+    say(f"{args.output}: {pic.width_px} x {pic.height_px} px, {what}")
     return 0
 
 

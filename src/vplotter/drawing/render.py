@@ -21,6 +21,7 @@ from vplotter.errors import InputError
 WALL = "#e4e4e0"          # outside the page
 PAPER = "#ffffff"
 INK = "#202020"           # frame, labels, pen-down path of a trace
+BLACK = "#000000"         # ink of the --ink preview
 TRAVEL = "#7c7c7c"        # pen-up travel of a preview
 TRAVEL_TRACE = "#a9bfd8"  # pen-up path of a trace (light)
 SUPERSAMPLE = 2
@@ -206,6 +207,21 @@ def preview(strokes, start_xy, kin, page, legend: str, size_px: int = 1600,
     _legend(pic, view, legend, [("order", order_colours(min(len(pts), 24)),
                                  "drawing order: first to last"),
                                 ("line", TRAVEL, "pen-up travel"), ("ring", TRAVEL, "pen start")])
+    return pic
+
+
+def ink(strokes, kin, page, pen_mm: float, legend: str, size_px: int = 1600) -> Picture:
+    """The drawing as ink on paper: every stroke a black line of the pen's width (a one-point
+    stroke a dot of that diameter), no travel, no colours: the tone a photo style will give,
+    to judge before a long plot."""
+    pts = [np.asarray(s, dtype=float).reshape(-1, 2) for s in strokes]
+    allpts = np.vstack(pts) if pts else np.zeros((1, 2))
+    view = _view(kin, page, allpts, size_px)
+    pic, u = _frame(view, kin, page)
+    width = pen_mm * view.scale
+    for p in pts:
+        pic.add("lines", view.px(p), colour=BLACK, width=width, name="ink")
+    _legend(pic, view, legend, [("line", BLACK, f"ink: a pen {pen_mm:g} mm wide")])
     return pic
 
 
