@@ -18,8 +18,7 @@ from scipy.spatial import cKDTree
 
 import tracecheck as tc
 from conftest import REPO
-from vplotter.calibration import fit
-from vplotter.calibration import pattern
+from vplotter.calibration import fit, pattern
 from vplotter.machine import state
 from vplotter.cli import main
 

@@ -15,9 +15,7 @@ import numpy as np
 import pytest
 
 import tracecheck as tc
-from vplotter.machine import live
-from vplotter.machine import lock
-from vplotter.machine import state
+from vplotter.machine import live, lock, state
 from vplotter.cli import main
 
 from conftest import REPO

@@ -14,8 +14,7 @@ import numpy as np
 import pytest
 
 import tracecheck as tc
-from vplotter.machine import lock
-from vplotter.machine import state
+from vplotter.machine import lock, state
 from vplotter.backends.fake import FakeBackend
 from vplotter.cli import main
 

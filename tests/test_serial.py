@@ -20,8 +20,7 @@ from hypothesis import given, strategies as st
 import tracecheck as tc
 from grbl_standin import GrblStandin
 from vplotter import config, kinematics
-from vplotter.motion import linestream
-from vplotter.motion import motorcut
+from vplotter.motion import linestream, motorcut
 from vplotter.machine import state
 from vplotter.backends import grbl
 from vplotter.cli import main

@@ -6,7 +6,7 @@ import argparse
 import sys
 
 from vplotter.errors import InputError, MachineError
-from vplotter.machine.live import clock_text
+from vplotter.budget import clock_text
 
 
 def eprint(msg: str) -> None:
@@ -37,9 +37,7 @@ def position(cfg, args, dry_run: bool):
     A dry run takes no lock; without a stored position it assumes X0 Y0, after an unclean stop
     it goes on but says how uncertain the stored position is."""
     from vplotter import kinematics
-    from vplotter.machine import job
-    from vplotter.machine import lock
-    from vplotter.machine import state
+    from vplotter.machine import job, lock, state
 
     if not dry_run:
         lock.acquire(lock_command(args))

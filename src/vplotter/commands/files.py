@@ -7,7 +7,7 @@ import json
 import os
 
 from vplotter.commands.common import eprint, load_config, position, say
-from vplotter.machine.live import clock_text
+from vplotter.budget import clock_text
 from vplotter.errors import InputError
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 import sys
 import time
 
+from vplotter.budget import clock_text
 from vplotter.commands.common import load_config, say
 from vplotter.errors import VplotterError
 
@@ -24,10 +25,7 @@ def add_status(p) -> None:
 
 def _snapshot(cfg):
     """(stored position or None, lock holder or None, running draw or None)."""
-    from vplotter.machine import job
-    from vplotter.machine import live
-    from vplotter.machine import lock
-    from vplotter.machine import state
+    from vplotter.machine import job, live, lock, state
 
     holder = lock.holder()
     drawing = live.read(holder) if holder else None
@@ -60,8 +58,7 @@ def _busy(holder):
 def _print_json(cfg, pos, holder, drawing) -> None:
     import json
 
-    from vplotter.machine import job
-    from vplotter.machine import state
+    from vplotter.machine import job, state
     from vplotter.commands.machine import _pen_xy
 
     if pos is None:
@@ -82,10 +79,8 @@ def _print_json(cfg, pos, holder, drawing) -> None:
 
 
 def _print_text(cfg, pos, holder, drawing) -> None:
-    from vplotter.machine import job
-    from vplotter.machine import live
-    from vplotter.machine import state
     from vplotter.commands.machine import _describe
+    from vplotter.machine import job, state
 
     if holder is not None:
         busy = _busy(holder)
@@ -93,8 +88,8 @@ def _print_text(cfg, pos, holder, drawing) -> None:
               f"since {busy['since']}")
         if drawing:
             print(f"  {drawing['file']} line {drawing['line']}: {drawing['percent']:.1f} % of the "
-                  f"plot time done, {live.clock_text(drawing['elapsed_s'])} elapsed, "
-                  f"{live.clock_text(drawing['remaining_s'])} left, finish at {drawing['finish']}")
+                  f"plot time done, {clock_text(drawing['elapsed_s'])} elapsed, "
+                  f"{clock_text(drawing['remaining_s'])} left, finish at {drawing['finish']}")
             if drawing["shifts"]:
                 print(f"  the timeline moved {drawing['shifts']} times "
                       f"({drawing['lost_s']:.2f} s lost to lateness)")
@@ -124,8 +119,7 @@ def _print_text(cfg, pos, holder, drawing) -> None:
 
 def _watch() -> None:
     """One live line (progress bar, line, times) until no draw runs any more."""
-    from vplotter.machine import live
-    from vplotter.machine import lock
+    from vplotter.machine import live, lock
 
     shown = False
     while True:
@@ -135,8 +129,8 @@ def _watch() -> None:
             break
         if d is not None:
             text = (f"\r[{live.bar(d['percent'])}] {d['percent']:5.1f} %  line {d['line']}  "
-                    f"{live.clock_text(d['elapsed_s'])} elapsed  "
-                    f"{live.clock_text(d['remaining_s'])} left  finish {d['finish']} ")
+                    f"{clock_text(d['elapsed_s'])} elapsed  "
+                    f"{clock_text(d['remaining_s'])} left  finish {d['finish']} ")
         else:
             text = f"\rbusy: pid {holder['pid']} ({holder.get('command', '')}) "
         say(text, sys.stderr, end="")
@@ -159,8 +153,7 @@ def cmd_stop(args, argv=None) -> int:
     import os
     import signal
 
-    from vplotter.machine import lock
-    from vplotter.machine import state
+    from vplotter.machine import lock, state
 
     cfg = load_config(args)
     holder = lock.holder()
@@ -202,8 +195,7 @@ def add_log(p) -> None:
 
 def cmd_log(args, argv=None) -> int:
     """Print the log of the last background draw (`draw --detach`)."""
-    from vplotter.machine import live
-    from vplotter.machine import lock
+    from vplotter.machine import live, lock
 
     path = live.log_path()
     try:

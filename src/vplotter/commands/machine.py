@@ -36,8 +36,7 @@ def cmd_calibrate(args, argv=None) -> int:
     import numpy as np
 
     from vplotter import kinematics
-    from vplotter.machine import lock
-    from vplotter.machine import state
+    from vplotter.machine import lock, state
 
     cfg = load_config(args)
     if args.what == "steps":

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from vplotter.commands.common import load_config, position, say
-from vplotter.machine.live import clock_text
+from vplotter.budget import clock_text
 from vplotter.errors import ConfigError
 
 

@@ -18,6 +18,7 @@ import os
 import tempfile
 import time
 
+from vplotter.budget import clock_text
 from vplotter.config import state_dir
 from vplotter.machine import lock
 
@@ -111,12 +112,6 @@ def describe(d: dict) -> str:
     return (f"drawing {os.path.basename(d['file'])} line {d['line']}, {d['percent']:.1f} % done, "
             f"{clock_text(d['elapsed_s'])} elapsed, {clock_text(d['remaining_s'])} left "
             f"(finish {d['finish']})")
-
-
-def clock_text(seconds: float) -> str:
-    s = int(round(seconds))
-    h, m = divmod(s // 60, 60)
-    return f"{h}:{m:02d}:{s % 60:02d}" if h else f"{m}:{s % 60:02d}"
 
 
 def bar(percent: float, width: int = 25) -> str:

@@ -1,0 +1,121 @@
+"""A plot-time budget: choose a drawing's density so that its planned plot time fits.
+
+A photo style has one density knob, `spacing_mm` (the distance between tracks, rows, hatch
+lines or stipples): halving it roughly doubles the line drawn (and quadruples the stipples).
+`fit` searches it: each try makes the strokes, and the caller's `plot_time` (the same planner
+as `draw`, without computing a single step) times them; the search works on log(time) against
+log(spacing), a straight line for a pure power law, so a few tries land within a few per cent
+under the budget. Pure functions: the styles and the planner come in as callbacks.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+from typing import Callable
+
+from vplotter.errors import ConfigError
+
+DEFAULT_S = 3600.0          # a photo without --max-time: about an hour
+UNDER = 0.96                # land between UNDER x budget and the budget
+TRIES = 9
+
+
+def parse_duration(text: str) -> float:
+    """'2h', '45m', '1h30m', '90s', '1h 5m 10s', '1.5h' or plain seconds ('5400') -> seconds."""
+    s = text.strip().lower().replace(" ", "")
+    if re.fullmatch(r"\d+(\.\d+)?", s):
+        value = float(s)
+    else:
+        m = re.fullmatch(r"(?:(\d+(?:\.\d+)?)h)?(?:(\d+(?:\.\d+)?)m(?:in)?)?(?:(\d+(?:\.\d+)?)s)?", s)
+        if not s or m is None or not any(m.groups()):
+            raise ConfigError(f"error: --max-time: {text!r} is not a duration (examples: 2h, "
+                              f"45m, 1h30m, 5400)")
+        h, mi, se = (float(g) if g else 0.0 for g in m.groups())
+        value = 3600 * h + 60 * mi + se
+    if not 60 <= value <= 30 * 86400:
+        raise ConfigError(f"error: --max-time must be 1 minute to 30 days (got {text!r})")
+    return value
+
+
+@dataclass
+class Choice:
+    """What the search chose and why (for `info` and the draw's notes)."""
+
+    spacing_mm: float
+    time_s: float
+    budget_s: float
+    tries: list[tuple[float, float]] = field(default_factory=list)    # (spacing, time)
+    limit: str = ""         # "" or why it stopped short of the budget
+
+    def text(self) -> str:
+        why = f"; {self.limit}" if self.limit else ""
+        return (f"spacing {self.spacing_mm:.3f} mm for a plot time of {clock_text(self.time_s)} "
+                f"within {clock_text(self.budget_s)} ({len(self.tries)} tries){why}")
+
+
+def fit(make: Callable[[float], object], plot_time: Callable[[object], float], budget_s: float,
+        start_mm: float, min_mm: float, max_mm: float, power: float = 1.0):
+    """(result of make(spacing), Choice): the densest spacing in [min_mm, max_mm] whose plot
+    time is at most budget_s, found to within UNDER of it. make(spacing) builds the drawing;
+    plot_time(drawing) times it. `power`: time ~ spacing^-power, the first guess's slope."""
+    tries: list[tuple[float, float]] = []
+    best = None                                  # (spacing, drawing, time) under the budget
+
+    def attempt(s: float):
+        nonlocal best
+        s = min(max(s, min_mm), max_mm)
+        for done_s, done_t in tries:             # never the same spacing twice
+            if abs(math.log(done_s / s)) < 1e-6:
+                return s, done_t
+        drawing = make(s)
+        t = plot_time(drawing)
+        tries.append((s, t))
+        if t <= budget_s and (best is None or s < best[0]):
+            best = (s, drawing, t)
+        return s, t
+
+    s, t = attempt(start_mm)
+    slope = -power
+    for _ in range(TRIES - 1):
+        if UNDER * budget_s <= t <= budget_s:
+            break
+        if s <= min_mm and t <= budget_s:
+            break                                # as dense as the pen can show
+        if s >= max_mm and t > budget_s:
+            break                                # even the sparsest does not fit
+        under = [(a, b) for a, b in tries if b <= budget_s]
+        over = [(a, b) for a, b in tries if b > budget_s]
+        if under and over:                       # secant in log-log between the bracket
+            (s0, t0) = min(under, key=lambda p: p[0])
+            (s1, t1) = max(over, key=lambda p: p[0])
+            if t0 != t1 and s0 != s1:
+                slope = math.log(t0 / t1) / math.log(s0 / s1)
+            target = math.log(budget_s * (1 + UNDER) / 2)
+            guess = math.exp(math.log(s0) + (target - math.log(t0)) / min(slope, -0.2))
+            lo, hi = sorted((s0, s1))
+            if not lo < guess < hi:
+                guess = math.sqrt(s0 * s1)
+        else:
+            aim = budget_s * (1 + UNDER) / 2
+            guess = s * (t / aim) ** (1 / -min(slope, -0.2))
+        s, t = attempt(guess)
+    if best is None:
+        s_max, t_max = max(tries)
+        raise ConfigError(f"error: --max-time {clock_text(budget_s)} is too short for this picture: "
+                          f"even at the widest spacing ({s_max:.2f} mm) it takes {clock_text(t_max)}; "
+                          f"give more time or a smaller --width")
+    s, drawing, t = best
+    limit = ""
+    if t < UNDER * budget_s:
+        limit = ("as dense as the pen can show (spacing at its minimum)" if s <= min_mm * 1.0001
+                 else "the closest try under the budget")
+    return drawing, Choice(s, t, budget_s, tries, limit)
+
+
+def clock_text(seconds: float) -> str:
+    """1:02:03 or 2:03 (the form status, progress and budgets print)."""
+    s = int(round(seconds))
+    h, m = divmod(s // 60, 60)
+    return f"{h}:{m:02d}:{s % 60:02d}" if h else f"{m}:{s % 60:02d}"
