@@ -4,9 +4,9 @@ across its track with an amplitude that follows darkness (Makelangelo's pulsing 
 
 The track pitch is `spacing_mm`; the spiral r = pitch x theta / 2 pi starts at the picture's
 centre and runs until it has passed the farthest corner, so it covers the whole rectangle.
-The zigzag turns every pen width along the track (a period of 2 pen widths) and its
-amplitude, up to half the pitch, gives the track's coverage the picture's darkness: the tone
-model of `squiggle.py` (`zigzag`), blurred over half a track. Where the picture is white the
+The zigzag's period is 2/3 of the pitch (2 pen widths for a 0.5 mm pen at 1.5 mm), and its
+amplitude, up to half the pitch, makes the line drawn per mm of track linear in darkness:
+the tone model of `squiggle.py` (`zigzag`), darkness blurred over half a track. Where the picture is white the
 pen lifts (short gaps are drawn straight through). Beyond the circle inscribed in the
 rectangle the spiral leaves it: the pen lifts at the edge and comes back down where the
 spiral re-enters (about four lifts a turn out there).
@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from vplotter.inputs.image.squiggle import smoothed, zigzag
+from vplotter.inputs.image.squiggle import densest_period, smoothed, zigzag
 from vplotter.inputs.strokes import Stroke
 
 
@@ -33,12 +33,12 @@ def _theta(s: np.ndarray, b: float) -> np.ndarray:
 
 def strokes(picture, spacing_mm: float, pen_mm: float = 0.5,
             period_mm: float | None = None) -> list[Stroke]:
-    """The pulsing spiral (above); `period_mm` is the zigzag's period (2 pen widths)."""
+    """The pulsing spiral (above); `period_mm` is the zigzag's period (2/3 of the spacing)."""
     if not spacing_mm > 0 or not pen_mm > 0:
         raise ValueError("spacing_mm and pen_mm must be > 0")
     w, h = picture.width_mm, picture.height_mm
     pic = smoothed(picture, spacing_mm)
-    period = 2 * pen_mm if period_mm is None else period_mm
+    period = densest_period(spacing_mm) if period_mm is None else period_mm
     b = spacing_mm / (2 * math.pi)
     r_max = math.hypot(w, h) / 2 + spacing_mm
     t_max = r_max / b

@@ -4,15 +4,19 @@
 Tone model (shared with the spiral, which uses `zigzag` here). A track `pitch` wide (the
 rows' spacing) is drawn as a zigzag of period P and amplitude A (half its peak-to-peak)
 across the track: the pen moves P/2 along and 2A across between two turns, so it draws
-L = sqrt(1 + (4A / P)^2) mm of line per mm of track, and with a pen w wide covers
-L x w / pitch of the track (the legs of a steep zigzag P = 2w touch: solid ink). For the
-wanted coverage t = darkness (blurred over about half a track, so each track carries the
-tone of its own strip): L = t x pitch / w and A = P/4 x sqrt(L^2 - 1), at most pitch / 2.
-A straight track (A = 0) already covers w / pitch; where t is below half of that the pen
-lifts (nothing is the nearer tone), so a white picture draws nothing. To keep the lifts
-few, gaps shorter than 4 pen widths are drawn straight through and pen-down runs shorter
-than 2 pen widths are dropped. The squiggle's period follows darkness too, from 4 pen widths
-in the light to 2 in the dark (finer teeth where the zigzag is steep); the spiral keeps 2.
+L = sqrt(1 + (4A / P)^2) mm of line per mm of track and, with a pen w wide, covers about
+L x w / pitch of the track. The darkest tone is the zigzag at full amplitude (A = pitch / 2)
+and the densest period P0 = 2/3 x pitch (2 pen widths for a 0.5 mm pen at 1.5 mm: the legs
+touch, solid ink): L_max = sqrt(1 + (2 pitch / P0)^2) = sqrt(10). The line drawn is linear
+in darkness, L = darkness x L_max (darkness blurred over about half a track, so each track
+carries the tone of its own strip), so the coverage is darkness x L_max x w / pitch (about
+1.05 x darkness at 0.5 mm / 1.5 mm; a coarser spacing draws a lighter picture with less
+line, a finer one more line: halving the spacing doubles the length, as for every style).
+A straight track (L = 1) is the least the pen can draw; where L is below 1/2 it lifts (the
+nearer tone), so a white picture draws nothing. To keep the lifts few, gaps shorter than 4
+pen widths are drawn straight through and pen-down runs shorter than 2 pen widths dropped.
+The squiggle's period follows darkness too, from 2 P0 in the light to P0 in the dark (finer
+teeth where the zigzag is steep); the spiral keeps P0.
 
 Rows are `spacing_mm` apart, centred on the picture; consecutive rows run in opposite
 directions and a row that ends at the picture's edge inked is joined to the next one that
@@ -64,13 +68,18 @@ def hysteresis(on: np.ndarray, s: np.ndarray, gap_mm: float, min_mm: float) -> n
     return on
 
 
+def densest_period(pitch_mm: float) -> float:
+    """P0: the zigzag's period at full darkness (2/3 of the pitch, at least 0.2 mm)."""
+    return max(2 * pitch_mm / 3, 0.2)
+
+
 def zigzag(centre, normal, s, dark, period, pitch, pen, width_mm, height_mm):
     """Turning points of a zigzag along a track: centre (M, 2) the track's points at the
-    turns, normal (M, 2) unit vectors across it, s (M,) arc length, dark (M,) the wanted
-    coverage there, period (M,) the zigzag's period. Returns the pen-down pieces (K, 2)."""
-    ratio = np.asarray(dark, dtype=float) * pitch / pen
-    amp = period / 4 * np.sqrt(np.maximum(ratio * ratio - 1, 0))
-    amp = np.minimum(amp, pitch / 2)
+    turns, normal (M, 2) unit vectors across it, s (M,) arc length, dark (M,) darkness there,
+    period (M,) the zigzag's period there. Returns the pen-down pieces (K, 2)."""
+    l_max = math.sqrt(1 + (2 * pitch / densest_period(pitch)) ** 2)
+    ratio = np.clip(np.asarray(dark, dtype=float), 0, 1) * l_max     # line per track length
+    amp = np.minimum(period / 4 * np.sqrt(np.maximum(ratio * ratio - 1, 0)), pitch / 2)
     sign = np.where(np.arange(len(s)) % 2 == 0, 1.0, -1.0)
     pts = centre + normal * (sign * amp)[:, None]
     on = hysteresis(ratio >= 0.5, s, 4 * pen, 2 * pen)
@@ -83,16 +92,21 @@ def zigzag(centre, normal, s, dark, period, pitch, pen, width_mm, height_mm):
     return [pts[i:j] for i, j in zip(a.tolist(), b.tolist()) if j - i >= 2]
 
 
-def _row_turns(pic: Picture, y: float, pen: float, w: float):
-    """Arc length of the turns along a row at height y (the period follows darkness)."""
-    ds = pen / 4
-    x = np.arange(0.0, w + ds / 2, ds)
+def _row_turns(pic: Picture, y: float, p0: float, w: float, backwards: bool):
+    """x of the turns along a row at height y, and the period there (it follows darkness:
+    2 p0 in white, p0 in black), from x = 0 (or from x = w when backwards)."""
+    ds = p0 / 8
+    along = np.arange(0.0, w + ds / 2, ds)
+    along[-1] = w
+    x = w - along if backwards else along
     d = pic.at(np.column_stack([x, np.full_like(x, y)]))
-    per = pen * (4 - 2 * np.clip(d, 0, 1))
-    phase = np.concatenate([[0.0], np.cumsum(2 * ds / per[:-1])])      # half periods
+    per = p0 * (2 - np.clip(d, 0, 1))
+    phase = np.concatenate([[0.0], np.cumsum(np.diff(along) * 2 / per[:-1])])   # half periods
     turns = np.searchsorted(phase, np.arange(1, math.floor(phase[-1]) + 1))
     idx = np.unique(np.concatenate([[0], turns, [len(x) - 1]]))
-    return x[idx], per[idx]
+    if len(idx) > 2 and along[idx[-1]] - along[idx[-2]] < p0 / 4:       # no stub at the end
+        idx = np.delete(idx, -2)
+    return x[idx], along[idx], per[idx]
 
 
 def strokes(picture, spacing_mm: float, pen_mm: float = 0.5) -> list[Stroke]:
@@ -104,14 +118,12 @@ def strokes(picture, spacing_mm: float, pen_mm: float = 0.5) -> list[Stroke]:
     pitch = min(spacing_mm, h)
     rows = max(1, math.floor(h / pitch))
     margin = (h - rows * pitch) / 2
+    p0 = densest_period(pitch)
     pieces: list[np.ndarray] = []
     for r in range(rows):                     # one loop turn per row; numpy along it
         y = h - margin - (r + 0.5) * pitch
-        x, per = _row_turns(pic, y, pen_mm, w)
-        if r % 2:
-            x, per = (w - x)[::-1], per[::-1]
+        x, s, per = _row_turns(pic, y, p0, w, backwards=bool(r % 2))
         centre = np.column_stack([x, np.full_like(x, y)])
-        s = np.abs(x - x[0])
         normal = np.tile([0.0, 1.0], (len(x), 1))
         dark = pic.at(centre)
         pieces.extend(zigzag(centre, normal, s, dark, per, pitch, pen_mm, w, h))
@@ -128,7 +140,9 @@ def _join_rows(pieces, w, pitch):
             q = out[-1]
             ex, sx = q[-1, 0], p[0, 0]
             at_edge = (ex <= tol and sx <= tol) or (ex >= w - tol and sx >= w - tol)
-            if at_edge and abs(q[-1, 0] - sx) <= tol and 0 < q[-1, 1] - p[0, 1] <= 2 * pitch:
+            if at_edge and abs(q[-1, 0] - sx) <= tol and -1e-9 <= q[-1, 1] - p[0, 1] <= 2 * pitch:
+                if np.hypot(*(q[-1] - p[0])) < 0.1:                # the same point
+                    p = p[1:]
                 out[-1] = np.concatenate([q, p])
                 continue
         out.append(p)
