@@ -11,8 +11,10 @@ Layer 1 is at `angle_deg` (45), layer 2 at angle - 90 (-45), layer 3 at angle - 
 layer 4 at angle + 45 (90). Layer n is hatched where the band is n or darker, so the bands
 are nested and the first layer runs through every inked area in long strokes.
 
-Before the bands are cut the darkness is blurred over about a pen width (no single-pixel
-specks) and runs shorter than two pen widths are dropped; the hatch lines of every band lie
+Before the bands are cut the darkness is blurred over about two pen widths (no single-pixel
+specks, and bands with smooth edges: on the bench photo that halves the strokes, 1444 -> 742,
+for a tone correlation of 0.951 instead of 0.957) and runs shorter than two pen widths are
+dropped; the hatch lines of every band lie
 on one grid per angle, so bands meet without seams. A white picture draws nothing.
 """
 
@@ -42,7 +44,7 @@ def strokes(picture, spacing_mm: float, pen_mm: float = 0.5, angle_deg: float = 
         raise ValueError("spacing_mm and pen_mm must be > 0")
     layers = int(min(max(layers, 1), len(TURNS)))
     px = picture.mm_per_px
-    d = blur(picture.darkness, (pen_mm if smooth_mm is None else smooth_mm) / px / 1.4)
+    d = blur(picture.darkness, (2 * pen_mm if smooth_mm is None else smooth_mm) / px / 1.4)
     band = np.searchsorted(thresholds(spacing_mm, pen_mm, layers), d, side="right")
     min_run = 2 * pen_mm if min_run_mm is None else min_run_mm
     out: list[Stroke] = []
