@@ -391,3 +391,17 @@ def test_squiggle_rows_joined_at_inked_edges():
     assert len(strokes) == 1                                   # boustrophedon: one stroke
     ramp = style("squiggle")(_ramp(), 1.5, 0.5)                # white left edge: row pairs
     assert len(ramp) == 20
+
+
+@settings(max_examples=25)
+@given(st.integers(1, 40), st.integers(1, 40), st.floats(1, 60), st.floats(1, 60),
+       st.floats(0.3, 6), st.integers(0, 2**31 - 1))
+def test_styles_any_picture(h, w, wmm, hmm, spacing, seed):
+    """Any small picture, size and spacing: every point inside, no chord under 0.1 mm."""
+    d = np.random.default_rng(seed).random((h, w)).astype(np.float32)
+    pic = Picture(d, wmm, hmm)
+    for name in MINE:
+        for s in style(name)(pic, spacing, 0.5):
+            p = s.pts
+            assert np.all(p >= 0) and np.all(p[:, 0] <= wmm) and np.all(p[:, 1] <= hmm)
+            assert len(p) < 2 or np.hypot(*np.diff(p, axis=0).T).min() >= 0.1 - 1e-9

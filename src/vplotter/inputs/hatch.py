@@ -313,6 +313,8 @@ def hatch_mask(mask, width_mm: float, height_mm: float, spacing_mm: float, angle
         u1 = np.minimum(umin + e * pitch, hi[r])
         keep = u1 - u0 >= max(min_run_mm, 1e-6)
         seg_k.append(kc[r][keep]); seg_u0.append(u0[keep]); seg_u1.append(u1[keep])
+    if not seg_k or not sum(len(a) for a in seg_k):
+        return []
     k = np.concatenate(seg_k)
     u0, u1 = np.concatenate(seg_u0), np.concatenate(seg_u1)
 

@@ -34,6 +34,9 @@ from vplotter.inputs.image.picture import Picture
 from vplotter.inputs.strokes import Stroke
 
 
+MIN_CHORD_MM = 0.1         # no shorter piece between two points (keeps the count sane)
+
+
 def smoothed(picture, pitch_mm: float) -> Picture:
     """The picture blurred over about half a track (its tone per track)."""
     d = blur(picture.darkness, 0.35 * pitch_mm / picture.mm_per_px)
@@ -89,7 +92,25 @@ def zigzag(centre, normal, s, dark, period, pitch, pen, width_mm, height_mm):
     pts[:, 0] = np.clip(pts[:, 0], 0, width_mm)
     pts[:, 1] = np.clip(pts[:, 1], 0, height_mm)
     a, b = _runs(on)
-    return [pts[i:j] for i, j in zip(a.tolist(), b.tolist()) if j - i >= 2]
+    return [q for q in (_min_chord(pts[i:j]) for i, j in zip(a.tolist(), b.tolist()))
+            if len(q) >= 2]
+
+
+def _min_chord(p: np.ndarray, least: float = MIN_CHORD_MM) -> np.ndarray:
+    """Drop points closer than `least` to the one before (a few vectorised passes; a tight
+    spiral's first turn, a fine spacing)."""
+    for _ in range(4):
+        if len(p) < 2:
+            return p
+        short = np.hypot(*np.diff(p, axis=0).T) < least
+        if not short.any():
+            return p
+        keep = np.r_[True, ~short]
+        keep[-1] = True                                   # the end stays where it is
+        if short[-1] and len(p) > 2:
+            keep[-2] = False
+        p = p[keep]
+    return p
 
 
 def _row_turns(pic: Picture, y: float, p0: float, w: float, backwards: bool):
@@ -104,7 +125,7 @@ def _row_turns(pic: Picture, y: float, p0: float, w: float, backwards: bool):
     phase = np.concatenate([[0.0], np.cumsum(np.diff(along) * 2 / per[:-1])])   # half periods
     turns = np.searchsorted(phase, np.arange(1, math.floor(phase[-1]) + 1))
     idx = np.unique(np.concatenate([[0], turns, [len(x) - 1]]))
-    if len(idx) > 2 and along[idx[-1]] - along[idx[-2]] < p0 / 4:       # no stub at the end
+    if len(idx) > 2 and along[idx[-1]] - along[idx[-2]] < p0 / 2:       # no stub at the end
         idx = np.delete(idx, -2)
     return x[idx], along[idx], per[idx]
 
