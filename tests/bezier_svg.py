@@ -98,8 +98,9 @@ def _chain(rng, start: np.ndarray, k: int, size: float, closed: bool,
 
 
 def make(seed: int = 0, n_paths: int = 60, n_layers: int = 2, width: float = 300.0,
-         height: float = 400.0, pairs: int = 20, gap=(0.01, 0.1)):
-    """(svg text, true curves: list of (N, 2) arrays in G-code mm, one per path)."""
+         height: float = 400.0, pairs: int = 20, gap=(0.01, 0.1), n: int = 2000):
+    """(svg text, true curves: list of (N, 2) arrays in G-code mm, one per path; n points per
+    cubic segment)."""
     rng = np.random.default_rng(seed)
     page = np.array([[1.0, 0, -width / 2], [0, -1.0, height / 2], [0, 0, 1]])
     # groups: per layer a matrix group, and inside it one or two nested matrix groups
@@ -175,7 +176,7 @@ def make(seed: int = 0, n_paths: int = 60, n_layers: int = 2, width: float = 300
             for p in paths:
                 if p.group == gi:
                     body.append(f'<path fill="none" stroke="black" d="{p.d()}"/>')
-                    true.append(np.concatenate([true_bezier(_apply(groups[gi][2], c))
+                    true.append(np.concatenate([true_bezier(_apply(groups[gi][2], c), n)
                                                 for c in p.segs]))
             body.append("</g>" * (len(chain) - 1))
         body.append("</g>")
