@@ -167,8 +167,8 @@ def make(seed: int = 0, n_paths: int = 60, n_layers: int = 2, width: float = 300
     for lay in range(n_layers):
         gis = [i for i, g in enumerate(groups) if g[0] == lay]
         m_layer = groups[gis[0]][1][0]
-        body.append(f'<g inkscape:groupmode="layer" id="layer{lay}" inkscape:label="L{lay}" '
-                    f'transform="{_svg_matrix(m_layer)}">')
+        body.append(f'<g inkscape:groupmode="layer" id="layer{lay + 1}" '
+                    f'inkscape:label="L{lay + 1}" transform="{_svg_matrix(m_layer)}">')
         for gi in gis:
             chain = groups[gi][1]
             for m in chain[1:]:
