@@ -7,6 +7,8 @@ number `estimate` prints) in file order and after best, and, when vpype is impor
 travel of vpype's `linesort` (greedy with reversal; vpype_cli.execute) on the same strokes,
 measured the same way (from X0 Y0, no return). vpype's own pen_up_length leaves out the travel
 from the start to the first stroke; the last two columns compare that way (between strokes).
+Then, per layer, generated SVGs (tests/bezier_svg.py, 3 layers): --order best against
+`vpype read FILE linesort`, between strokes.
 
 Run: python bench/order.py          (vpype is optional: pip install vpype in a throwaway venv)
 """
@@ -60,7 +62,7 @@ def circles(nx: int = 60, ny: int = 70, k: int = 48) -> list[strokes.Stroke]:
 
 
 def plot_time_s(cfg, pos, ss) -> float:
-    prep = Prepared("bench", False, False, join_mm=0.05)
+    prep = Prepared("bench", False, False, join_mm=cfg.motion.tolerance_mm * CHORD_SHARE)
     prep._strokes = ss
     return pipeline.validate(cfg, prep.records(), pos.counts, pos.ref_mm, "bench").time_s
 
@@ -83,6 +85,47 @@ def vpype_linesort(ss) -> list | None:
 def between(ss) -> float:
     """Pen-up travel between strokes only (vpype's pen_up_length)."""
     return order.travel_mm(ss, ss[0].pts[0]) if ss else 0.0
+
+
+def svg_layers(cfg, seeds=(0, 1, 2), n_paths: int = 300) -> None:
+    """Per layer, on SVGs from tests/bezier_svg.py (3 layers, smooth cubics under nested skewed
+    matrices, many ends 0.01-0.1 mm apart): the travel between strokes of `vplotter --order
+    best` (prepare(), default join) and of `vpype read FILE linesort` (vpype's own reading,
+    pen_up_length of each layer)."""
+    import tempfile
+    import types
+
+    sys.path.insert(0, os.path.join(ROOT, "tests"))
+    import bezier_svg
+    from vplotter.prepare import prepare
+
+    try:
+        import vpype_cli
+    except ImportError:
+        vpype_cli = None
+    print()
+    print("| generated SVG | layer | strokes | between strokes: best / vpype linesort | ratio |")
+    print("| --- | --- | --- | --- | --- |")
+    with tempfile.TemporaryDirectory() as tmp:
+        for seed in seeds:
+            text, _ = bezier_svg.make(seed, n_paths=n_paths, n_layers=3, pairs=n_paths // 3, n=2)
+            path = os.path.join(tmp, f"gen{seed}.svg")
+            with open(path, "w") as f:
+                f.write(text)
+            prep = prepare(path, cfg, types.SimpleNamespace(order="best"), warn=lambda m: None)
+            theirs = {}
+            if vpype_cli is not None:
+                doc = vpype_cli.execute(f"read {path} linesort")
+                theirs = {lc.property("vp_name"): float(lc.pen_up_length()[0]) * 25.4 / 96
+                          for lc in doc.layers.values()}      # vpype's unit is the CSS px
+            for name in dict.fromkeys(s.layer for s in prep.strokes):
+                ours = [s for s in prep.strokes if s.layer == name]
+                mine = between(ours)
+                vp = theirs.get(name)
+                vps = f"{vp / 1000:.3f} m" if vp is not None else "(no vpype)"
+                ratio = f"{mine / vp:.3f}" if vp else "-"
+                print(f"| gen{seed} | {name} | {len(ours)} | {mine / 1000:.3f} m / {vps} "
+                      f"| {ratio} |", flush=True)
 
 
 def main() -> None:
@@ -112,6 +155,7 @@ def main() -> None:
         print(f"| {name} | {len(ss)} | {tf / 1000:.2f} m | {tg / 1000:.2f} m | {tb / 1000:.2f} m "
               f"| {vps} | {ratio} | {t1 - t0:.2f} s / {t2 - t1:.2f} s | {pf:.0f} s | {pb:.0f} s "
               f"| {btw} |")
+    svg_layers(cfg)
 
 
 if __name__ == "__main__":

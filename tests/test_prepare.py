@@ -197,19 +197,20 @@ def test_convert_reads_back_and_converts_to_itself(capsys, config_path, tmp_path
     from vplotter.prepare import prepare
 
     args = argparse.Namespace(order="best", rotate=90.0, fit=True, scale=None, margin=0.0,
-                              align=None, valign=None, offset=None, join=0.05, layer=None,
+                              align=None, valign=None, offset=None, join=None, layer=None,
                               pause_between_layers=False, strict=False)
     prep = prepare(str(CAR), cfg, args, warn=lambda m: None)
     got = _strokes_of(ta)
     want = prep.strokes
-    joined = order.joined(want, 0.05)
+    assert prep.join_mm == cfg.motion.tolerance_mm * 0.75      # the default join
+    joined = order.joined(want, prep.join_mm)
     assert len(got) == len(want) - joined.sum()
     pts_got = np.concatenate([s.pts for s in got])
     pts_want = np.concatenate([s.pts for s in want])
     d = np.hypot(*(pts_got[:, None, :] - pts_want[None, :, :]).transpose(2, 0, 1))
     assert d.min(axis=0).max() <= 1e-4 and d.min(axis=1).max() <= 1e-4
     assert abs(sum(s.length_mm() for s in got) - sum(s.length_mm() for s in want)) \
-        <= 0.05 * joined.sum() + 1e-3
+        <= prep.join_mm * joined.sum() + 1e-3
     del prepare_file
 
 

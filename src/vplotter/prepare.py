@@ -69,9 +69,11 @@ def add_file_options(p: argparse.ArgumentParser) -> None:
     o.add_argument("--order", choices=("keep", "greedy", "best"),
                    help="stroke order: keep the file's, greedy nearest neighbour, or best "
                         "(default: best for SVG, keep for G-code)")
-    o.add_argument("--join", type=_number("join", 0), default=0.05, metavar="MM",
+    o.add_argument("--join", type=_number("join", 0), default=None, metavar="MM",
                    help="draw on without lifting the pen when the next stroke starts within MM "
-                        "(default 0.05)")
+                        "of where the previous one ended; at most (and by default) the "
+                        "flattening tolerance, 0.75 x tolerance_mm (0.0075 mm at 0.01), so a "
+                        "join never draws farther from the file than a chord; 0: never")
     o.add_argument("--layer", action="append", metavar="NAME",
                    help="draw only this SVG layer (label or id); repeatable")
     o.add_argument("--pause-between-layers", action="store_true",
@@ -153,7 +155,7 @@ class Prepared:
     is_gcode: bool
     passthrough: bool             # G-code streamed as it is
     strict: bool = False
-    join_mm: float = 0.05
+    join_mm: float = 0.0075       # the joins: within this, never above tol_mm (see prepare)
     pause: bool = False
     order_s: float = 0.0
     key: str = ""                 # the options that make the order; resume checks them
@@ -253,10 +255,25 @@ class Prepared:
         return f"{self.path}: element {st.src}" if st.src else f"{self.path}: element {st.line}"
 
 
+def join_limit(join_mm: float | None, tol_mm: float, warn: Callable[[str], None]) -> float:
+    """The gap a pen-down join may bridge: --join, by default and at most the flattening
+    tolerance tol_mm. A bridge of g mm lies within g/2 of the two stroke ends it joins, so a
+    join draws nothing farther from the file than a chord of a curve is, and any order draws the
+    same segments within it (a longer bridge would be a line that is not in the file, and which
+    ends are joined depends on the order)."""
+    if join_mm is None:
+        return tol_mm
+    if join_mm > tol_mm:
+        warn(f"warning: --join {join_mm:g} mm is more than the flattening tolerance "
+             f"({tol_mm:g} mm, 0.75 x tolerance_mm): ends farther apart than that are not joined")
+        return tol_mm
+    return join_mm
+
+
 def options_key(path: str, args) -> str:
     """The options that decide what is drawn in which order (a resume needs the same)."""
     method = getattr(args, "order", None) or ("best" if is_svg(path) else "keep")
-    return repr((method, placement(args), getattr(args, "join", 0.05),
+    return repr((method, placement(args), getattr(args, "join", None),
                  getattr(args, "layer", None), bool(getattr(args, "pause_between_layers", False))))
 
 
@@ -273,10 +290,9 @@ def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
     if layers and not svg:
         raise ConfigError(f"error: --layer is for SVG files; {path} is G-code")
     strict = bool(getattr(args, "strict", False))
-    join_mm = getattr(args, "join", 0.05)
-    join_mm = 0.05 if join_mm is None else join_mm
     pause = bool(getattr(args, "pause_between_layers", False))
     tol = cfg.motion.tolerance_mm * CHORD_SHARE
+    join_mm = join_limit(getattr(args, "join", None), tol, warn)
     key = options_key(path, args)
     prep = Prepared(path, not svg, passthrough=False, strict=strict, join_mm=join_mm,
                     pause=pause, key=key, warn=warn,

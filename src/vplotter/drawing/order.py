@@ -22,7 +22,10 @@ a layer may be another pen. Deterministic: no clocks, no random numbers.
   (vpype's pen_up_length) alike.
 
 Joining (`joined`): a stroke that starts within join_mm of where the previous one ended is
-drawn without lifting the pen.
+drawn without lifting the pen. That pen-down bridge is a line that is not in the file, and
+which ends meet depends on the order, so prepare() keeps join_mm within the flattening
+tolerance (`prepare.join_limit`): every order then draws the file's own segments, plus bridges
+that lie within half that tolerance of two stroke ends.
 """
 
 from __future__ import annotations
