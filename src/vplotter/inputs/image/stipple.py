@@ -22,8 +22,10 @@ cannot show.
 The tour (Kaplan and Bosch 2005): nearest neighbour (a k-d tree's neighbour lists), improved by
 2-opt and or-opt moves between each point and its K nearest neighbours, cut open at its longest
 edge. An edge much longer than the spacing the darkness along it asks for (GAP times
-spacing_mm / sqrt(rho) at its lightest point: across paper, that is every edge) is a pen lift:
-the stroke is split there, so no straight line crosses a white area.
+spacing_mm / sqrt(rho) at its lightest point: across paper, that is every edge), or longer than
+MAX_EDGE x spacing_mm, is a pen lift: the stroke is split there, so no straight line crosses a
+white area, and the sparse light areas are drawn in short pieces (the long straight lines of a
+tour there lay more ink than the tone asks for: bench/image_stipple.py).
 """
 
 from __future__ import annotations
@@ -41,7 +43,8 @@ SAMPLES_PER_DOT = 8     # Lloyd: density samples per dot (the Voronoi cells are 
 MAX_ITER = 30           # Lloyd rounds at most
 STOP = 0.05             # ... or until the root-mean-square move is below STOP x spacing_mm
 K = 8                   # tour: neighbours looked at per point
-GAP = 3.0               # tour: an edge longer than GAP local spacings is a pen lift
+GAP = 3.0               # tour: an edge longer than GAP local spacings is a pen lift,
+MAX_EDGE = 5.0          # ... and so is one longer than MAX_EDGE x spacing_mm
 EDGE_SAMPLES = 7        # tour: darkness looked at along each edge
 INSET = 1e-6            # mm: points strictly inside the picture
 
@@ -362,7 +365,8 @@ def _move(t: np.ndarray, pos: np.ndarray, i: int, j: int, n: int) -> None:
 
 def split(path: np.ndarray, picture: Picture, spacing_mm: float, gamma: float) -> list[np.ndarray]:
     """The path cut into pieces at its long edges: an edge longer than GAP x spacing_mm /
-    sqrt(rho) at the lightest of EDGE_SAMPLES points along it (rho = darkness ** gamma)."""
+    sqrt(rho) at the lightest of EDGE_SAMPLES points along it (rho = darkness ** gamma), or
+    than MAX_EDGE x spacing_mm."""
     if len(path) < 2:
         return [path]
     a, b = path[:-1], path[1:]
@@ -372,6 +376,6 @@ def split(path: np.ndarray, picture: Picture, spacing_mm: float, gamma: float) -
     dark = picture.at(along.reshape(-1, 2)).reshape(len(a), EDGE_SAMPLES).min(axis=1)
     rho = np.clip(dark, 0.0, 1.0) ** gamma
     with np.errstate(divide="ignore"):
-        allowed = GAP * spacing_mm / np.sqrt(rho)
+        allowed = np.minimum(GAP * spacing_mm / np.sqrt(rho), MAX_EDGE * spacing_mm)
     cuts = np.flatnonzero(length > allowed) + 1
     return np.split(path, cuts)
