@@ -21,11 +21,11 @@ cannot show.
 
 The tour (Kaplan and Bosch 2005): nearest neighbour (a k-d tree's neighbour lists), improved by
 2-opt and or-opt moves between each point and its K nearest neighbours, cut open at its longest
-edge. An edge much longer than the spacing the darkness along it asks for (GAP times
-spacing_mm / sqrt(rho) at its lightest point: across paper, that is every edge), or longer than
-MAX_EDGE x spacing_mm, is a pen lift: the stroke is split there, so no straight line crosses a
-white area, and the sparse light areas are drawn in short pieces (the long straight lines of a
-tour there lay more ink than the tone asks for: bench/image_stipple.py).
+edge. An edge much longer than the spacing the darkness at its ends asks for (GAP times
+spacing_mm / sqrt(rho)), or longer than MAX_EDGE x spacing_mm, or running over paper for half a
+spacing is a pen lift: the stroke is split there, so no straight line crosses a white area, and
+the sparse light areas are drawn in short pieces (the long straight lines of a tour there lay
+more ink than the tone asks for: bench/image_stipple.py).
 """
 
 from __future__ import annotations
@@ -45,6 +45,7 @@ STOP = 0.05             # ... or until the root-mean-square move is below STOP x
 K = 8                   # tour: neighbours looked at per point
 GAP = 3.0               # tour: an edge longer than GAP local spacings is a pen lift,
 MAX_EDGE = 5.0          # ... and so is one longer than MAX_EDGE x spacing_mm
+WHITE, WHITE_RUN = 0.02, 0.5    # ... or one over paper (darkness < WHITE) for WHITE_RUN spacings
 EDGE_SAMPLES = 7        # tour: darkness looked at along each edge
 INSET = 1e-6            # mm: points strictly inside the picture
 
@@ -364,18 +365,20 @@ def _move(t: np.ndarray, pos: np.ndarray, i: int, j: int, n: int) -> None:
 
 
 def split(path: np.ndarray, picture: Picture, spacing_mm: float, gamma: float) -> list[np.ndarray]:
-    """The path cut into pieces at its long edges: an edge longer than GAP x spacing_mm /
-    sqrt(rho) at the lightest of EDGE_SAMPLES points along it (rho = darkness ** gamma), or
-    than MAX_EDGE x spacing_mm."""
+    """The path cut into pieces at its long edges: an edge longer than GAP x the local spacing
+    (spacing_mm / sqrt(rho), rho = darkness ** gamma) at the lighter of its ends, or than
+    MAX_EDGE x spacing_mm, or that runs over paper (darkness under WHITE) for more than
+    WHITE_RUN x spacing_mm (judged at EDGE_SAMPLES points along it)."""
     if len(path) < 2:
         return [path]
     a, b = path[:-1], path[1:]
     length = np.hypot(*(b - a).T)
+    rho_ends = np.minimum(picture.at(a), picture.at(b)).clip(0.0, 1.0) ** gamma
+    with np.errstate(divide="ignore"):
+        allowed = np.minimum(GAP * spacing_mm / np.sqrt(rho_ends), MAX_EDGE * spacing_mm)
     f = (np.arange(EDGE_SAMPLES) + 0.5) / EDGE_SAMPLES
     along = a[:, None, :] + (b - a)[:, None, :] * f[None, :, None]
-    dark = picture.at(along.reshape(-1, 2)).reshape(len(a), EDGE_SAMPLES).min(axis=1)
-    rho = np.clip(dark, 0.0, 1.0) ** gamma
-    with np.errstate(divide="ignore"):
-        allowed = np.minimum(GAP * spacing_mm / np.sqrt(rho), MAX_EDGE * spacing_mm)
-    cuts = np.flatnonzero(length > allowed) + 1
+    dark = picture.at(along.reshape(-1, 2)).reshape(len(a), EDGE_SAMPLES)
+    white = np.mean(dark < WHITE, axis=1) * length
+    cuts = np.flatnonzero((length > allowed) | (white > WHITE_RUN * spacing_mm)) + 1
     return np.split(path, cuts)
