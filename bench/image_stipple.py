@@ -8,8 +8,8 @@ N in (5k, 20k, 50k) dots (spacing_mm chosen so that N = sum(darkness) px area / 
   the nearest-neighbour path alone, the line drawn after the splits and the pen lifts;
 - tone: the dots (pen_mm discs) and the TSP strokes rendered with Pillow's ImageDraw at 10 px/mm,
   both the rendering and the darkness blurred (GaussianBlur, sigma 1 mm, and 2 x spacing: 1 mm
-  is finer than the dots at 5k), Pearson correlation of ink with darkness. For the line it is given for both density models: rho = d (as the dots)
-  and rho = d² (what tsp=True uses).
+  is finer than the dots at 5k), Pearson correlation of ink with darkness. For the line it is
+  given for both density models: rho = d (as the dots) and rho = d² (what tsp=True uses).
 
 Times are wall-clock seconds on this (shared, 2-core) machine. Run: python bench/image_stipple.py
 """
@@ -125,7 +125,8 @@ def run() -> None:
               f"| {c_dots[0]:.3f} / {c_dots[1]:.3f} "
               f"| {len(tp)} | {t_tour:.2f} | {length(tp[nn]) / 1000:.1f} "
               f"| {length(tp[order]) / 1000:.1f} | {sum(length(p) for p in pieces) / 1000:.1f} "
-              f"| {len(pieces) - 1} | {c_line[0]:.3f} / {c_line[1]:.3f} | {c_line1:.3f} |", flush=True)
+              f"| {len(pieces) - 1} | {c_line[0]:.3f} / {c_line[1]:.3f} | {c_line1:.3f} |",
+              flush=True)
 
 
 if __name__ == "__main__":
