@@ -1,0 +1,384 @@
+"""Stipples: the picture's darkness as dots (weighted Voronoi stippling), or as one line
+through them (TSP art).
+
+Density model. Dots are placed with a density (dots per mm²) of rho(d) / spacing_mm², d the
+darkness: rho(d) = d for dots, so that every dot lays the same ink and the ink per area follows
+the darkness (dot area x density), and the mean distance between dots is about spacing_mm where
+the picture is black (a hexagonal packing of that density has neighbours 1.07 spacing apart).
+For the line (tsp=True) the ink per area is the line length per area times the pen width, and a
+tour through points of density D has about 0.7 sqrt(D) mm of line per mm²: rho(d) = d² keeps that
+proportional to the darkness. N = sum(rho) x pixel area / spacing_mm² dots in all (or `dots`),
+so halving spacing_mm quadruples the dots (and doubles the tour's length).
+
+Placement (Secord 2002): N points by inverse-CDF sampling of rho, stratified along a Hilbert
+curve through the pixels (an even start: each dot is drawn from its own share of the ink,
+visited in a space-filling order), then Lloyd relaxation with rho as the density: the Voronoi
+cells are found for a fixed set of SAMPLES_PER_DOT x N samples of rho, drawn the same stratified
+way, by a k-d tree query (SciPy's cKDTree), each point moves to its cell's centroid (np.bincount)
+until the mean move is under STOP x spacing_mm or after MAX_ITER rounds. The picture is first
+reduced (area average) to PX_PER_SPACING pixels per spacing_mm: finer detail than the dots
+cannot show.
+
+The tour (Kaplan and Bosch 2005): nearest neighbour (a k-d tree's neighbour lists), improved by
+2-opt and or-opt moves between each point and its K nearest neighbours, cut open at its longest
+edge. An edge much longer than the spacing the darkness at its ends asks for (GAP times
+spacing_mm / sqrt(rho)), or longer than MAX_EDGE x spacing_mm, or running over paper for half a
+spacing is a pen lift: the stroke is split there, so no straight line crosses a white area, and
+the sparse light areas are drawn in short pieces (the long straight lines of a tour there lay
+more ink than the tone asks for: bench/image_stipple.py).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from vplotter.errors import ConfigError
+from vplotter.inputs.image.picture import Picture
+from vplotter.inputs.strokes import Stroke
+
+PX_PER_SPACING = 4      # reduced grid: pixels per spacing_mm
+SAMPLES_PER_DOT = 8     # Lloyd: density samples per dot (the Voronoi cells are measured by them)
+MAX_ITER = 30           # Lloyd rounds at most
+STOP = 0.05             # ... or until the root-mean-square move is below STOP x spacing_mm
+K = 8                   # tour: neighbours looked at per point
+GAP = 3.0               # tour: an edge longer than GAP local spacings is a pen lift,
+MAX_EDGE = 5.0          # ... and so is one longer than MAX_EDGE x spacing_mm
+WHITE, WHITE_RUN = 0.02, 0.5    # ... or one over paper (darkness < WHITE) for WHITE_RUN spacings
+EDGE_SAMPLES = 7        # tour: darkness looked at along each edge
+INSET = 1e-6            # mm: points strictly inside the picture
+
+
+def strokes(picture: Picture, spacing_mm: float, pen_mm: float, tsp: bool = False,
+            seed: int = 0, dots: int | None = None, dot_mm: float | None = None,
+            **_) -> list[Stroke]:
+    """Stipples of `picture`: one 1-point stroke (a dot: the pen taps) per stipple; with
+    dot_mm > pen_mm a small filled circle of that diameter instead; with tsp=True the tour
+    through all of them, split where it would cross light paper (see the module's text)."""
+    gamma = 2.0 if tsp else 1.0
+    pts = points(picture, spacing_mm, seed=seed, dots=dots, gamma=gamma)
+    if len(pts) == 0:
+        return []
+    if tsp:
+        path = pts[tour(pts)]
+        return [Stroke(p) for p in split(path, picture, spacing_mm, gamma)]
+    pts = pts[np.argsort(_hilbert_points(pts, picture, spacing_mm / 2), kind="stable")]
+    if dot_mm is not None and dot_mm > pen_mm:
+        return _circles(pts, picture, dot_mm, pen_mm)
+    return [Stroke(p[None, :].copy()) for p in pts]
+
+
+# ------------------------------------------------------------------ placement
+def _kdtree():
+    try:
+        from scipy.spatial import cKDTree
+    except ImportError:
+        raise ConfigError("error: --style stipple needs SciPy: pip install scipy "
+                          "(Pi OS: sudo apt install python3-scipy)") from None
+    return cKDTree
+
+
+def points(picture: Picture, spacing_mm: float, seed: int = 0, dots: int | None = None,
+           gamma: float = 1.0, iterations: int = MAX_ITER) -> np.ndarray:
+    """(N, 2) stipple positions in G-code mm, strictly inside the picture (iterations=0: the
+    initial sample, before Lloyd)."""
+    if not spacing_mm > 0:
+        raise ConfigError(f"error: stipple spacing must be > 0 mm (got {spacing_mm})")
+    cKDTree = _kdtree()
+    rho, gx, gy = _grid(picture, spacing_mm)
+    rho = np.clip(rho, 0.0, 1.0) ** gamma
+    n = int(round(float(rho.sum()) * gx * gy / spacing_mm ** 2)) if dots is None else int(dots)
+    if n <= 0 or not rho.max() > 0:
+        return np.zeros((0, 2))
+    rng = np.random.default_rng(seed)
+    cdf = _Cdf(rho, gx, gy, picture.height_mm)
+    pts = cdf.sample(n, rng)
+    if iterations > 0:
+        samples = cdf.sample(SAMPLES_PER_DOT * n, rng)
+        for _ in range(iterations):
+            _, idx = cKDTree(pts).query(samples, workers=-1)
+            cnt = np.bincount(idx, minlength=n)
+            has = cnt > 0
+            new = pts.copy()
+            new[has, 0] = np.bincount(idx, samples[:, 0], n)[has] / cnt[has]
+            new[has, 1] = np.bincount(idx, samples[:, 1], n)[has] / cnt[has]
+            move = math.sqrt(float(np.mean(np.sum((new - pts) ** 2, axis=1))))
+            pts = new
+            if move < STOP * spacing_mm:
+                break
+    hi = np.array([picture.width_mm, picture.height_mm]) - INSET
+    return np.clip(pts, INSET, hi)
+
+
+def _grid(picture: Picture, spacing_mm: float) -> tuple[np.ndarray, float, float]:
+    """The darkness area-averaged to about PX_PER_SPACING pixels per spacing_mm (never finer
+    than the picture), with the pixel's width and height in mm."""
+    d = np.asarray(picture.darkness, dtype=np.float32)
+    h, w = d.shape
+    f = spacing_mm / PX_PER_SPACING / picture.mm_per_px
+    if f > 1.5:
+        from PIL import Image
+        w2, h2 = max(1, round(w / f)), max(1, round(h / f))
+        d = np.asarray(Image.fromarray(d, mode="F").resize((w2, h2), Image.BOX))
+        h, w = d.shape
+    return d, picture.width_mm / w, picture.height_mm / h
+
+
+class _Cdf:
+    """Inverse-CDF sampling of a density grid, stratified along a Hilbert curve: sample k of m
+    falls in the k-th m-th of the ink, pixels visited in a space-filling order, so samples are
+    spread evenly (no clumps, no holes) and each is uniform within its pixel."""
+
+    def __init__(self, rho: np.ndarray, gx: float, gy: float, height_mm: float):
+        h, w = rho.shape
+        pix = np.flatnonzero(rho.ravel() > 0)
+        r, c = np.divmod(pix, w)
+        self.order = pix[np.argsort(_hilbert(c, r, max(h, w)), kind="stable")]
+        self.cum = np.cumsum(rho.ravel()[self.order], dtype=np.float64)
+        self.w, self.gx, self.gy, self.top = w, gx, gy, height_mm
+
+    def sample(self, m: int, rng: np.random.Generator) -> np.ndarray:
+        t = (np.arange(m) + rng.random(m)) * (self.cum[-1] / m)
+        k = np.minimum(np.searchsorted(self.cum, t, side="right"), len(self.cum) - 1)
+        r, c = np.divmod(self.order[k], self.w)
+        u = rng.random((m, 2))
+        return np.column_stack([(c + u[:, 0]) * self.gx, self.top - (r + u[:, 1]) * self.gy])
+
+
+def _hilbert(x: np.ndarray, y: np.ndarray, size: int) -> np.ndarray:
+    """Position along a Hilbert curve of integer cells (x, y) in [0, size)²."""
+    n = 1 << max(1, int(math.ceil(math.log2(max(size, 2)))))
+    x, y = np.asarray(x, dtype=np.int64).copy(), np.asarray(y, dtype=np.int64).copy()
+    d = np.zeros(x.shape, dtype=np.int64)
+    s = n >> 1
+    while s > 0:
+        rx = (x & s) > 0
+        ry = (y & s) > 0
+        d += s * s * ((3 * rx.astype(np.int64)) ^ ry.astype(np.int64))
+        flip = ~ry & rx
+        x = np.where(flip, n - 1 - x, x)
+        y = np.where(flip, n - 1 - y, y)
+        swap = ~ry
+        x, y = np.where(swap, y, x), np.where(swap, x, y)
+        s >>= 1
+    return d
+
+
+def _hilbert_points(pts: np.ndarray, picture: Picture, cell_mm: float) -> np.ndarray:
+    c = np.floor(pts / max(cell_mm, 1e-9)).astype(np.int64)
+    size = int(max(picture.width_mm, picture.height_mm) / max(cell_mm, 1e-9)) + 1
+    return _hilbert(c[:, 0], c[:, 1], size)
+
+
+def _circles(pts: np.ndarray, picture: Picture, dot_mm: float, pen_mm: float) -> list[Stroke]:
+    """A filled disc of diameter dot_mm per point: a spiral out from the centre (turns at most
+    0.9 pen apart) closed by a full circle whose line's outer edge is the disc's edge."""
+    r = (dot_mm - pen_mm) / 2
+    turns = max(1, math.ceil(r / (0.9 * pen_mm)))
+    per_turn = max(8, math.ceil(2 * math.pi * r / 0.3))
+    a = np.linspace(0, 2 * math.pi * turns, turns * per_turn + 1)
+    rad = a / a[-1] * r
+    ring = np.linspace(0, 2 * math.pi, per_turn + 1)[1:]
+    a, rad = np.concatenate([a, a[-1] + ring]), np.concatenate([rad, np.full(per_turn, r)])
+    shape = np.column_stack([rad * np.cos(a), rad * np.sin(a)])
+    lo = r + INSET
+    hi = np.array([picture.width_mm, picture.height_mm]) - lo
+    if np.any(hi < lo):
+        raise ConfigError(f"error: stipple dots of {dot_mm} mm do not fit the picture")
+    pts = np.clip(pts, lo, hi)
+    return [Stroke(p + shape) for p in pts]
+
+
+# ------------------------------------------------------------------ the tour
+def tour(pts: np.ndarray) -> np.ndarray:
+    """An open path through all points (indices, each once): nearest neighbour, then 2-opt
+    and or-opt among the K nearest neighbours (as a closed tour), cut at its longest edge."""
+    n = len(pts)
+    if n <= 3:
+        return np.arange(n)
+    nbr = _neighbours(pts)
+    t = nearest_neighbour(pts, nbr)
+    t = _improve(pts, t, nbr)
+    e = np.hypot(*(pts[t] - pts[np.roll(t, -1)]).T)
+    cut = int(np.argmax(e)) + 1
+    return np.roll(t, -cut)
+
+
+def _neighbours(pts: np.ndarray) -> np.ndarray:
+    k = min(K, len(pts) - 1)
+    _, nbr = _kdtree()(pts).query(pts, k=k + 1)
+    return nbr[:, 1:]
+
+
+def nearest_neighbour(pts: np.ndarray, nbr: np.ndarray | None = None) -> np.ndarray:
+    """Nearest-neighbour path from the point nearest (0, 0): the neighbour lists first, a k-d
+    tree of the points not yet visited (rebuilt as it empties) when all neighbours are."""
+    cKDTree = _kdtree()
+    n = len(pts)
+    if nbr is None:
+        nbr = _neighbours(pts)
+    near = nbr.tolist()
+    seen = np.zeros(n, dtype=bool)
+    seen_l = [False] * n
+    left = np.arange(n)
+    tree = cKDTree(pts)
+    cur = int(np.argmin(np.hypot(*pts.T)))
+    out = [cur]
+    seen[cur] = seen_l[cur] = True
+    for done in range(1, n):
+        nxt = -1
+        for j in near[cur]:
+            if not seen_l[j]:
+                nxt = j
+                break
+        if nxt < 0:
+            if 2 * (n - done) < len(left):
+                left = np.flatnonzero(~seen)
+                tree = cKDTree(pts[left])
+            k = 8
+            while nxt < 0:
+                k = min(k, len(left))
+                _, ii = tree.query(pts[cur], k=k)
+                for i in np.atleast_1d(ii).tolist():
+                    if not seen_l[left[i]]:
+                        nxt = int(left[i])
+                        break
+                k *= 4
+        out.append(nxt)
+        seen[nxt] = seen_l[nxt] = True
+        cur = nxt
+    return np.array(out, dtype=np.int64)
+
+
+def _improve(pts: np.ndarray, t: np.ndarray, nbr: np.ndarray, rounds: int = 30) -> np.ndarray:
+    """2-opt (a, next a) (b, next b) -> (a, b) (next a, next b), both ways round, and or-opt
+    (point a moved between b and its successor or predecessor) for b among a's neighbours, on
+    the closed tour t. Candidates are found vectorised; the moves are made one at a time in
+    order of gain (each checked again first), reversing the shorter side of the tour."""
+    n = len(t)
+    xs, ys = pts[:, 0].tolist(), pts[:, 1].tolist()
+    t = t.copy()
+    pos = np.empty(n, dtype=np.int64)
+    pos[t] = np.arange(n)
+
+    def d(a, b):
+        return math.hypot(xs[a] - xs[b], ys[a] - ys[b])
+
+    def reverse(i, j):                 # reverse positions i..j (cyclic, i <= j as positions)
+        ln = (j - i) % n + 1
+        if 2 * ln > n:                 # the other side instead: same tour, fewer to move
+            i, j = (j + 1) % n, (i - 1) % n
+            ln = n - ln
+        if ln < 2:
+            return
+        if i <= j:
+            seg = t[i:j + 1][::-1].copy()
+            t[i:j + 1] = seg
+            pos[seg] = np.arange(i, j + 1)
+        else:
+            idx = np.r_[i:n, 0:j + 1]
+            seg = t[idx][::-1].copy()
+            t[idx] = seg
+            pos[seg] = idx
+
+    X, Y = pts[:, 0], pts[:, 1]
+    A = np.repeat(np.arange(n), nbr.shape[1])
+    B = nbr.ravel()
+    dab = np.hypot(X[A] - X[B], Y[A] - Y[B])
+
+    def dv(p, q):
+        return np.hypot(X[p] - X[q], Y[p] - Y[q])
+
+    for _ in range(rounds):
+        succ, pred = np.empty_like(t), np.empty_like(t)
+        succ[t], pred[t] = np.roll(t, -1), np.roll(t, 1)
+        es, ep = dv(np.arange(n), succ), dv(np.arange(n), pred)
+        rem = es + ep - dv(pred, succ)            # saved by taking a point out
+        kinds, cands, gains = [], [], []
+        # a 2-opt move gains only if one of its new edges (a, b) is shorter than the old
+        # edge at a: from a's successor side, or from its predecessor side
+        for kd, (near, fn) in enumerate(((es, succ), (ep, pred))):
+            c = np.flatnonzero(dab < near[A])
+            a, b = A[c], B[c]
+            g = near[a] + near[b] - dab[c] - dv(fn[a], fn[b])
+            kinds.append(np.full(len(c), kd)), cands.append(c), gains.append(g)
+        c = np.flatnonzero(dab < rem[A])
+        a, b = A[c], B[c]
+        for kd, (near, fn) in ((2, (es, succ)), (3, (ep, pred))):
+            g = rem[a] - dab[c] + near[b] - dv(a, fn[b])
+            kinds.append(np.full(len(c), kd)), cands.append(c), gains.append(g)
+        kind, c, g = np.concatenate(kinds), np.concatenate(cands), np.concatenate(gains)
+        keep = g > 1e-9
+        if not keep.any():
+            break
+        kind, c, g = kind[keep], c[keep], g[keep]
+        sel = np.argsort(-g, kind="stable")
+        a, b = A, B
+        made = 0
+        for kd, ci in zip(kind[sel].tolist(), c[sel].tolist()):
+            x, y = int(a[ci]), int(b[ci])
+            i, j = int(pos[x]), int(pos[y])
+            if kd == 0:                # (x, sx) (y, sy) -> (x, y) (sx, sy)
+                sx, sy = int(t[(i + 1) % n]), int(t[(j + 1) % n])
+                if sx == y or sy == x:
+                    continue
+                if d(x, sx) + d(y, sy) - d(x, y) - d(sx, sy) > 1e-9:
+                    reverse((i + 1) % n, j)
+                    made += 1
+            elif kd == 1:              # (px, x) (py, y) -> (x, y) (px, py)
+                px, py = int(t[(i - 1) % n]), int(t[(j - 1) % n])
+                if px == y or py == x:
+                    continue
+                if d(x, px) + d(y, py) - d(x, y) - d(px, py) > 1e-9:
+                    reverse(j, (i - 1) % n)
+                    made += 1
+            else:                      # x moved between y and its successor/predecessor
+                px, sx = int(t[(i - 1) % n]), int(t[(i + 1) % n])
+                z = int(t[(j + 1) % n]) if kd == 2 else int(t[(j - 1) % n])
+                if x in (y, z) or n < 4:
+                    continue
+                g = d(px, x) + d(x, sx) - d(px, sx) + d(y, z) - d(y, x) - d(x, z)
+                if g > 1e-9:
+                    _move(t, pos, i, j if kd == 2 else (j - 1) % n, n)
+                    made += 1
+        if made == 0:
+            break
+    return t
+
+
+def _move(t: np.ndarray, pos: np.ndarray, i: int, j: int, n: int) -> None:
+    """Move the point at position i to just after position j (cyclic), shifting those between."""
+    x = t[i]
+    if (j - i) % n <= (i - j) % n:     # forwards: i+1..j shift back one
+        idx = (np.arange(i, i + (j - i) % n) % n)
+        src = (idx + 1) % n
+        last = (i + (j - i) % n) % n
+    else:                              # backwards: j+1..i-1 shift on one
+        idx = (np.arange(i, i - (i - j) % n + 1, -1) % n)
+        src = (idx - 1) % n
+        last = (j + 1) % n
+    t[idx] = t[src]
+    t[last] = x
+    pos[t[idx]] = idx
+    pos[x] = last
+
+
+def split(path: np.ndarray, picture: Picture, spacing_mm: float, gamma: float) -> list[np.ndarray]:
+    """The path cut into pieces at its long edges: an edge longer than GAP x the local spacing
+    (spacing_mm / sqrt(rho), rho = darkness ** gamma) at the lighter of its ends, or than
+    MAX_EDGE x spacing_mm, or that runs over paper (darkness under WHITE) for more than
+    WHITE_RUN x spacing_mm (judged at EDGE_SAMPLES points along it)."""
+    if len(path) < 2:
+        return [path]
+    a, b = path[:-1], path[1:]
+    length = np.hypot(*(b - a).T)
+    rho_ends = np.minimum(picture.at(a), picture.at(b)).clip(0.0, 1.0) ** gamma
+    with np.errstate(divide="ignore"):
+        allowed = np.minimum(GAP * spacing_mm / np.sqrt(rho_ends), MAX_EDGE * spacing_mm)
+    f = (np.arange(EDGE_SAMPLES) + 0.5) / EDGE_SAMPLES
+    along = a[:, None, :] + (b - a)[:, None, :] * f[None, :, None]
+    dark = picture.at(along.reshape(-1, 2)).reshape(len(a), EDGE_SAMPLES)
+    white = np.mean(dark < WHITE, axis=1) * length
+    cuts = np.flatnonzero((length > allowed) | (white > WHITE_RUN * spacing_mm)) + 1
+    return np.split(path, cuts)

@@ -1,0 +1,168 @@
+"""Stipples (inputs/image/stipple.py): where the dots go, how many, the tour through them."""
+
+import sys
+
+import numpy as np
+import pytest
+
+from vplotter.errors import ConfigError
+from vplotter.inputs import image
+from vplotter.inputs.image import stipple
+from vplotter.inputs.image.picture import Picture
+
+pytest.importorskip("scipy")
+from scipy.spatial import cKDTree  # noqa: E402
+
+
+def picture(d, width_mm=50.0) -> Picture:
+    d = np.asarray(d, dtype=np.float32)
+    return Picture(d, width_mm, width_mm * d.shape[0] / d.shape[1])
+
+
+def halves(left=0.8, right=0.2, h=120, w=160) -> Picture:
+    d = np.full((h, w), right)
+    d[:, : w // 2] = left
+    return picture(d, 40.0)
+
+
+def photo(h=150, w=120, seed=3) -> Picture:
+    rng = np.random.default_rng(seed)
+    y, x = np.mgrid[0:h, 0:w] / max(h, w)
+    d = 0.2 + 0.6 * x * y + np.where((x - 0.4) ** 2 + (y - 0.5) ** 2 < 0.04, 0.5, 0.0)
+    return picture(np.clip(d + rng.normal(0, 0.05, d.shape), 0, 1), 30.0)
+
+
+def all_points(strokes) -> np.ndarray:
+    return np.concatenate([s.pts for s in strokes])
+
+
+def cv_nn(pts) -> float:
+    dd, _ = cKDTree(pts).query(pts, k=2)
+    return float(dd[:, 1].std() / dd[:, 1].mean())
+
+
+def test_registered_style():
+    assert image.style("stipple") is stipple.strokes
+
+
+@pytest.mark.parametrize("opts", [{}, {"tsp": True}, {"dot_mm": 1.2}])
+def test_every_point_strictly_inside(opts):
+    pic = photo()
+    out = stipple.strokes(pic, 0.8, 0.5, **opts)
+    p = all_points(out)
+    assert len(p) > 100
+    assert np.all(p > 0) and np.all(p[:, 0] < pic.width_mm) and np.all(p[:, 1] < pic.height_mm)
+
+
+def test_dots_are_one_point_strokes():
+    out = stipple.strokes(photo(), 0.8, 0.5)
+    assert all(s.pts.shape == (1, 2) for s in out)
+
+
+def test_discs_are_small_closed_spirals():
+    pts = stipple.points(photo(), 1.5)
+    out = stipple.strokes(photo(), 1.5, 0.5, dot_mm=1.5)
+    assert len(out) == len(pts)
+    for s in out[:20]:
+        c = s.pts[0]                                 # the spiral starts at the centre
+        r = np.hypot(*(s.pts - c).T)
+        assert r.max() == pytest.approx(0.5, abs=1e-9)          # (1.5 - 0.5) / 2
+        assert r[-1] == pytest.approx(0.5, abs=1e-9)            # ends on the outer circle
+
+
+def test_darker_gets_more_dots_in_proportion():
+    pic = halves(0.8, 0.2)
+    p = stipple.points(pic, 0.7)
+    left = np.count_nonzero(p[:, 0] < 20.0)
+    right = len(p) - left
+    assert 3.4 < left / right < 4.6
+    # the whole: N = sum(darkness) x pixel area / spacing²
+    assert len(p) == round(float(pic.darkness.sum()) * pic.mm_per_px ** 2 / 0.7 ** 2)
+
+
+def test_white_gives_nothing():
+    pic = picture(np.zeros((50, 60)))
+    assert stipple.strokes(pic, 1.0, 0.5) == []
+    assert stipple.strokes(pic, 1.0, 0.5, tsp=True) == []
+
+
+def test_half_the_spacing_four_times_the_dots():
+    pic = photo()
+    n1 = len(stipple.strokes(pic, 1.2, 0.5))
+    n2 = len(stipple.strokes(pic, 0.6, 0.5))
+    assert 3.7 < n2 / n1 < 4.3
+
+
+def test_dots_given():
+    assert len(stipple.points(photo(), 1.0, dots=321)) == 321
+
+
+def test_lloyd_evens_the_dots():
+    pic = picture(np.full((100, 100), 0.7), 40.0)
+    start = stipple.points(pic, 0.8, iterations=0)
+    done = stipple.points(pic, 0.8)
+    assert len(start) == len(done)
+    assert cv_nn(done) < 0.6 * cv_nn(start)
+    # and Lloyd keeps the proportions of a two-tone picture
+    pic = halves(0.9, 0.3)
+    p = stipple.points(pic, 0.7)
+    assert 2.6 < np.count_nonzero(p[:, 0] < 20) / np.count_nonzero(p[:, 0] >= 20) < 3.4
+
+
+def test_tour_visits_every_stipple_once_and_is_short():
+    pic = photo()
+    pts = stipple.points(pic, 0.6, gamma=2.0)
+    out = stipple.strokes(pic, 0.6, 0.5, tsp=True)
+    got = all_points(out)
+    assert len(got) == len(pts)
+    assert np.array_equal(np.unique(got, axis=0), np.unique(pts, axis=0))
+    t = stipple.tour(pts)
+    assert np.array_equal(np.sort(t), np.arange(len(pts)))
+
+    def length(p):
+        return float(np.hypot(*np.diff(p, axis=0).T).sum())
+
+    rand = pts[np.random.default_rng(0).permutation(len(pts))]
+    nn = pts[stipple.nearest_neighbour(pts)]
+    assert length(pts[t]) < 0.1 * length(rand)
+    assert length(pts[t]) < 0.95 * length(nn)
+    # split only at long edges: every drawn edge is at most MAX_EDGE spacings
+    for s in out:
+        assert np.all(np.hypot(*np.diff(s.pts, axis=0).T) <= stipple.MAX_EDGE * 0.6 + 1e-9)
+
+
+def test_tour_lifts_the_pen_over_white():
+    d = np.full((100, 150), 0.9)
+    d[:, 70:80] = 0.0                         # a white band 2.7 mm wide down the middle
+    pic = picture(d, 40.0)
+    out = stipple.strokes(pic, 0.8, 0.5, tsp=True)
+    assert len(out) >= 2
+    lo, hi = 70 * pic.mm_per_px, 80 * pic.mm_per_px
+    for s in out:
+        x = s.pts[:, 0]
+        assert not (x.min() < lo and x.max() > hi), "a line crosses the white band"
+
+
+def test_deterministic():
+    pic = photo()
+    for opts in ({}, {"tsp": True}):
+        a = stipple.strokes(pic, 0.9, 0.5, seed=7, **opts)
+        b = stipple.strokes(pic, 0.9, 0.5, seed=7, **opts)
+        assert len(a) == len(b)
+        assert all(np.array_equal(x.pts, y.pts) for x, y in zip(a, b))
+    a = stipple.strokes(pic, 0.9, 0.5, seed=7)
+    c = stipple.strokes(pic, 0.9, 0.5, seed=8)
+    assert len(a) != len(c) or not np.array_equal(all_points(a), all_points(c))
+
+
+def test_without_scipy_one_line(monkeypatch):
+    monkeypatch.setitem(sys.modules, "scipy.spatial", None)
+    with pytest.raises(ConfigError) as e:
+        stipple.strokes(photo(), 1.0, 0.5)
+    assert str(e.value) == ("error: --style stipple needs SciPy: pip install scipy "
+                            "(Pi OS: sudo apt install python3-scipy)")
+
+
+def test_bad_spacing():
+    with pytest.raises(ConfigError):
+        stipple.strokes(photo(), 0.0, 0.5)
