@@ -19,8 +19,12 @@ from dataclasses import dataclass, field
 from typing import Callable, Iterable, Iterator
 
 from vplotter.errors import ConfigError, InputError
+from vplotter.inputs.image import STYLES as PHOTO_STYLES
 
 SVG_SUFFIXES = (".svg", ".svgz")
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".webp", ".bmp", ".tif", ".tiff", ".gif")
+IMAGE_MAGIC = (b"\x89PNG\r\n\x1a\n", b"\xff\xd8\xff", b"GIF87a", b"GIF89a", b"II*\x00",
+               b"MM\x00*")
 
 
 def _stderr(msg: str) -> None:
@@ -55,6 +59,10 @@ def add_file_options(p: argparse.ArgumentParser) -> None:
                       help="scale about the drawing's centre")
     size.add_argument("--fit", action="store_true",
                       help="the largest size inside the page (aspect kept), centred")
+    g.add_argument("--width", type=_number("width", 0, above=True), metavar="MM",
+                   help="scale so the drawing is MM wide (a photo: its size on the wall)")
+    g.add_argument("--height", type=_number("height", 0, above=True), metavar="MM",
+                   help="scale so the drawing is MM high (with --width: the largest inside both)")
     g.add_argument("--rotate", type=_number("angle"), metavar="DEG",
                    help="rotate counter-clockwise about the drawing's centre")
     g.add_argument("--margin", type=_number("margin", 0), default=0.0, metavar="MM",
@@ -78,6 +86,24 @@ def add_file_options(p: argparse.ArgumentParser) -> None:
                    help="draw only this SVG layer (label or id); repeatable")
     o.add_argument("--pause-between-layers", action="store_true",
                    help="lift the pen after each layer and wait for Enter (change the pen)")
+    ph = p.add_argument_group("photos (PNG, JPEG, WebP, BMP, TIFF, GIF: darkness drawn as line "
+                              "art, at a density that fits the plot-time budget)")
+    ph.add_argument("--style", choices=PHOTO_STYLES, default="hatch",
+                    help="hatch: crosshatched tone bands; spiral: one pulsing spiral; stipple: "
+                         "dots (--tsp: one tour); squiggle: rows of zigzags (default hatch)")
+    ph.add_argument("--max-time", metavar="TIME",
+                    help="plot-time budget, e.g. 2h, 45m, 1h30m (default for photos: 1h)")
+    ph.add_argument("--spacing", type=_number("spacing", 0, above=True), metavar="MM",
+                    help="a fixed line spacing instead of the budget")
+    ph.add_argument("--pen-width", type=_number("pen width", 0, above=True), default=0.5,
+                    metavar="MM", help="the line width the tone model assumes (default 0.5)")
+    ph.add_argument("--contrast", type=_number("contrast", 0), default=1.0, metavar="K",
+                    help="scale the tone about mid-grey (default 1)")
+    ph.add_argument("--brightness", type=_number("brightness"), default=0.0, metavar="B",
+                    help="add to the tone, -1 (black) to 1 (white) (default 0)")
+    ph.add_argument("--invert", action="store_true", help="draw the light parts dark")
+    ph.add_argument("--tsp", action="store_true",
+                    help="stipple: one tour through the dots instead of dots (TSP art)")
 
 
 def placement(args):
@@ -88,7 +114,42 @@ def placement(args):
                      fit=bool(getattr(args, "fit", False)),
                      margin_mm=getattr(args, "margin", 0.0) or 0.0,
                      align=getattr(args, "align", None), valign=getattr(args, "valign", None),
-                     offset_mm=tuple(getattr(args, "offset", None) or (0.0, 0.0)))
+                     offset_mm=tuple(getattr(args, "offset", None) or (0.0, 0.0)),
+                     width_mm=getattr(args, "width", None), height_mm=getattr(args, "height", None))
+
+
+def photo_options(args):
+    from vplotter import budget
+    from vplotter.drawing.photo import PhotoOptions
+
+    limit = getattr(args, "max_time", None)
+    return PhotoOptions(style=getattr(args, "style", None) or "hatch",
+                        max_time_s=budget.parse_duration(limit) if limit else None,
+                        spacing_mm=getattr(args, "spacing", None),
+                        pen_mm=getattr(args, "pen_width", None) or 0.5,
+                        contrast=getattr(args, "contrast", 1.0),
+                        brightness=getattr(args, "brightness", 0.0),
+                        invert=bool(getattr(args, "invert", False)),
+                        tsp=bool(getattr(args, "tsp", False)),
+                        width_mm=getattr(args, "width", None),
+                        height_mm=getattr(args, "height", None))
+
+
+def file_kind(path: str) -> str:
+    """"svg", "image" or "gcode": by suffix, else by the first bytes."""
+    low = path.lower()
+    if low.endswith(SVG_SUFFIXES):
+        return "svg"
+    if low.endswith(IMAGE_SUFFIXES):
+        return "image"
+    try:
+        with open(path, "rb") as f:
+            head = f.read(16)
+    except OSError:
+        return "gcode"      # the reader reports it
+    if head.startswith(IMAGE_MAGIC) or (head[:4] == b"RIFF" and head[8:12] == b"WEBP"):
+        return "image"
+    return "svg" if is_svg(path) else "gcode"
 
 
 def is_svg(path: str) -> bool:
@@ -163,6 +224,8 @@ class Prepared:
     tol_mm: float = 0.0075        # chords of G-code arcs read into strokes
     dialect: object = None        # config.toml [gcode] pen dialect, when the config has one
     warn: Callable[[str], None] = _stderr
+    kind: str = "gcode"           # gcode | svg | image
+    notes: list[str] = field(default_factory=list)    # what was chosen and why (a photo)
     _drawing: object = None
     _strokes: list | None = None
     _firsts: list[int] = field(default_factory=list)
@@ -252,6 +315,8 @@ class Prepared:
         st = self.strokes[k]
         if self.is_gcode:
             return f"{self.path}:{st.line}:{st.col}"
+        if self.kind == "image":
+            return f"{self.path}: stroke {k + 1}"
         return f"{self.path}: element {st.src}" if st.src else f"{self.path}: element {st.line}"
 
 
@@ -272,54 +337,106 @@ def join_limit(join_mm: float | None, tol_mm: float, warn: Callable[[str], None]
 
 def options_key(path: str, args) -> str:
     """The options that decide what is drawn in which order (a resume needs the same)."""
-    method = getattr(args, "order", None) or ("best" if is_svg(path) else "keep")
+    kind = file_kind(path)
+    method = getattr(args, "order", None) or ("keep" if kind == "gcode" else "best")
+    photo = photo_options(args) if kind == "image" else None
     return repr((method, placement(args), getattr(args, "join", None),
-                 getattr(args, "layer", None), bool(getattr(args, "pause_between_layers", False))))
+                 getattr(args, "layer", None), bool(getattr(args, "pause_between_layers", False)),
+                 photo))
 
 
 def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
-            start_xy=(0.0, 0.0)) -> Prepared:
+            start_xy=(0.0, 0.0), plot_time: Callable[[Iterator], float] | None = None
+            ) -> Prepared:
     """Read, place and order `path` as the file options in `args` say. The pen starts at
-    start_xy (G-code mm) for the travel."""
+    start_xy (G-code mm) for the travel. plot_time(records) -> s times a drawing with the
+    draw's planner (a photo's budget needs it)."""
     from vplotter.motion.segment import CHORD_SHARE
 
-    svg = is_svg(path)
+    kind = file_kind(path)
+    svg = kind == "svg"
     place_opts = placement(args)
-    method = getattr(args, "order", None) or ("best" if svg else "keep")
+    method = getattr(args, "order", None) or ("keep" if kind == "gcode" else "best")
     layers = getattr(args, "layer", None)
     if layers and not svg:
-        raise ConfigError(f"error: --layer is for SVG files; {path} is G-code")
+        raise ConfigError(f"error: --layer is for SVG files; {path} is not one")
+    if kind != "image":
+        _no_photo_options(args, path)
+    if (place_opts.width_mm or place_opts.height_mm) and (place_opts.fit or
+                                                          place_opts.scale != 1.0):
+        raise ConfigError("error: give --width/--height, --scale or --fit, not two of them")
     strict = bool(getattr(args, "strict", False))
     pause = bool(getattr(args, "pause_between_layers", False))
     tol = cfg.motion.tolerance_mm * CHORD_SHARE
     join_mm = join_limit(getattr(args, "join", None), tol, warn)
     key = options_key(path, args)
-    prep = Prepared(path, not svg, passthrough=False, strict=strict, join_mm=join_mm,
+    prep = Prepared(path, kind == "gcode", passthrough=False, strict=strict, join_mm=join_mm,
                     pause=pause, key=key, warn=warn,
                     start_xy=(float(start_xy[0]), float(start_xy[1])), tol_mm=tol,
-                    dialect=getattr(cfg, "gcode", None))
-    if not svg and method == "keep" and place_opts.identity:
+                    dialect=getattr(cfg, "gcode", None), kind=kind)
+    if kind == "gcode" and method == "keep" and place_opts.identity:
         prep.passthrough = True
         return prep
-    if svg:
-        from vplotter.inputs import svg as svg_reader
-
-        drawing = svg_reader.read(path, tol, layers=layers, warn=warn)
-    else:
-        from vplotter.inputs.strokes import Drawing
-
-        drawing = Drawing(path, prep._read_gcode_strokes())
-    prep._drawing = drawing
-    from vplotter.drawing import order
-    from vplotter.drawing import place
+    from vplotter.drawing import order, place
 
     pg = cfg.page
     page = place.Box(pg.x_min_mm, pg.y_min_mm, pg.x_max_mm, pg.y_max_mm)
-    placed = place.place(drawing.strokes, place_opts, page)
+    if kind == "image":
+        placed = _photo(prep, args, page, place_opts, plot_time)
+    else:
+        if svg:
+            from vplotter.inputs import svg as svg_reader
+
+            drawing = svg_reader.read(path, tol, layers=layers, warn=warn)
+        else:
+            from vplotter.inputs.strokes import Drawing
+
+            drawing = Drawing(path, prep._read_gcode_strokes())
+        prep._drawing = drawing
+        placed = place.place(drawing.strokes, place_opts, page)
     t0 = time.perf_counter()
     prep._strokes = order.order(placed, method, start_xy)
     prep.order_s = time.perf_counter() - t0
+    if kind == "image" and plot_time is not None and method != "keep" and placed:
+        # the budget timed the quick order; never let another order take longer
+        if _timed(prep, prep._strokes, plot_time) > _timed(prep, placed, plot_time):
+            prep._strokes = placed
     return prep
+
+
+def _timed(prep: Prepared, strokes: list, plot_time) -> float:
+    from dataclasses import replace as _replace
+
+    return plot_time(_replace(prep, _strokes=strokes, _firsts=[], _drawing=None).records())
+
+
+def _photo(prep: Prepared, args, page, place_opts, plot_time) -> list:
+    """A photo's placed strokes at the density its budget allows (prep gets the drawing and
+    the notes on what was chosen)."""
+    from dataclasses import replace as _replace
+
+    from vplotter.drawing import photo
+    from vplotter.inputs.strokes import Drawing
+
+    def timed(strokes: list) -> float:
+        return _timed(prep, strokes, plot_time)
+
+    placed, prep.notes = photo.strokes(prep.path, photo_options(args), page,
+                                       _replace(place_opts, width_mm=None, height_mm=None),
+                                       timed if plot_time is not None else None, prep.start_xy)
+    prep._drawing = Drawing(prep.path, placed)
+    return placed
+
+
+def _no_photo_options(args, path: str) -> None:
+    given = [name for name, flag in (("max_time", "--max-time"), ("spacing", "--spacing"),
+                                     ("tsp", "--tsp"), ("invert", "--invert"))
+             if getattr(args, name, None)]
+    if getattr(args, "style", "hatch") not in (None, "hatch"):
+        given.append("style")
+    if given:
+        flag = "--" + given[0].replace("_", "-")
+        raise ConfigError(f"error: {flag} is for photos (PNG, JPEG, ...); {path} is not one")
 
 
 def check_readable(path: str) -> None:

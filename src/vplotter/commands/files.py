@@ -11,9 +11,10 @@ from vplotter.budget import clock_text
 from vplotter.errors import InputError
 
 
-def prepare_file(args, cfg, pos, warn=None, start_xy=None, **changes):
+def prepare_file(args, cfg, pos, warn=None, start_xy=None, say_notes=True, **changes):
     """prepare() for a command (with some options changed): the travel starts where the pen
-    is, or at start_xy (a resumed draw keeps the order it was started with)."""
+    is, or at start_xy (a resumed draw keeps the order it was started with). What a photo's
+    budget chose is said on stderr (say_notes)."""
     from vplotter.commands import jog
     from vplotter.prepare import prepare
 
@@ -21,7 +22,30 @@ def prepare_file(args, cfg, pos, warn=None, start_xy=None, **changes):
         args = argparse.Namespace(**{**vars(args), **changes})
     xy = jog.pen_xy(cfg, pos, pos.counts) if start_xy is None else start_xy
     extra = {"warn": warn} if warn is not None else {}
-    return prepare(args.file, cfg, args, start_xy=(float(xy[0]), float(xy[1])), **extra)
+    prep = prepare(args.file, cfg, args, start_xy=(float(xy[0]), float(xy[1])),
+                   plot_time=_plot_time(cfg, pos, xy), **extra)
+    if say_notes:
+        for note in prep.notes:
+            eprint(f"note: {note}")
+    return prep
+
+
+def _plot_time(cfg, pos, xy):
+    """records -> plot time with the draw's planner, from the pen at G-code point xy (the
+    motors' counts follow from xy, so a resumed draw times and chooses as the first did)."""
+    import numpy as np
+
+    from vplotter import kinematics, pipeline
+
+    kin = kinematics.from_config(cfg)
+    q = kin.inverse(kin.to_machine(np.asarray(xy, dtype=float).reshape(1, 2)))[0]
+    counts = tuple(int(c) for c in np.rint((q - np.asarray(pos.ref_mm)) *
+                                           np.asarray(cfg.motors.steps_per_unit)))
+
+    def plot_time(records) -> float:
+        return pipeline.validate(cfg, records, counts, pos.ref_mm, "budget").time_s
+
+    return plot_time
 
 
 # ------------------------------------------------------------------ info
@@ -54,8 +78,16 @@ def cmd_info(args, argv=None) -> int:
 
     cfg = load_config(args)
     pos = position(cfg, args, True)
-    keep = prepare_file(args, cfg, pos, order="keep")
-    best = prepare_file(args, cfg, pos, warn=lambda m: None, order="best")
+    from dataclasses import replace
+
+    from vplotter.prepare import file_kind
+
+    if file_kind(args.file) == "image":     # one budget search: its order is the file order
+        best = prepare_file(args, cfg, pos, order="best", say_notes=False)
+        keep = replace(best, _strokes=list(best.drawing.strokes), _firsts=[])
+    else:
+        keep = prepare_file(args, cfg, pos, order="keep")
+        best = prepare_file(args, cfg, pos, warn=lambda m: None, order="best")
     drawing = best.drawing
     strokes = best.strokes
     box = place.extent(strokes)
@@ -76,14 +108,18 @@ def cmd_info(args, argv=None) -> int:
         "layers": [{"id": lay.get("id"), "label": lay.get("label"),
                     "visible": bool(lay.get("visible", True))} for lay in drawing.layers],
         "skipped": skipped,
+        "notes": list(best.notes),
     }
     if args.json:
         say(json.dumps(out))
         return 0
-    say(f"{args.file}: {'G-code' if best.is_gcode else 'SVG'}, {out['width_mm']:g} x "
+    kind = {"gcode": "G-code", "svg": "SVG", "image": "photo"}[best.kind]
+    say(f"{args.file}: {kind}, {out['width_mm']:g} x "
         f"{out['height_mm']:g} mm; drawn extent X {ext[0]:.2f}..{ext[2]:.2f} "
         f"Y {ext[1]:.2f}..{ext[3]:.2f} mm")
     say(f"  {out['strokes']} strokes, drawn {out['drawn_mm'] / 1000:.2f} m")
+    for note in best.notes:
+        say(f"  {note}")
     for what, t, s in (("file order", t_keep, s_keep), ("--order best", t_best, s_best)):
         if t is None:
             say(f"  {what}: does not fit the page")

@@ -3,8 +3,9 @@
 Pure geometry on strokes in G-code millimetres (+Y up). The map is built in this order:
   1. --scale S and --rotate DEG (counter-clockwise, as seen on the wall) about the centre of
      the drawing's extent;
-  2. --fit: the largest uniform scale that puts the extent inside the page (less --margin),
-     centred on the page;
+  2. --width/--height: the uniform scale that makes the extent that wide or high (both: the
+     largest inside that box), about its centre; or --fit: the largest uniform scale that puts
+     the extent inside the page (less --margin), centred on the page;
   3. --align left|center|right, --valign top|middle|bottom: that edge (or centre) of the
      extent on the page's edge (or centre), --margin in from the edge;
   4. --offset X Y, last.
@@ -22,6 +23,9 @@ from vplotter.errors import ConfigError
 from vplotter.inputs.strokes import Stroke
 
 
+EDGE_MM = 1e-9      # a drawing put on the page's edge stays this far in (rounding never crosses)
+
+
 @dataclass(frozen=True)
 class Placement:
     scale: float = 1.0
@@ -31,6 +35,8 @@ class Placement:
     align: str | None = None      # left | center | right
     valign: str | None = None     # top | middle | bottom
     offset_mm: tuple[float, float] = (0.0, 0.0)
+    width_mm: float | None = None
+    height_mm: float | None = None
 
     @property
     def identity(self) -> bool:
@@ -79,6 +85,14 @@ def matrix(p: Placement, pts: np.ndarray, page: Box) -> tuple[np.ndarray, np.nda
     c = box.centre
     b = c - A @ c
     now = _box_of(pts @ A.T + b)
+    if p.width_mm or p.height_mm:
+        want = [(p.width_mm, now.size[0]), (p.height_mm, now.size[1])]
+        k = [w / s for w, s in want if w and s > 1e-12]
+        if not k:
+            raise ConfigError("error: --width/--height: the drawing has no extent to scale")
+        s = min(k)
+        A, b = s * A, s * (b - now.centre) + now.centre
+        now = _box_of(pts @ A.T + b)
     room = page.size - 2 * p.margin_mm
     if p.fit or p.align or p.valign:
         if (room <= 0).any():
@@ -87,19 +101,19 @@ def matrix(p: Placement, pts: np.ndarray, page: Box) -> tuple[np.ndarray, np.nda
     if p.fit:
         size = now.size
         k = [room[i] / size[i] for i in (0, 1) if size[i] > 1e-12]
-        s = min(k) if k else 1.0
+        s = (min(k) if k else 1.0) * (1 - 1e-12)   # rounding must not put it over the edge
         # scale about the extent's centre, then move that centre to the page's centre
         A, b = s * A, s * (b - now.centre) + page.centre
         now = _box_of(pts @ A.T + b)
     shift = np.zeros(2)
     if p.align:
-        shift[0] = {"left": page.x_min + p.margin_mm - now.x_min,
+        shift[0] = {"left": page.x_min + p.margin_mm - now.x_min + EDGE_MM,
                     "center": page.centre[0] - now.centre[0],
-                    "right": page.x_max - p.margin_mm - now.x_max}[p.align]
+                    "right": page.x_max - p.margin_mm - now.x_max - EDGE_MM}[p.align]
     if p.valign:
-        shift[1] = {"bottom": page.y_min + p.margin_mm - now.y_min,
+        shift[1] = {"bottom": page.y_min + p.margin_mm - now.y_min + EDGE_MM,
                     "middle": page.centre[1] - now.centre[1],
-                    "top": page.y_max - p.margin_mm - now.y_max}[p.valign]
+                    "top": page.y_max - p.margin_mm - now.y_max - EDGE_MM}[p.valign]
     return A, b + shift + np.asarray(p.offset_mm, dtype=float)
 
 

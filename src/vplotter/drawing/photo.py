@@ -1,0 +1,106 @@
+"""A photograph on the page: its size, its strokes in a style, and the density that fits the
+plot-time budget.
+
+The picture is sized first (--width, --height, or the largest size inside the page less
+--margin, aspect kept), because the line spacing only means something at the final size; it
+is loaded once at the resolution the pen can show; then `budget.fit` tries densities of the
+style, each placed on the page, put in a quick (greedy) order and timed by the caller's
+planner, and keeps the densest that fits. The caller orders the result as asked (best by
+default) and that order never takes longer than the greedy one it was timed in.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Callable
+
+import numpy as np
+
+from vplotter import budget
+from vplotter.drawing import order, place
+from vplotter.errors import ConfigError
+from vplotter.inputs.strokes import Stroke
+
+# the first spacing tried, per style, in pen widths; time ~ spacing^-POWER
+START_PENS = {"hatch": 3.0, "spiral": 3.0, "squiggle": 3.0, "stipple": 4.0}
+POWER = {"hatch": 1.0, "spiral": 1.0, "squiggle": 1.0, "stipple": 2.0}
+
+
+@dataclass(frozen=True)
+class PhotoOptions:
+    style: str = "hatch"
+    max_time_s: float | None = None      # None: budget.DEFAULT_S, unless spacing_mm is given
+    spacing_mm: float | None = None      # a fixed density instead of the budget
+    pen_mm: float = 0.5
+    contrast: float = 1.0
+    brightness: float = 0.0
+    invert: bool = False
+    tsp: bool = False
+    width_mm: float | None = None
+    height_mm: float | None = None
+
+
+def size_mm(aspect: float, opts: PhotoOptions, page: place.Box, margin_mm: float):
+    """(width, height) of the picture on the wall: --width or --height (the other follows
+    the aspect; both: the largest inside that box), else the largest inside the page."""
+    if opts.width_mm and opts.height_mm:
+        box = np.array([opts.width_mm, opts.height_mm])
+    elif opts.width_mm:
+        return float(opts.width_mm), float(opts.width_mm / aspect)
+    elif opts.height_mm:
+        return float(opts.height_mm * aspect), float(opts.height_mm)
+    else:
+        box = page.size - 2 * margin_mm
+        if (box <= 0).any():
+            raise ConfigError(f"error: --margin {margin_mm:g} leaves no room on the page")
+    k = min(box[0] / aspect, box[1])
+    return float(k * aspect), float(k)
+
+
+def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Placement,
+            plot_time: Callable[[list[Stroke]], float] | None, start_xy=(0.0, 0.0)):
+    """(placed strokes in a greedy order from start_xy, notes for the person).
+    plot_time(strokes) -> s times an ordered drawing with the draw's own planner (None: no
+    budget, only with a fixed --spacing)."""
+    from vplotter.inputs import image
+    from vplotter.inputs.image import load
+
+    try:
+        style = image.style(opts.style)
+    except ValueError as e:
+        raise ConfigError(f"error: --style: {e}") from None
+    if opts.tsp and opts.style != "stipple":
+        raise ConfigError("error: --tsp is for --style stipple (one tour through the stipples)")
+    if placement.scale != 1.0:
+        raise ConfigError("error: a photo is sized with --width or --height (or the page), "
+                          "not --scale")
+    w, h = size_mm(load.aspect(path), opts, page, placement.margin_mm)
+    picture = load.load(path, w, h, pen_mm=opts.pen_mm, contrast=opts.contrast,
+                        brightness=opts.brightness, invert=opts.invert)
+    # the picture's centre on the page's centre, then rotate, align and offset as asked
+    put = replace(placement, fit=False)
+    shift = page.centre - np.array([w / 2, h / 2])
+    extra = {"tsp": True} if opts.tsp else {}
+
+    def make(spacing: float) -> list[Stroke]:
+        made = style(picture, spacing, opts.pen_mm, **extra)
+        made = [replace(s, pts=s.pts + shift, line=i + 1) for i, s in enumerate(made)]
+        return order.order(place.place(made, put, page), "greedy", start_xy)
+
+    notes = [f"photo: {opts.style}, {w:.0f} x {h:.0f} mm, pen {opts.pen_mm:g} mm"]
+    if opts.spacing_mm is not None:
+        if opts.max_time_s is not None:
+            raise ConfigError("error: give --spacing or --max-time, not both")
+        return make(opts.spacing_mm), notes + [f"spacing {opts.spacing_mm:g} mm (--spacing)"]
+    if plot_time is None:
+        raise ConfigError("error: a photo needs --spacing here (no planner to time a budget)")
+    budget_s = opts.max_time_s or budget.DEFAULT_S
+    start = START_PENS[opts.style] * opts.pen_mm
+    lo = opts.pen_mm * (1.2 if opts.style == "stipple" else 1.0)
+    hi = max(w, h) / 4
+    drawn, choice = budget.fit(make, plot_time, budget_s, start, lo, hi, POWER[opts.style])
+    notes.append(choice.text())
+    if opts.max_time_s is None:
+        notes.append(f"no --max-time: the budget for a photo is {budget.clock_text(budget_s)} "
+                     f"by default")
+    return drawn, notes

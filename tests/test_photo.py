@@ -1,0 +1,179 @@
+"""Photos through the whole pipeline: `convert`/`estimate`/`info`/`preview` of a picture in each
+style, read back by tracecheck's own G-code reader: within the budget, inside the placed
+picture, upright, transparent parts blank, bad files one line and exit 2, and the same drawing
+when a draw is resumed from where it started."""
+
+from __future__ import annotations
+
+import json
+import re
+
+import numpy as np
+import pytest
+from PIL import Image, ImageDraw
+
+import tracecheck as tc
+from conftest import REPO
+from vplotter.cli import main
+
+STYLES = ("hatch", "spiral", "squiggle", "stipple")
+PAGE_CENTRE = (0.0, 25.0)        # the seed page X -200..200, Y -250..300
+
+
+def run(capsys, argv) -> tuple[int, str, str]:
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    assert "Traceback" not in err
+    return code, out, err
+
+
+@pytest.fixture
+def photo(tmp_path):
+    """A 300 x 200 px picture: dark disc on a left-to-right ramp, a white box bottom left."""
+    h, w = 200, 300
+    x = np.linspace(0, 255, w, dtype=np.float32)[None, :].repeat(h, 0)
+    img = Image.fromarray(np.dstack([x, x, x]).astype(np.uint8))
+    d = ImageDraw.Draw(img)
+    d.ellipse([100, 50, 200, 150], fill=(10, 10, 10))
+    d.rectangle([10, 140, 80, 190], fill=(255, 255, 255))
+    path = tmp_path / "photo.jpg"
+    img.save(path, quality=92)
+    return path
+
+
+def estimate_s(capsys, config, path) -> float:
+    code, out, _ = run(capsys, ["--config", config, "estimate", path])
+    assert code == 0
+    return float(re.search(r"\(([\d.]+) s\)", out).group(1))
+
+
+@pytest.mark.parametrize("style", STYLES)
+def test_convert_fits_the_budget_and_the_picture(capsys, config_path, photo, tmp_path, style):
+    out = tmp_path / f"{style}.ngc"
+    code, _, err = run(capsys, ["--config", config_path, "convert", photo, "-o", out,
+                                "--style", style, "--width", 150, "--max-time", "10m"])
+    assert code == 0, err
+    assert "within 10:00" in err                              # says what it chose
+    assert estimate_s(capsys, config_path, out) <= 600 * 1.01
+    polys = tc.reference_path(str(out))
+    pts = np.concatenate(polys)
+    cx, cy = PAGE_CENTRE
+    w, h = 150.0, 100.0
+    assert pts[:, 0].min() >= cx - w / 2 - 1 and pts[:, 0].max() <= cx + w / 2 + 1
+    assert pts[:, 1].min() >= cy - h / 2 - 1 and pts[:, 1].max() <= cy + h / 2 + 1
+    # more ink on the dark (left) third than on the light (right) third of the ramp
+    left = pts[:, 0] < cx - w / 6
+    right = pts[:, 0] > cx + w / 6
+    assert left.sum() > 1.3 * right.sum()
+
+
+def test_a_longer_budget_draws_more(capsys, config_path, photo, tmp_path):
+    lengths = []
+    for limit in ("15m", "45m"):
+        out = tmp_path / f"{limit}.ngc"
+        assert run(capsys, ["--config", config_path, "convert", photo, "-o", out, "--width",
+                            150, "--max-time", limit])[0] == 0
+        lengths.append(sum(float(np.hypot(*np.diff(p, axis=0).T).sum())
+                           for p in tc.reference_path(str(out))))
+    assert lengths[1] > 2 * lengths[0]
+
+
+def test_info_says_what_the_budget_chose(capsys, config_path, photo):
+    code, out, _ = run(capsys, ["--config", config_path, "info", photo, "--json",
+                                "--width", 100, "--style", "squiggle"])
+    assert code == 0
+    info = json.loads(out)
+    assert any("no --max-time" in n for n in info["notes"])    # the default budget, said
+    assert any("within 1:00:00" in n for n in info["notes"])
+    assert info["time_s"]["best"] <= 3600 and "100 x 67 mm" in info["notes"][0]
+
+
+def test_exif_orientation_makes_it_upright(capsys, config_path, tmp_path):
+    # a landscape file whose EXIF says "rotate 90": upright it is a portrait
+    img = Image.new("L", (120, 60), 255)
+    ImageDraw.Draw(img).rectangle([0, 0, 59, 59], fill=0)
+    exif = Image.Exif()
+    exif[0x0112] = 6
+    path = tmp_path / "phone.jpg"
+    img.save(path, exif=exif)
+    out = tmp_path / "phone.ngc"
+    assert run(capsys, ["--config", config_path, "convert", path, "-o", out, "--height", 100,
+                        "--spacing", 2])[0] == 0
+    pts = np.concatenate(tc.reference_path(str(out)))
+    # upright: 50 mm wide, 100 high; orientation 6 turns the file's left (dark) half to the
+    # top (unturned it would be 200 mm wide with the dark half on the left)
+    assert np.ptp(pts[:, 0]) <= 51
+    assert pts[:, 1].min() >= PAGE_CENTRE[1] - 3 and pts[:, 1].max() <= PAGE_CENTRE[1] + 51
+    assert np.ptp(pts[:, 1]) > 45
+
+
+def test_transparent_parts_stay_blank(capsys, config_path, tmp_path):
+    img = Image.new("RGBA", (200, 100), (0, 0, 0, 255))
+    ImageDraw.Draw(img).rectangle([0, 0, 99, 99], fill=(0, 0, 0, 0))    # left half clear
+    path = tmp_path / "clear.png"
+    img.save(path)
+    out = tmp_path / "clear.ngc"
+    assert run(capsys, ["--config", config_path, "convert", path, "-o", out, "--width", 100,
+                        "--spacing", 2])[0] == 0
+    pts = np.concatenate(tc.reference_path(str(out)))
+    assert pts[:, 0].min() > PAGE_CENTRE[0] - 1.5       # nothing on the clear left half
+    assert pts[:, 0].max() > PAGE_CENTRE[0] + 40        # the black half is drawn
+
+
+@pytest.mark.parametrize("content, what", [(b"", "empty"), (b"G1 X10\n", "not an image"),
+                                           (b"\x89PNG\r\n\x1a\n" + b"\0" * 20, "")])
+def test_bad_images_are_one_line_and_exit_2(capsys, config_path, tmp_path, content, what):
+    path = tmp_path / "bad.png"
+    path.write_bytes(content)
+    code, _, err = run(capsys, ["--config", config_path, "estimate", path])
+    assert code == 2
+    errors = [line for line in err.splitlines() if "error:" in line]
+    assert len(errors) == 1 and str(path) in errors[0] and what in errors[0]
+
+
+def test_photo_options_on_other_files_are_errors(capsys, config_path):
+    car = REPO / "gcode_samples" / "car.ngc"
+    for extra in (["--style", "spiral"], ["--max-time", "1h"], ["--tsp"]):
+        code, _, err = run(capsys, ["--config", config_path, "estimate", car, *extra])
+        assert code == 2 and "is for photos" in err
+    code, _, err = run(capsys, ["--config", config_path, "estimate", REPO / "gcode_samples" /
+                                "square.ngc", "--width", 50, "--fit"])
+    assert code == 2 and "not two of them" in err
+
+
+def test_a_budget_too_short_says_so(capsys, config_path, photo):
+    code, _, err = run(capsys, ["--config", config_path, "estimate", photo, "--width", 390,
+                                "--style", "stipple", "--max-time", "1m"])
+    assert code == 2 and "too short" in err
+
+
+def test_the_drawing_depends_on_where_it_starts_not_on_the_motors(config_path, photo):
+    """A resumed draw re-makes the photo from the first draw's start point: the budget's
+    timing follows from that point alone, so the same strokes come out."""
+    import argparse
+
+    from vplotter import config
+    from vplotter.commands.files import prepare_file
+    from vplotter.machine.state import Position
+
+    cfg = config.load(config_path)
+    args = argparse.Namespace(file=str(photo), width=120.0, max_time="15m", style="spiral",
+                              order=None)
+    spu = cfg.motors.steps_per_unit
+    a = Position(479.0891, 479.0891, 0, 0, spu)
+    b = Position(479.0891 + 5000 / spu[0], 479.0891 - 3000 / spu[1], 5000, -3000, spu)
+    assert np.allclose(a.ref_mm, b.ref_mm) and a.counts != b.counts
+    pa = prepare_file(args, cfg, a, warn=lambda m: None, start_xy=(10.0, 20.0), say_notes=False)
+    pb = prepare_file(args, cfg, b, warn=lambda m: None, start_xy=(10.0, 20.0), say_notes=False)
+    assert pa.key == pb.key
+    assert len(pa.strokes) == len(pb.strokes)
+    assert all(np.array_equal(s.pts, t.pts) for s, t in zip(pa.strokes, pb.strokes))
+
+
+def test_ink_preview_is_dark_where_the_photo_is(capsys, config_path, photo, tmp_path):
+    png = tmp_path / "ink.png"
+    code, out, err = run(capsys, ["--config", config_path, "preview", photo, "-o", png, "--ink",
+                                  "--width", 150, "--max-time", "20m", "--size", 800])
+    assert code == 0, err and "ink of a pen 0.5 mm wide" in out
+    grey = np.asarray(Image.open(png).convert("L"), dtype=float)
+    assert grey.min() < 80                        # black ink is there
