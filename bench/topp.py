@@ -100,8 +100,9 @@ def strokes_of(cfg, path):
     return runs, extra_s, kin
 
 
-def run_time(kin, run, rate_u, acc_u, tol):
-    """Time-optimal time along one run (rest to rest)."""
+def run_time(kin, run, rate_u, acc_u, tol, profile=False):
+    """Time-optimal time along one run (rest to rest); with profile, also the path distance
+    and the speed at every sample."""
     pts, t, kappa, capv, starts = run
     seg = np.diff(pts, axis=0)
     ds = np.append(np.hypot(seg[:, 0], seg[:, 1]), 0.0)
@@ -152,7 +153,10 @@ def run_time(kin, run, rate_u, acc_u, tol):
         u[i - 1] = min(u[i - 1], u[i] - 2 * min(lo, 0.0) * ds[i - 1])
     v = np.sqrt(np.maximum(np.array(u), 0.0))
     vm = (v[:-1] + v[1:]) / 2
-    return float((ds[:-1] / np.maximum(vm, 1e-9)).sum())
+    t = float((ds[:-1] / np.maximum(vm, 1e-9)).sum())
+    if profile:
+        return t, np.concatenate(([0.0], np.cumsum(ds[:-1]))), v
+    return t
 
 
 def _feasible(u, k, b, acc_u):

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from vplotter import config, kinematics
-from vplotter.motion.planner import RATE_MARGIN, Planner
+from vplotter.motion.planner import MAX_PARTS, RATE_MARGIN, Planner
 from vplotter.motion.schedule import Scheduler
 
 from conftest import REPO
@@ -34,7 +34,9 @@ def test_blocks_join_up_and_stop_at_the_end():
         assert abs(a.v1[-1] - b.v0[0]) < 1e-9
     assert blocks[0].v0[0] == 0.0 and blocks[-1].v1[-1] == 0.0
     for b in blocks:
-        assert len(b.d) <= 2 * 64 * 3  # bounded by the look-ahead window (cuts at most triple)
+        # bounded by the look-ahead window: a piece is cut at most in three where a cord turns
+        # round, then in MAX_PARTS for the rate limit and twice more next to sharp corners
+        assert len(b.d) <= 2 * 64 * 3 * (MAX_PARTS + 2)
         assert np.allclose(b.v1[:-1], b.v0[1:])
 
 
