@@ -45,6 +45,7 @@ ACCEL_MARGIN = 0.96    # of max_accel
 CORNER_SHARE = 0.75    # most of the acceleration budget a corner on a curve may take
 SHARP_SHARE = 0.25     # most of it a lone sharp corner may take
 BEND_SHARE = 0.4       # most of it the bending along a piece may take at the speed cap
+RETRY_GAIN = 1.3       # second plan: corners keep what they take at this x the first plan's speed
 CORNER_CEIL = 0.9      # a corner and the bending next to it take at most this together
 MIN_SLOPE = 0.25       # path acceleration is at most budget / MIN_SLOPE
 
@@ -363,15 +364,18 @@ class Planner:
             v_hi = np.minimum(np.minimum(v_tau, v_ds), np.minimum(vcap[1:], vcap[:-1]))
             sharp = (v_hi * TAU_S < ds[:, 0]) & ~stop[:-1] & (jump.max(axis=1) > 1e-6)
             # How far the pen may go within t of the corner, whatever the parts' own limits
-            # come out as: the corner is passed at most at v_tau (the jump alone over TAU at
-            # CORNER_SHARE) and the cap, no path acceleration exceeds acc / MIN_SLOPE. Each
-            # part next to the corner is then at least v_hi x TAU long: `_profile` sees a
-            # sharp corner there too.
+            # come out as. The corner is an end of both parts next to it, so: the corner is
+            # passed at most at v_tau (the jump alone over TAU at CORNER_SHARE); on each part
+            # the speed stays within the cap and the rate limit at the corner, and the path
+            # acceleration within acc / max(|slope at the corner|, MIN_SLOPE). Each part next
+            # to the corner is then at least v_hi x TAU long: `_profile` sees a sharp corner
+            # there too.
             t = NEAR_TAU * TAU_S
-            a_any = (acc / MIN_SLOPE).min()
             v_c = np.minimum(v_tau, np.maximum(cap[1:], cap[:-1]))
-            reach_in = np.minimum(v_c * t + 0.5 * a_any * t * t, cap[:-1] * t)   # before
-            reach_out = np.minimum(v_c * t + 0.5 * a_any * t * t, cap[1:] * t)   # after
+            a_in = (acc / np.maximum(k1[:-1], MIN_SLOPE)).min(axis=1)
+            a_out = (acc / np.maximum(k0[1:], MIN_SLOPE)).min(axis=1)
+            reach_in = np.minimum(v_c * t + 0.5 * a_in * t * t, np.minimum(cap[:-1], vr1[:-1]) * t)
+            reach_out = np.minimum(v_c * t + 0.5 * a_out * t * t, np.minimum(cap[1:], vr0[1:]) * t)
             end_cut = sharp & (reach_in < 0.5 * d[:-1])
             start_cut = sharp & (reach_out < 0.5 * d[1:])
             i = np.flatnonzero(end_cut)
@@ -447,23 +451,46 @@ class Planner:
             corner[1:n] = np.minimum(np.minimum(use, share),
                                      np.maximum(CORNER_CEIL * acc - np.maximum(bent_hi[1:], bent_hi[:-1]), 0.0))
             corner[1:n][stop[:-1]] = 0.0                         # passed standing still
-            u_lim[1:n] = corner_speed(corner[1:n]) ** 2
-        # speeding up and slowing down gets what bending and the corners at its ends leave
         bent = bend * (vcap ** 2)[:, None]
-        a = ((acc - np.maximum(corner[:-1], corner[1:]) - bent) / np.maximum(kmax, MIN_SLOPE)).min(axis=1)
         u_lim[0] = min(u_lim[0], vcap[0] ** 2)
-        u_lim[1:][stop] = 0.0
-        u_lim[n] = 0.0
-        u_lim[turns] = 0.0                                        # the motors turn at rest
-        u = _passes(u_lim, 2.0 * a * d)
-        if n > 1:
-            # the corners take what they need at the speeds just planned (no more: those
-            # speeds become limits), and the pieces next to them get the rest
-            v = np.sqrt(u[1:n])[:, None]
-            corner[1:n] = np.minimum(corner[1:n], jump * v * np.maximum(1.0 / TAU_S, v / ds))
-            a = ((acc - np.maximum(corner[:-1], corner[1:]) - bent)
+        zero = np.zeros(n + 1, dtype=bool)
+        zero[1:][stop] = True
+        zero[n] = True
+        zero[turns] = True                                        # the motors turn at rest
+
+        def planned(reserve):
+            """Vertex speeds and ramp accelerations with `reserve` of the budget kept for
+            each corner: the corner is passed at most at what that allows, the pieces next
+            to it speed up and slow down with what bending and the corners at its ends leave.
+            Then the corners take what they need at the speeds planned (no more: those speeds
+            become limits) and the pieces next to them get the rest."""
+            lim = u_lim.copy()
+            if n > 1:
+                lim[1:n] = corner_speed(reserve[1:n]) ** 2
+            lim[zero] = 0.0
+            a = ((acc - np.maximum(reserve[:-1], reserve[1:]) - bent)
                  / np.maximum(kmax, MIN_SLOPE)).min(axis=1)
-            u = _passes(np.minimum(u_lim, u), 2.0 * a * d)
+            u = _passes(lim, 2.0 * a * d)
+            if n > 1:
+                v = np.sqrt(u[1:n])[:, None]
+                used = reserve.copy()
+                used[1:n] = np.minimum(reserve[1:n], jump * v * np.maximum(1.0 / TAU_S, v / ds))
+                a = ((acc - np.maximum(used[:-1], used[1:]) - bent)
+                     / np.maximum(kmax, MIN_SLOPE)).min(axis=1)
+                u = _passes(np.minimum(lim, u), 2.0 * a * d)
+            return u, a
+
+        u, a = planned(corner)
+        if n > 1 and RETRY_GAIN:
+            # Again with each corner keeping only what it takes a little above the speed
+            # just planned: where the ramps next to a corner limited it, they get more and
+            # it may be passed faster. Both plans keep every limit; the quicker one is kept.
+            v = np.minimum(np.sqrt(u[1:n]) * RETRY_GAIN, vc)[:, None]
+            again = corner.copy()
+            again[1:n] = np.minimum(corner[1:n], jump * v * np.maximum(1.0 / TAU_S, v / ds))
+            u2, a2 = planned(again)
+            if _time(u2, a2, d, vcap) < _time(u, a, d, vcap):
+                u, a = u2, a2
         inc = 2.0 * a * d
         u0, u1 = u[:-1], u[1:]
         up = np.minimum(vcap ** 2, (u0 + u1 + inc) / 2.0)
@@ -471,6 +498,15 @@ class Planner:
         block = Block(verts, q_out, d, np.sqrt(u0), np.sqrt(up), np.sqrt(u1), a, line, draw, cap,
                       stop, events)
         return block, u, q_in, turns
+
+
+def _time(u, a, d, vcap) -> float:
+    """Time of the trapezoids through squared vertex speeds u."""
+    u0, u1 = u[:-1], u[1:]
+    up = np.maximum(np.minimum(vcap ** 2, (u0 + u1 + 2.0 * a * d) / 2.0), np.maximum(u0, u1))
+    vp = np.sqrt(up)
+    d_cru = np.maximum(d - (2.0 * up - u0 - u1) / (2.0 * a), 0.0)
+    return float(((2.0 * vp - np.sqrt(u0) - np.sqrt(u1)) / a + d_cru / np.maximum(vp, 1e-300)).sum())
 
 
 def _passes(u_lim: np.ndarray, inc: np.ndarray) -> np.ndarray:
