@@ -133,7 +133,7 @@ def gcodetools_far(path, n=1, box=SEED_BOX, seed=4, arcs=20):
            "G21 (All units in mm)", ""]
     x0b, x1b, y0b, y1b = box
     x, y = 0.0, 0.0
-    for k in range(15 * n):
+    for k in range(8 * n):
         turn = rng.uniform(0, 2 * math.pi)
         step = rng.uniform(3.0, 40.0)
         x = float(np.clip(x + step * math.cos(turn), x0b + 20, x1b - 20))
