@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from vplotter import config, kinematics
-from vplotter.motion.planner import MAX_PARTS, RATE_MARGIN, Planner
+from vplotter.motion.planner import RATE_MARGIN, Planner
+from vplotter.motion.refine import MAX_PARTS
 from vplotter.motion.schedule import Scheduler
 
 from conftest import REPO
