@@ -8,7 +8,13 @@ pass and a backward pass on u give the classic time-optimal parameterisation (as
 computes it). Corners between pieces are passed on a blend that keeps the pen within
 tolerance_mm: a circle of radius tol / (1 / cos(turn / 2) - 1), whose centripetal
 acceleration is bounded in cord space like any other. Pen changes, dwells and the end are
-full stops; pen settle times and the coil hold before moving are added as the planner has them.
+full stops; pen settle times and the coil hold before moving are added as the schedule has
+them (one hold at the first move: the coils stay energised through pen changes and dwells; a
+settle for the lift at the end if the file ends pen down).
+
+The limits are by default the planner's derated ones (0.998 x max_step_rate, 0.96 x
+max_accel, see `limits`): the plan has to stay inside them, so that is the fair yardstick;
+`reference(..., derated=False)` gives the bound at the raw limits.
 
 Run: python bench/topp.py FILE [...]   (prints reference time, planned time and their ratio)
 """
@@ -23,6 +29,7 @@ import numpy as np
 
 from vplotter import config, kinematics, pipeline
 from vplotter.inputs import gcode
+from vplotter.motion.planner import ACCEL_MARGIN, RATE_MARGIN
 
 DS_MM = 0.1
 
@@ -37,7 +44,7 @@ def strokes_of(cfg, path):
     mo = cfg.motion
     hold_s = math.ceil(1e6 / cfg.motors.max_step_rate) / 1e6
     runs, cur = [], []
-    extra_s = cfg.pen.settle_s            # the pen is lifted at the start
+    extra_s = cfg.pen.settle_s + hold_s   # the pen is lifted at the start; the coils hold once
     down = False
 
     def close():
@@ -50,12 +57,12 @@ def strokes_of(cfg, path):
         if isinstance(rec, gcode.Pen):
             if rec.down != down:
                 close()
-                extra_s += cfg.pen.settle_s + hold_s
+                extra_s += cfg.pen.settle_s       # the coils stay energised: no new hold
                 down = rec.down
             continue
         if isinstance(rec, gcode.Dwell):
             close()
-            extra_s += rec.seconds + hold_s
+            extra_s += rec.seconds
             continue
         cap = mo.draw_speed_mm_s if down else mo.travel_speed_mm_s
         if down and rec.feed_mm_s is not None and not rec.rapid:
@@ -88,11 +95,14 @@ def strokes_of(cfg, path):
         cur.append((kin.to_machine(p), t * np.array([1.0, -1.0]), -kappa, np.full(n, cap),
                     np.arange(n) == 0))
     close()
+    if down:
+        extra_s += cfg.pen.settle_s           # the pen is lifted at the end
     return runs, extra_s, kin
 
 
-def run_time(kin, run, rate_u, acc_u, tol):
-    """Time-optimal time along one run (rest to rest)."""
+def run_time(kin, run, rate_u, acc_u, tol, profile=False):
+    """Time-optimal time along one run (rest to rest); with profile, also the path distance
+    and the speed at every sample."""
     pts, t, kappa, capv, starts = run
     seg = np.diff(pts, axis=0)
     ds = np.append(np.hypot(seg[:, 0], seg[:, 1]), 0.0)
@@ -143,7 +153,10 @@ def run_time(kin, run, rate_u, acc_u, tol):
         u[i - 1] = min(u[i - 1], u[i] - 2 * min(lo, 0.0) * ds[i - 1])
     v = np.sqrt(np.maximum(np.array(u), 0.0))
     vm = (v[:-1] + v[1:]) / 2
-    return float((ds[:-1] / np.maximum(vm, 1e-9)).sum())
+    t = float((ds[:-1] / np.maximum(vm, 1e-9)).sum())
+    if profile:
+        return t, np.concatenate(([0.0], np.cumsum(ds[:-1]))), v
+    return t
 
 
 def _feasible(u, k, b, acc_u):
@@ -175,13 +188,27 @@ def _curve_limit(k, b, acc_u, u_hi):
     return out
 
 
-def reference(cfg, path):
+def limits(cfg, derated=True):
+    """Each motor's rate and acceleration limits in cord mm: by default the planner's own
+    derating (RATE_MARGIN x max_step_rate, ACCEL_MARGIN x max_accel: the envelope any plan
+    must keep to so that microsecond rounding and the 0.1 s acceleration window never break a
+    limit), with derated=False the raw config values (a bound no schedule reaches)."""
+    spu = np.asarray(cfg.motors.steps_per_unit, dtype=float)
+    rm, am = (RATE_MARGIN, ACCEL_MARGIN) if derated else (1.0, 1.0)
+    return cfg.motors.max_step_rate * rm / spu, cfg.motors.max_accel * am / spu
+
+
+def run_times(cfg, path, derated=True):
+    """The time-optimal time of each run between full stops, and the stop time to add."""
     runs, extra, kin = strokes_of(cfg, path)
-    spu = np.asarray(cfg.motors.steps_per_unit)
-    rate_u = cfg.motors.max_step_rate / spu
-    acc_u = cfg.motors.max_accel / spu
+    rate_u, acc_u = limits(cfg, derated)
     tol = cfg.motion.tolerance_mm
-    return extra + sum(run_time(kin, run, rate_u, acc_u, tol) for run in runs)
+    return [run_time(kin, run, rate_u, acc_u, tol) for run in runs], extra
+
+
+def reference(cfg, path, derated=True):
+    times, extra = run_times(cfg, path, derated)
+    return extra + sum(times)
 
 
 def main(argv):

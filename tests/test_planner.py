@@ -5,6 +5,7 @@ import pytest
 
 from vplotter import config, kinematics
 from vplotter.motion.planner import RATE_MARGIN, Planner
+from vplotter.motion.refine import MAX_PARTS
 from vplotter.motion.schedule import Scheduler
 
 from conftest import REPO
@@ -34,7 +35,9 @@ def test_blocks_join_up_and_stop_at_the_end():
         assert abs(a.v1[-1] - b.v0[0]) < 1e-9
     assert blocks[0].v0[0] == 0.0 and blocks[-1].v1[-1] == 0.0
     for b in blocks:
-        assert len(b.d) <= 2 * 64 * 3  # bounded by the look-ahead window (cuts at most triple)
+        # bounded by the look-ahead window: a piece is cut at most in three where a cord turns
+        # round, then in MAX_PARTS for the rate limit and twice more next to sharp corners
+        assert len(b.d) <= 2 * 64 * 3 * (MAX_PARTS + 2)
         assert np.allclose(b.v1[:-1], b.v0[1:])
 
 
@@ -183,10 +186,22 @@ def test_corners_and_ramps_share_the_acceleration_budget():
         assert (ramp <= acc * (1 + 1e-6)).all()
 
 
-@pytest.mark.parametrize("name", ["strokes.ngc", "circles.ngc", "square.ngc"])
-def test_plot_time_is_close_to_time_optimal(name):
+VARIED = ["tiny_shapes.ngc", "far_arcs.ngc", "micro_arcs.ngc", "gcodetools_far.ngc",
+          "zigzag.ngc", "long_travel.ngc", "mixed.ngc", "corners.ngc"]
+SIZED = {"seed": REPO / "config.toml", "wall1m": REPO / "tests" / "data" / "wall1m.toml",
+         "wall2m": REPO / "tests" / "data" / "wall2m.toml"}
+
+
+@pytest.mark.parametrize("machine,name",
+                         [("seed", f"gcode_samples/{n}") for n in ("strokes.ngc", "circles.ngc",
+                                                                    "square.ngc", "long_line.ngc")]
+                         + [(m, f"tests/data/{n}") for m in SIZED for n in VARIED])
+def test_plot_time_is_close_to_time_optimal(machine, name):
     """bench/topp.py computes the time-optimal parameterisation of the same path under the
-    same motor limits (the pen within tolerance_mm at corners); the plan is within 5 %."""
+    same motor limits (the planner's derated ones; the pen within tolerance_mm at corners);
+    the plan is within 5 %, on the seed machine and on a 1 m and a 2 m wall (tests/data:
+    other anchors, pages, spools, rates and accelerations), for the samples and the varied
+    small files of bench/varied.py."""
     import sys
 
     sys.path.insert(0, str(REPO / "bench"))
@@ -194,11 +209,28 @@ def test_plot_time_is_close_to_time_optimal(name):
         import topp
     finally:
         sys.path.pop(0)
-    path = str(REPO / "gcode_samples" / name)
-    counts, ref = _start()
-    planned = pipeline.validate(CFG, gcode.read(path, warn=lambda m: None), counts, ref).time_s
-    best = topp.reference(CFG, path)
+    cfg = config.load(SIZED[machine])
+    kin = kinematics.from_config(cfg)
+    path = str(REPO / name)
+    ref = kin.inverse(kin.to_machine([[0.0, 0.0]]))[0]
+    planned = pipeline.validate(cfg, gcode.read(path, warn=lambda m: None), (0, 0), ref).time_s
+    best = topp.reference(cfg, path)
     assert best <= planned <= 1.05 * best
+
+
+@pytest.mark.parametrize("machine,name", [("wall1m", "zigzag.ngc"), ("wall2m", "micro_arcs.ngc"),
+                                          ("seed", "long_travel.ngc")])
+def test_sized_machines_keep_the_limits(machine, name, tmp_path):
+    """Dry-run traces of the varied files on the sized machines, decoded by tracecheck: step
+    rate, 0.1 s-window acceleration, settling, release and accuracy (0.02 mm both ways)."""
+    import tracecheck as tc
+    from vplotter.cli import main
+
+    gfile, trace = REPO / "tests" / "data" / name, tmp_path / "t.csv"
+    assert main(["--config", str(SIZED[machine]), "calibrate", "--at", "0", "0"]) == 0
+    assert main(["--config", str(SIZED[machine]), "draw", str(gfile), "--dry-run",
+                 "--trace", str(trace)]) == 0
+    assert tc.verify(tc.read_trace(trace), gfile, tc.load_config(SIZED[machine]), tol_mm=0.02) == []
 
 
 def test_rows_come_in_parts_of_bounded_size(tmp_path):

@@ -18,7 +18,8 @@ from vplotter.errors import ConfigError, InputError
 from vplotter.inputs import gcode
 from vplotter.inputs.gcode import Pause
 from vplotter.motion import segment
-from vplotter.motion.planner import Block, Planner, Turn, _slice
+from vplotter.motion.planner import (ACCEL_MARGIN, CORNER_SHARE, SHARP_SHARE, TAU_S, Block, Planner, Turn,
+                                     _slice)
 from vplotter.motion.schedule import Rows, Scheduler
 from vplotter.motion.segment import CHORD_SHARE
 
@@ -164,6 +165,29 @@ def _parts(block: Block, spu: np.ndarray) -> Iterator[Block]:
         i = j
 
 
+def _chord_turn(cfg: Config):
+    """How far a chord of an arc may turn (radians) on a two-cord machine, by radius: the pen
+    goes round an arc of radius r at up to v = min(draw speed, sqrt(CORNER_SHARE a r)) (a: the
+    smallest cord acceleration; a cord's slope is at most 1). The planner counts the speed jump
+    at a chord's corner against the 0.1 s acceleration window: it takes the corners of a curve
+    as the centripetal v^2 / r when a chord is passed well within TAU_S (chord <= v TAU_S / 2),
+    or the jump alone as SHARP_SHARE of the budget otherwise (turn <= SHARP_SHARE a TAU_S / v).
+    Where the tolerance alone would cut coarser chords than either, the arc is cut finer, so
+    that tiny arcs on a slow machine are not passed at a crawl. None for other machines."""
+    if cfg.machine.kind != "vplotter":
+        return None
+    m = cfg.motors
+    acc = float(np.min(m.max_accel * ACCEL_MARGIN / np.asarray(m.steps_per_unit, dtype=float)))
+    cap = cfg.motion.draw_speed_mm_s
+
+    def turn(r):
+        r = np.maximum(r, 1e-9)
+        v = np.minimum(cap, np.sqrt(CORNER_SHARE * acc * r))
+        return np.maximum(0.5 * v * TAU_S / r, SHARP_SHARE * acc * TAU_S / v)
+
+    return turn
+
+
 def plan(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str,
          summary: Summary, start_at: StartAt | None = None,
          pen_down: bool | None = None, chord_share: float = CHORD_SHARE,
@@ -186,6 +210,7 @@ def plan(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str
     reach = getattr(kin, "first_unreachable", None)
     page = cfg.page
     tol = cfg.motion.tolerance_mm * chord_share
+    turn = _chord_turn(cfg)
     mo = cfg.motion
     file_xy = (0.0, 0.0)
 
@@ -223,9 +248,10 @@ def plan(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str
     def flush(stop: bool) -> Iterator[tuple]:
         if batch:
             if all(isinstance(b, gcode.Move) for b in batch):
-                pts, n = segment.points_many(batch, tol)
+                pts, n = segment.points_many(batch, tol, turn)
             else:
-                parts = [segment.points(b, tol) if isinstance(b, gcode.Move) else b for b in batch]
+                parts = [segment.points(b, tol, turn) if isinstance(b, gcode.Move) else b
+                         for b in batch]
                 pts, n = np.concatenate(parts), np.array([len(p) for p in parts])
             cap, line, col, draw = (np.array(v) for v in zip(*meta))
             bad = segment.first_outside(pts, page.x_min_mm, page.x_max_mm, page.y_min_mm, page.y_max_mm)
@@ -278,7 +304,7 @@ def plan(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str
             # travel pen up to where the drawing goes on, then put the pen as the file has it
             there = file_xy
             if isinstance(rec, gcode.Move):
-                pts = segment.points(rec, tol)
+                pts = segment.points(rec, tol, turn)
                 there = (rec.x0, rec.y0)
                 if rec.line == start_at.line and start_at.xy is not None and len(pts):
                     there, pts = segment.cut(np.vstack(([[rec.x0, rec.y0]], pts)), start_at.xy)

@@ -25,6 +25,15 @@ with it. On a smooth curve cut into short chords this is the centripetal limit
 v^2 x curvature, on a sharp corner a near stop, and where a cord turns round (passes through
 zero speed) it costs nothing because the slope changes continuously there.
 
+Before planning, pieces are cut further on the same straight lines (`_refine`): next to a
+sharp corner, the part covered within NEAR_TAU x TAU of it is a piece of its own, so that only
+it shares the budget with the corner's jump (the 0.1 s windows further away never see the
+jump); and a long piece along which the step-rate limit changes is cut in equal parts, so that
+the speed follows the limit. Each window is planned twice when it has corners: once with every
+corner keeping its share, once with each keeping only what it takes a little above the speeds
+of the first plan (more for the ramps next to it); the quicker plan is kept (both keep every
+limit).
+
 Look-ahead: pieces are buffered (at most 2 x WINDOW); the buffer is planned with a stop at its
 end (backward pass, then forward pass, both vectorised), and the first half is committed. Pen
 changes and dwells are stops inside the buffer (`mark_stop`: speed 0 there, the events ride on
@@ -40,14 +49,15 @@ from typing import Iterator
 
 import numpy as np
 
+from vplotter.motion.refine import CORNER_SHARE, MIN_SLOPE, TAU_S, refine  # noqa: F401
+
 RATE_MARGIN = 0.998    # of max_step_rate: step times are rounded to microseconds
 ACCEL_MARGIN = 0.96    # of max_accel
-CORNER_SHARE = 0.75    # most of the acceleration budget a corner on a curve may take
 SHARP_SHARE = 0.25     # most of it a lone sharp corner may take
 BEND_SHARE = 0.4       # most of it the bending along a piece may take at the speed cap
-MIN_SLOPE = 0.25       # path acceleration is at most budget / MIN_SLOPE
+RETRY_GAIN = 1.3       # second plan: corners keep what they take at this x the first plan's speed
+CORNER_CEIL = 0.9      # a corner and the bending next to it take at most this together
 
-TAU_S = 0.1            # acceleration measurement window for speed jumps at corners
 WINDOW = 2048          # pieces committed per planning round
 
 
@@ -230,8 +240,9 @@ class Planner:
     def _plan(self, final: bool) -> Iterator[Block]:
         pts, raw_cap, raw_line, raw_draw, raw_stop = self._take()
         verts = np.vstack((self._start[None, :], pts))
-        verts, cap, line, draw, stop, origin = self._pieces(verts, raw_cap, raw_line, raw_draw,
-                                                            raw_stop)
+        verts, cap, line, draw, stop, origin = refine(
+            self.kin, self.v_cord, self.a_cord,
+            *self._pieces(verts, raw_cap, raw_line, raw_draw, raw_stop))
         events = [self._stops[int(i)] for i in origin[stop]]
         if len(verts) < 2 or final:
             entry = self._u_entry
@@ -341,25 +352,51 @@ class Planner:
             v_hi = corner_speed(CORNER_SHARE * acc)
             curve = v_hi * TAU_S >= ds[:, 0]
             share = np.where(curve, CORNER_SHARE, SHARP_SHARE)[:, None] * acc
-            corner[1:n] = np.minimum(use, share)
+            # and never so much that the bending leaves the ramps nothing
+            bent_hi = (bend * (vcap ** 2)[:, None])
+            corner[1:n] = np.minimum(np.minimum(use, share),
+                                     np.maximum(CORNER_CEIL * acc - np.maximum(bent_hi[1:], bent_hi[:-1]), 0.0))
             corner[1:n][stop[:-1]] = 0.0                         # passed standing still
-            u_lim[1:n] = corner_speed(corner[1:n]) ** 2
-        # speeding up and slowing down gets what bending and the corners at its ends leave
         bent = bend * (vcap ** 2)[:, None]
-        a = ((acc - np.maximum(corner[:-1], corner[1:]) - bent) / np.maximum(kmax, MIN_SLOPE)).min(axis=1)
         u_lim[0] = min(u_lim[0], vcap[0] ** 2)
-        u_lim[1:][stop] = 0.0
-        u_lim[n] = 0.0
-        u_lim[turns] = 0.0                                        # the motors turn at rest
-        u = _passes(u_lim, 2.0 * a * d)
-        if n > 1:
-            # the corners take what they need at the speeds just planned (no more: those
-            # speeds become limits), and the pieces next to them get the rest
-            v = np.sqrt(u[1:n])[:, None]
-            corner[1:n] = np.minimum(corner[1:n], jump * v * np.maximum(1.0 / TAU_S, v / ds))
-            a = ((acc - np.maximum(corner[:-1], corner[1:]) - bent)
+        zero = np.zeros(n + 1, dtype=bool)
+        zero[1:][stop] = True
+        zero[n] = True
+        zero[turns] = True                                        # the motors turn at rest
+
+        def planned(reserve):
+            """Vertex speeds and ramp accelerations with `reserve` of the budget kept for
+            each corner: the corner is passed at most at what that allows, the pieces next
+            to it speed up and slow down with what bending and the corners at its ends leave.
+            Then the corners take what they need at the speeds planned (no more: those speeds
+            become limits) and the pieces next to them get the rest."""
+            lim = u_lim.copy()
+            if n > 1:
+                lim[1:n] = corner_speed(reserve[1:n]) ** 2
+            lim[zero] = 0.0
+            a = ((acc - np.maximum(reserve[:-1], reserve[1:]) - bent)
                  / np.maximum(kmax, MIN_SLOPE)).min(axis=1)
-            u = _passes(np.minimum(u_lim, u), 2.0 * a * d)
+            u = _passes(lim, 2.0 * a * d)
+            if n > 1:
+                v = np.sqrt(u[1:n])[:, None]
+                used = reserve.copy()
+                used[1:n] = np.minimum(reserve[1:n], jump * v * np.maximum(1.0 / TAU_S, v / ds))
+                a = ((acc - np.maximum(used[:-1], used[1:]) - bent)
+                     / np.maximum(kmax, MIN_SLOPE)).min(axis=1)
+                u = _passes(np.minimum(lim, u), 2.0 * a * d)
+            return u, a
+
+        u, a = planned(corner)
+        if n > 1 and RETRY_GAIN:
+            # Again with each corner keeping only what it takes a little above the speed
+            # just planned: where the ramps next to a corner limited it, they get more and
+            # it may be passed faster. Both plans keep every limit; the quicker one is kept.
+            v = np.minimum(np.sqrt(u[1:n]) * RETRY_GAIN, vc)[:, None]
+            again = corner.copy()
+            again[1:n] = np.minimum(corner[1:n], jump * v * np.maximum(1.0 / TAU_S, v / ds))
+            u2, a2 = planned(again)
+            if _time(u2, a2, d, vcap) < _time(u, a, d, vcap):
+                u, a = u2, a2
         inc = 2.0 * a * d
         u0, u1 = u[:-1], u[1:]
         up = np.minimum(vcap ** 2, (u0 + u1 + inc) / 2.0)
@@ -367,6 +404,15 @@ class Planner:
         block = Block(verts, q_out, d, np.sqrt(u0), np.sqrt(up), np.sqrt(u1), a, line, draw, cap,
                       stop, events)
         return block, u, q_in, turns
+
+
+def _time(u, a, d, vcap) -> float:
+    """Time of the trapezoids through squared vertex speeds u."""
+    u0, u1 = u[:-1], u[1:]
+    up = np.maximum(np.minimum(vcap ** 2, (u0 + u1 + 2.0 * a * d) / 2.0), np.maximum(u0, u1))
+    vp = np.sqrt(up)
+    d_cru = np.maximum(d - (2.0 * up - u0 - u1) / (2.0 * a), 0.0)
+    return float(((2.0 * vp - np.sqrt(u0) - np.sqrt(u1)) / a + d_cru / np.maximum(vp, 1e-300)).sum())
 
 
 def _passes(u_lim: np.ndarray, inc: np.ndarray) -> np.ndarray:

@@ -43,10 +43,12 @@ def chord_count(radius_mm: float, sweep: float, tol_mm: float) -> int:
     return max(1, math.ceil(abs(sweep) / step - 1e-9))
 
 
-def points(move: Move, tol_mm: float) -> np.ndarray:
+def points(move: Move, tol_mm: float, max_angle=None) -> np.ndarray:
     """The piece end points of `move` as an (N, 2) array, without its start point.
 
-    The last row is exactly (x1, y1). A zero-length line gives an empty array.
+    The last row is exactly (x1, y1). A zero-length line gives an empty array. max_angle:
+    a function of the arc's radius (an array) giving the most a chord may turn (radians), or
+    None (only the tolerance counts).
     """
     if move.arc == 0:
         if move.x1 == move.x0 and move.y1 == move.y0:
@@ -59,6 +61,8 @@ def points(move: Move, tol_mm: float) -> np.ndarray:
     # A spiral bends like a circle of radius sqrt(r^2 + 4 r'^2) (r' = dr/dangle).
     r_eff = math.sqrt(max(r0, r1) ** 2 + 4.0 * dr * dr)
     n = chord_count(r_eff, sweep, tol_mm)
+    if max_angle is not None:
+        n = max(n, math.ceil(abs(sweep) / float(max_angle(np.array([r_eff]))[0]) - 1e-9))
     f = np.arange(1, n + 1) / n
     a0 = math.atan2(move.y0 - move.cy, move.x0 - move.cx)
     ang = a0 + sweep * f
@@ -68,7 +72,7 @@ def points(move: Move, tol_mm: float) -> np.ndarray:
     return out
 
 
-def points_many(moves: list[Move], tol_mm: float) -> tuple[np.ndarray, np.ndarray]:
+def points_many(moves: list[Move], tol_mm: float, max_angle=None) -> tuple[np.ndarray, np.ndarray]:
     """`points` of many moves at once (vectorised): all their piece end points (K, 2) and how
     many each move has (a zero-length line has none)."""
     n_moves = len(moves)
@@ -95,6 +99,8 @@ def points_many(moves: list[Move], tol_mm: float) -> tuple[np.ndarray, np.ndarra
     with np.errstate(invalid="ignore", divide="ignore"):
         step = np.where(r_eff <= tol_mm, math.pi / 2,
                         2.0 * np.arccos(1.0 - tol_mm / np.maximum(r_eff, tol_mm)))
+    if max_angle is not None:
+        step = np.minimum(step, max_angle(r_eff))
     n = np.maximum(1, np.ceil(np.abs(sweep) / step - 1e-9)).astype(np.int64)
     count[a] = n
     total = int(count.sum())

@@ -1,0 +1,114 @@
+"""Where the planner cuts pieces further, on the same straight lines (collinear vertices
+change no geometry), so that one trapezoid per piece wastes little time; and the constants of
+the corner rule it shares with the planner (see `planner`)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+CORNER_SHARE = 0.75    # most of the acceleration budget a corner on a curve may take
+MIN_SLOPE = 0.25       # path acceleration is at most budget / MIN_SLOPE
+TAU_S = 0.1            # acceleration measurement window for speed jumps at corners
+NEAR_TAU = 1.05        # a sharp corner shares the budget with this x TAU_S of motion each side
+RATE_STEP = 0.02       # a piece is cut where the rate limit changes by more than this share
+MIN_PART_MM = 0.05     # no extra cut closer than this to another
+MAX_PARTS = 32         # most equal parts a piece is cut into for the rate limit
+RATE_PART_MM = 1.0     # and none shorter than this
+
+
+def refine(kin, v_cord, a_cord, verts, cap, line, draw, stop, origin):
+    """Cut pieces further where one trapezoid per piece would waste time (the pen stays
+    on the same straight line: collinear vertices change no geometry):
+
+    - near a sharp corner: the part of each piece the pen covers within NEAR_TAU x TAU_S
+      of the corner (at most v_corner x t + a t^2 / 2, or the speed cap x t) becomes a
+      piece of its own. Only it shares the budget with the corner's speed jump; the rest of
+      the piece speeds up and slows down with the whole budget (the jump is seen only by
+      the 0.1 s windows next to it: see `Planner._profile`).
+    - where the step-rate limit on the pen speed (each cord moves at |slope| x v) changes
+      along a long piece by more than RATE_STEP: in equal parts, so that the speed follows
+      the limit instead of keeping the slowest of the piece all along.
+    """
+    n = len(verts) - 1
+    if n < 1:
+        return verts, cap, line, draw, stop, origin
+    diff = np.diff(verts, axis=0)
+    d = np.hypot(diff[:, 0], diff[:, 1])
+    e = diff / d[:, None]
+    k0 = np.abs(kin.slope(verts[:-1], e))
+    k1 = np.abs(kin.slope(verts[1:], e))
+    kmax = np.maximum(k0, k1)
+    acc = a_cord
+    with np.errstate(divide="ignore"):
+        vr0 = (v_cord / np.maximum(k0, 1e-9)).min(axis=1)
+        vr1 = (v_cord / np.maximum(k1, 1e-9)).min(axis=1)
+    vcap = np.minimum(cap, np.minimum(vr0, vr1))
+    piece_parts, s_parts = [], []
+    # rate: equal parts where the limit changes by more than RATE_STEP along the piece.
+    # Each motor's |slope| runs one way along a piece (pieces are cut where it is zero),
+    # so its limit lies between its values at the two ends.
+    with np.errstate(divide="ignore"):
+        m0 = v_cord / np.maximum(k0, 1e-9)
+        m1 = v_cord / np.maximum(k1, 1e-9)
+    lo = np.minimum(m0, m1)
+    hi = np.minimum(np.maximum(m0, m1), cap[:, None])
+    ratio = np.where(lo < cap[:, None], np.maximum(hi / lo, 1.0), 1.0).max(axis=1)
+    parts = np.where(ratio > 1.0 + RATE_STEP, np.ceil(np.log(ratio) / np.log1p(RATE_STEP)), 1.0)
+    parts = np.minimum(parts, np.maximum(np.floor(d / RATE_PART_MM), 1.0)).astype(np.int64)
+    parts = np.minimum(parts, MAX_PARTS)
+    many = np.flatnonzero(parts > 1)
+    if len(many):
+        c = parts[many] - 1
+        piece = np.repeat(many, c)
+        j = np.arange(len(piece)) - np.repeat(np.cumsum(c) - c, c) + 1
+        piece_parts.append(piece)
+        s_parts.append(d[piece] * j / parts[piece])
+    if n > 1:
+        # sharp corners: the speed there is at most v_hi (the corner taking CORNER_SHARE)
+        k0s, k1s = kin.slope(verts[:-1], e), kin.slope(verts[1:], e)
+        jump = np.abs(k0s[1:] - k1s[:-1])
+        ds = np.minimum(d[1:], d[:-1])[:, None]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            v_tau = np.where(jump > 0, CORNER_SHARE * acc * TAU_S / jump, np.inf).min(axis=1)
+            v_ds = np.where(jump > 0, np.sqrt(CORNER_SHARE * acc * ds / jump), np.inf).min(axis=1)
+        v_hi = np.minimum(np.minimum(v_tau, v_ds), np.minimum(vcap[1:], vcap[:-1]))
+        sharp = (v_hi * TAU_S < ds[:, 0]) & ~stop[:-1] & (jump.max(axis=1) > 1e-6)
+        # How far the pen may go within t of the corner, whatever the parts' own limits
+        # come out as. The corner is an end of both parts next to it, so: the corner is
+        # passed at most at v_tau (the jump alone over TAU at CORNER_SHARE); on each part
+        # the speed stays within the cap and the rate limit at the corner, and the path
+        # acceleration within acc / max(|slope at the corner|, MIN_SLOPE). Each part next
+        # to the corner is then at least v_hi x TAU long: `_profile` sees a sharp corner
+        # there too.
+        t = NEAR_TAU * TAU_S
+        v_c = np.minimum(v_tau, np.maximum(cap[1:], cap[:-1]))
+        a_in = (acc / np.maximum(k1[:-1], MIN_SLOPE)).min(axis=1)
+        a_out = (acc / np.maximum(k0[1:], MIN_SLOPE)).min(axis=1)
+        reach_in = np.minimum(v_c * t + 0.5 * a_in * t * t, np.minimum(cap[:-1], vr1[:-1]) * t)
+        reach_out = np.minimum(v_c * t + 0.5 * a_out * t * t, np.minimum(cap[1:], vr0[1:]) * t)
+        end_cut = sharp & (reach_in < 0.5 * d[:-1])
+        start_cut = sharp & (reach_out < 0.5 * d[1:])
+        i = np.flatnonzero(end_cut)
+        piece_parts.append(i)
+        s_parts.append(d[i] - reach_in[i])
+        i = np.flatnonzero(start_cut)
+        piece_parts.append(i + 1)
+        s_parts.append(reach_out[i])
+    if not piece_parts:
+        return verts, cap, line, draw, stop, origin
+    piece = np.concatenate(piece_parts + [np.arange(n)])
+    s = np.concatenate(s_parts + [d])
+    order = np.lexsort((s, piece))
+    piece, s = piece[order], s[order]
+    end = s == d[piece]
+    prev = np.concatenate(([-1.0], s[:-1]))
+    first = np.concatenate(([True], piece[1:] != piece[:-1]))
+    prev[first] = 0.0
+    good = end | ((s - prev > MIN_PART_MM) & (d[piece] - s > MIN_PART_MM))
+    piece, s, end = piece[good], s[good], end[good]
+    if len(piece) == n:
+        return verts, cap, line, draw, stop, origin
+    new = verts[piece] + e[piece] * s[:, None]
+    new[end] = verts[1:][piece[end]]
+    verts = np.vstack((verts[:1], new))
+    return verts, cap[piece], line[piece], draw[piece], stop[piece] & end, origin[piece]
