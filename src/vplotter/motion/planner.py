@@ -53,10 +53,14 @@ from vplotter.motion.refine import CORNER_SHARE, MIN_SLOPE, TAU_S, refine  # noq
 
 RATE_MARGIN = 0.998    # of max_step_rate: step times are rounded to microseconds
 ACCEL_MARGIN = 0.96    # of max_accel
-SHARP_SHARE = 0.25     # most of it a lone sharp corner may take
+SHARP_SHARE = 0.25     # what a chord's sharp corner is taken to get (pipeline._chord_turn)
 BEND_SHARE = 0.4       # most of it the bending along a piece may take at the speed cap
-RETRY_GAIN = 1.3       # second plan: corners keep what they take at this x the first plan's speed
-CORNER_CEIL = 0.9      # a corner and the bending next to it take at most this together
+RETRY_GAIN = 1.2       # later plans: corners keep what they take at this x the best plan's speed
+RETRY_ROUNDS = 3       # plans after the first (the quickest is kept)
+RETRY_MIN = 1e-3       # no further round after one that won less than this share of the time
+CORNER_CEIL = 0.9      # a corner and the bending next to it take at most this together (first plan)
+CORNER_TOP = 0.98      # and in later plans, on a curve, where the ramps next to it leave that
+SHARP_TRY = np.array([0.02, 0.05, 0.1, 0.15, 0.25, 0.35])   # shares a sharp corner may get
 
 WINDOW = 2048          # pieces committed per planning round
 
@@ -351,12 +355,29 @@ class Planner:
             # A lone sharp corner is passed slowly anyway; the pieces around it get more.
             v_hi = corner_speed(CORNER_SHARE * acc)
             curve = v_hi * TAU_S >= ds[:, 0]
-            share = np.where(curve, CORNER_SHARE, SHARP_SHARE)[:, None] * acc
+            # a sharp corner: the share that passes it and the pieces next to it quickest
+            share = np.full(n - 1, CORNER_SHARE)
+            # (where even the least share passes it at full speed, the least is quickest)
+            low = corner_speed(SHARP_TRY[0] * acc) >= vc
+            share[~curve & low] = SHARP_TRY[0]
+            sharp = np.flatnonzero(~curve & ~low)
+            if len(sharp):
+                far = np.concatenate(([np.inf], v_hi, [np.inf]))
+                share[sharp] = _sharp_shares(jump[sharp], acc, kmax[sharp], kmax[sharp + 1],
+                                             d[sharp], d[sharp + 1], vcap[sharp], vcap[sharp + 1],
+                                             vc[sharp], ds[sharp, 0], far[sharp], far[sharp + 2])
+            share = share[:, None] * acc
             # and never so much that the bending leaves the ramps nothing
             bent_hi = (bend * (vcap ** 2)[:, None])
-            corner[1:n] = np.minimum(np.minimum(use, share),
-                                     np.maximum(CORNER_CEIL * acc - np.maximum(bent_hi[1:], bent_hi[:-1]), 0.0))
+            bent_end = np.maximum(bent_hi[1:], bent_hi[:-1])
+            ceil = np.maximum(CORNER_CEIL * acc - bent_end, 0.0)
+            corner[1:n] = np.minimum(np.minimum(use, share), ceil)
             corner[1:n][stop[:-1]] = 0.0                         # passed standing still
+            # the most a corner may keep in the later plans
+            top = np.zeros_like(corner)
+            top[1:n] = np.minimum(use, np.where(curve[:, None], np.maximum(CORNER_TOP * acc - bent_end, 0.0),
+                                                np.minimum(share, ceil)))
+            top[1:n][stop[:-1]] = 0.0
         bent = bend * (vcap ** 2)[:, None]
         u_lim[0] = min(u_lim[0], vcap[0] ** 2)
         zero = np.zeros(n + 1, dtype=bool)
@@ -387,16 +408,31 @@ class Planner:
             return u, a
 
         u, a = planned(corner)
-        if n > 1 and RETRY_GAIN:
-            # Again with each corner keeping only what it takes a little above the speed
-            # just planned: where the ramps next to a corner limited it, they get more and
-            # it may be passed faster. Both plans keep every limit; the quicker one is kept.
-            v = np.minimum(np.sqrt(u[1:n]) * RETRY_GAIN, vc)[:, None]
-            again = corner.copy()
-            again[1:n] = np.minimum(corner[1:n], jump * v * np.maximum(1.0 / TAU_S, v / ds))
-            u2, a2 = planned(again)
-            if _time(u2, a2, d, vcap) < _time(u, a, d, vcap):
-                u, a = u2, a2
+        if n > 1:
+            # Again, a few times, with each corner keeping what it takes a little above the
+            # speed of the quickest plan so far, but no more than the ramps next to it leave
+            # at that plan (and at least what it takes at that plan): where the ramps limited
+            # a corner they get more, where the corner limited the speed it gets what the
+            # ramps do not use (up to CORNER_TOP on a curve: the pen goes round at an even
+            # speed). Every plan keeps every limit; the quickest is kept.
+            best = _time(u, a, d, vcap)
+            slope = np.maximum(kmax, MIN_SLOPE)
+            for _ in range(int(RETRY_ROUNDS)):
+                v = np.sqrt(u[1:n])[:, None]
+                now = jump * v * np.maximum(1.0 / TAU_S, v / ds)
+                v = np.minimum(v * RETRY_GAIN, vc[:, None])
+                again = top.copy()
+                again[1:n] = np.minimum(top[1:n], jump * v * np.maximum(1.0 / TAU_S, v / ds))
+                need = np.abs(np.diff(u))[:, None] / (2.0 * d[:, None]) * slope + bent
+                room = acc - np.maximum(need[1:], need[:-1])
+                again[1:n] = np.minimum(again[1:n], np.maximum(room, np.minimum(now, again[1:n])))
+                u2, a2 = planned(again)
+                t2 = _time(u2, a2, d, vcap)
+                if t2 >= best:
+                    break                   # the next round would plan the same again
+                u, a, best, gain = u2, a2, t2, best - t2
+                if gain < RETRY_MIN * best:
+                    break                   # little more to win
         inc = 2.0 * a * d
         u0, u1 = u[:-1], u[1:]
         up = np.minimum(vcap ** 2, (u0 + u1 + inc) / 2.0)
@@ -404,6 +440,30 @@ class Planner:
         block = Block(verts, q_out, d, np.sqrt(u0), np.sqrt(up), np.sqrt(u1), a, line, draw, cap,
                       stop, events)
         return block, u, q_in, turns
+
+
+
+
+def _sharp_shares(jump, acc, k_in, k_out, d_in, d_out, cap_in, cap_out, vc, ds, far_in, far_out):
+    """Per sharp corner, the share of the budget (one of SHARP_TRY) that passes it quickest: a
+    lower share lowers the corner speed and leaves the pieces on either side more to brake
+    and speed up with. Estimated as the time of the two pieces next to it, each ramping from
+    the corner speed with what the corner leaves towards the highest speed it may reach (its
+    cap, and the speed of the corner at its other end at the most that may take)."""
+    c = SHARP_TRY[:, None]                                     # (S, 1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        per = np.where(jump > 0, acc * TAU_S / jump, np.inf).min(axis=1)
+        per_ds = np.where(jump > 0, np.sqrt(acc * ds[:, None] / jump), np.inf).min(axis=1)
+        v_c = np.minimum(np.minimum(c * per, np.sqrt(c) * per_ds), vc)       # (S, corners)
+        used = np.minimum(np.maximum(v_c / per, (v_c / per_ds) ** 2), c)     # what it takes
+    t = 0.0
+    for L, k, cap in ((d_in, k_in, np.minimum(cap_in, far_in)),
+                      (d_out, k_out, np.minimum(cap_out, far_out))):
+        a = (1.0 - used) * (acc / np.maximum(k, MIN_SLOPE)).min(axis=1)
+        v_top = np.maximum(np.minimum(np.sqrt(v_c * v_c + 2.0 * a * L), cap), v_c)
+        t = t + ((v_top - v_c) / a
+                 + np.maximum(L - (v_top ** 2 - v_c ** 2) / (2.0 * a), 0.0) / np.maximum(v_top, 1e-300))
+    return SHARP_TRY[np.argmin(t, axis=0)]
 
 
 def _time(u, a, d, vcap) -> float:

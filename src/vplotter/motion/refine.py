@@ -35,8 +35,8 @@ def refine(kin, v_cord, a_cord, verts, cap, line, draw, stop, origin):
     diff = np.diff(verts, axis=0)
     d = np.hypot(diff[:, 0], diff[:, 1])
     e = diff / d[:, None]
-    k0 = np.abs(kin.slope(verts[:-1], e))
-    k1 = np.abs(kin.slope(verts[1:], e))
+    k0s, k1s = kin.slope(verts[:-1], e), kin.slope(verts[1:], e)
+    k0, k1 = np.abs(k0s), np.abs(k1s)
     kmax = np.maximum(k0, k1)
     acc = a_cord
     with np.errstate(divide="ignore"):
@@ -65,7 +65,6 @@ def refine(kin, v_cord, a_cord, verts, cap, line, draw, stop, origin):
         s_parts.append(d[piece] * j / parts[piece])
     if n > 1:
         # sharp corners: the speed there is at most v_hi (the corner taking CORNER_SHARE)
-        k0s, k1s = kin.slope(verts[:-1], e), kin.slope(verts[1:], e)
         jump = np.abs(k0s[1:] - k1s[:-1])
         ds = np.minimum(d[1:], d[:-1])[:, None]
         with np.errstate(divide="ignore", invalid="ignore"):
