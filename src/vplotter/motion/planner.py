@@ -17,8 +17,9 @@ once by v x |slope change|. A change that lands inside one measurement window TA
 acceleration of jump / min(TAU, dt) where dt is the time to the next corner. A corner takes
 what that is at the highest speed its pieces allow, but at most CORNER_SHARE of the budget on
 a curve (the next corner comes within TAU: the pen goes round at that speed, hardly speeding
-up or slowing down) and SHARP_SHARE at a lone sharp corner (passed slowly anyway, so the
-pieces around it keep most of the budget to brake and speed up); the vertex speed is the
+up or slowing down) and at a lone sharp corner the share of SHARP_TRY that passes it and the
+two pieces next to it quickest (a lower share, a slower corner, more for the pieces around it
+to brake and speed up with: a near reversal is best passed nearly stopped); the vertex speed is the
 largest v within that for both motors. After the passes the corners give back what they do
 not use at the speeds planned (those speeds become limits) and the ramps are planned again
 with it. On a smooth curve cut into short chords this is the centripetal limit
@@ -29,10 +30,11 @@ Before planning, pieces are cut further on the same straight lines (`_refine`): 
 sharp corner, the part covered within NEAR_TAU x TAU of it is a piece of its own, so that only
 it shares the budget with the corner's jump (the 0.1 s windows further away never see the
 jump); and a long piece along which the step-rate limit changes is cut in equal parts, so that
-the speed follows the limit. Each window is planned twice when it has corners: once with every
-corner keeping its share, once with each keeping only what it takes a little above the speeds
-of the first plan (more for the ramps next to it); the quicker plan is kept (both keep every
-limit).
+the speed follows the limit. Each window with corners is planned up to 1 + RETRY_ROUNDS
+times: once with every corner keeping its share, then with each keeping what it takes at
+RETRY_GAIN x the speeds of the quickest plan so far, but no more than the ramps next to it
+leave at that plan (up to CORNER_TOP on a curve, where the pen goes round at an even speed and
+the ramps need little); the quickest plan is kept (each keeps every limit).
 
 Look-ahead: pieces are buffered (at most 2 x WINDOW); the buffer is planned with a stop at its
 end (backward pass, then forward pass, both vectorised), and the first half is committed. Pen
