@@ -51,7 +51,8 @@ from typing import Iterator
 
 import numpy as np
 
-from vplotter.motion.refine import CORNER_SHARE, MIN_SLOPE, TAU_S, refine  # noqa: F401
+from vplotter.motion.refine import (CORNER_SHARE, MIN_SLOPE, SHARP_TRY, TAU_S,  # noqa: F401
+                                    refine, sharp_shares)
 
 RATE_MARGIN = 0.998    # of max_step_rate: step times are rounded to microseconds
 ACCEL_MARGIN = 0.96    # of max_accel
@@ -62,7 +63,6 @@ RETRY_ROUNDS = 3       # plans after the first (the quickest is kept)
 RETRY_MIN = 1e-3       # no further round after one that won less than this share of the time
 CORNER_CEIL = 0.9      # a corner and the bending next to it take at most this together (first plan)
 CORNER_TOP = 0.98      # and in later plans, on a curve, where the ramps next to it leave that
-SHARP_TRY = np.array([0.02, 0.05, 0.1, 0.15, 0.25, 0.35])   # shares a sharp corner may get
 
 WINDOW = 2048          # pieces committed per planning round
 
@@ -365,7 +365,7 @@ class Planner:
             sharp = np.flatnonzero(~curve & ~low)
             if len(sharp):
                 far = np.concatenate(([np.inf], v_hi, [np.inf]))
-                share[sharp] = _sharp_shares(jump[sharp], acc, kmax[sharp], kmax[sharp + 1],
+                share[sharp] = sharp_shares(jump[sharp], acc, kmax[sharp], kmax[sharp + 1],
                                              d[sharp], d[sharp + 1], vcap[sharp], vcap[sharp + 1],
                                              vc[sharp], ds[sharp, 0], far[sharp], far[sharp + 2])
             share = share[:, None] * acc
@@ -444,28 +444,6 @@ class Planner:
         return block, u, q_in, turns
 
 
-
-
-def _sharp_shares(jump, acc, k_in, k_out, d_in, d_out, cap_in, cap_out, vc, ds, far_in, far_out):
-    """Per sharp corner, the share of the budget (one of SHARP_TRY) that passes it quickest: a
-    lower share lowers the corner speed and leaves the pieces on either side more to brake
-    and speed up with. Estimated as the time of the two pieces next to it, each ramping from
-    the corner speed with what the corner leaves towards the highest speed it may reach (its
-    cap, and the speed of the corner at its other end at the most that may take)."""
-    c = SHARP_TRY[:, None]                                     # (S, 1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        per = np.where(jump > 0, acc * TAU_S / jump, np.inf).min(axis=1)
-        per_ds = np.where(jump > 0, np.sqrt(acc * ds[:, None] / jump), np.inf).min(axis=1)
-        v_c = np.minimum(np.minimum(c * per, np.sqrt(c) * per_ds), vc)       # (S, corners)
-        used = np.minimum(np.maximum(v_c / per, (v_c / per_ds) ** 2), c)     # what it takes
-    t = 0.0
-    for L, k, cap in ((d_in, k_in, np.minimum(cap_in, far_in)),
-                      (d_out, k_out, np.minimum(cap_out, far_out))):
-        a = (1.0 - used) * (acc / np.maximum(k, MIN_SLOPE)).min(axis=1)
-        v_top = np.maximum(np.minimum(np.sqrt(v_c * v_c + 2.0 * a * L), cap), v_c)
-        t = t + ((v_top - v_c) / a
-                 + np.maximum(L - (v_top ** 2 - v_c ** 2) / (2.0 * a), 0.0) / np.maximum(v_top, 1e-300))
-    return SHARP_TRY[np.argmin(t, axis=0)]
 
 
 def _time(u, a, d, vcap) -> float:

@@ -1,6 +1,7 @@
 """Where the planner cuts pieces further, on the same straight lines (collinear vertices
 change no geometry), so that one trapezoid per piece wastes little time; and the constants of
-the corner rule it shares with the planner (see `planner`)."""
+the corner rule it shares with the planner, and the share of the budget each sharp corner
+gets (see `planner`)."""
 
 from __future__ import annotations
 
@@ -14,6 +15,7 @@ RATE_STEP = 0.02       # a piece is cut where the rate limit changes by more tha
 MIN_PART_MM = 0.05     # no extra cut closer than this to another
 MAX_PARTS = 32         # most equal parts a piece is cut into for the rate limit
 RATE_PART_MM = 1.0     # and none shorter than this
+SHARP_TRY = np.array([0.02, 0.05, 0.1, 0.15, 0.25, 0.35])   # shares a sharp corner may get
 
 
 def refine(kin, v_cord, a_cord, verts, cap, line, draw, stop, origin):
@@ -111,3 +113,25 @@ def refine(kin, v_cord, a_cord, verts, cap, line, draw, stop, origin):
     new[end] = verts[1:][piece[end]]
     verts = np.vstack((verts[:1], new))
     return verts, cap[piece], line[piece], draw[piece], stop[piece] & end, origin[piece]
+
+
+def sharp_shares(jump, acc, k_in, k_out, d_in, d_out, cap_in, cap_out, vc, ds, far_in, far_out):
+    """Per sharp corner, the share of the budget (one of SHARP_TRY) that passes it quickest: a
+    lower share lowers the corner speed and leaves the pieces on either side more to brake
+    and speed up with. Estimated as the time of the two pieces next to it, each ramping from
+    the corner speed with what the corner leaves towards the highest speed it may reach (its
+    cap, and the speed of the corner at its other end at the most that may take)."""
+    c = SHARP_TRY[:, None]                                     # (S, 1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        per = np.where(jump > 0, acc * TAU_S / jump, np.inf).min(axis=1)
+        per_ds = np.where(jump > 0, np.sqrt(acc * ds[:, None] / jump), np.inf).min(axis=1)
+        v_c = np.minimum(np.minimum(c * per, np.sqrt(c) * per_ds), vc)       # (S, corners)
+        used = np.minimum(np.maximum(v_c / per, (v_c / per_ds) ** 2), c)     # what it takes
+    t = 0.0
+    for L, k, cap in ((d_in, k_in, np.minimum(cap_in, far_in)),
+                      (d_out, k_out, np.minimum(cap_out, far_out))):
+        a = (1.0 - used) * (acc / np.maximum(k, MIN_SLOPE)).min(axis=1)
+        v_top = np.maximum(np.minimum(np.sqrt(v_c * v_c + 2.0 * a * L), cap), v_c)
+        t = t + ((v_top - v_c) / a
+                 + np.maximum(L - (v_top ** 2 - v_c ** 2) / (2.0 * a), 0.0) / np.maximum(v_top, 1e-300))
+    return SHARP_TRY[np.argmin(t, axis=0)]
