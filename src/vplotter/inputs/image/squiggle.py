@@ -12,17 +12,20 @@ in darkness, L = darkness x L_max (darkness blurred over about half a track, so 
 carries the tone of its own strip), so the coverage is darkness x L_max x w / pitch (about
 1.05 x darkness at 0.5 mm / 1.5 mm; a coarser spacing draws a lighter picture with less
 line, a finer one more line: halving the spacing doubles the length, as for every style).
-Coarser than COARSEST_PENS pen widths (3.5 mm), the rows stay that far apart and the line the
-spacing asks for goes to the darker tones only (`concentrate`: the darkness is remapped
-(d - t) / (1 - t) with t chosen so the line drawn is the same): lines 10 mm apart are seen as
-lines, not as a tone.
-A straight track (L = 1) is the least the pen can draw; where L is below 1/2 it lifts (the
-nearer tone), so a white picture draws nothing. To keep the lifts few, gaps shorter than 4
+The line drawn follows the budget's tone curve (`tone.py`): L = f(d) x L_max x p / spacing with
+f(d) = d^gamma, the tracks p = min(spacing, CAP_PENS pen widths) apart (`track_pitch`: lines
+10 mm apart are seen as lines, not as a tone), so a coarser spacing than the cap draws less
+line, on the darker tones, and halving the spacing still about doubles the line.
+A straight track (L = 1) is the least line a track can carry; a smaller L is drawn with fewer
+tracks: track k (row k, or turn k of the spiral) is drawn straight where L passes the
+threshold of its nesting level (`tone.level`: every 16th track from L > 1/32, ..., all of
+them from 3/4), so the lightest tones get every 16th track and a darker tone never less; where
+no track is drawn the pen lifts. To keep the lifts few, gaps shorter than 4
 pen widths are drawn straight through and pen-down runs shorter than 2 pen widths dropped.
 The squiggle's period follows darkness too, from 2 P0 in the light to P0 in the dark (finer
 teeth where the zigzag is steep); the spiral keeps P0.
 
-Rows are `spacing_mm` apart, centred on the picture; consecutive rows run in opposite
+Rows are the track pitch apart, centred on the picture; consecutive rows run in opposite
 directions and a row that ends at the picture's edge inked is joined to the next one that
 starts there (one stroke across several rows: fewer lifts).
 """
@@ -33,59 +36,28 @@ import math
 
 import numpy as np
 
+from vplotter.inputs.image import tone
 from vplotter.inputs.image.load import blur
 from vplotter.inputs.image.picture import Picture
 from vplotter.inputs.strokes import Stroke
 
 
 MIN_CHORD_MM = 0.1         # no shorter piece between two points (keeps the count sane)
-COARSEST_PENS = 7.0        # tracks never further apart than this (3.5 mm with a 0.5 mm pen)
+CAP_PENS = 7.0             # tracks never further apart than this (3.5 mm with a 0.5 mm pen)
 
 
-def concentrate(d: np.ndarray, want: float, amount) -> np.ndarray:
-    """Darkness remapped (d - t) / (1 - t), clipped to 0..1, with the smallest t whose
-    amount(remapped) is at most `want` (d itself when it already is): the ink a coarse
-    density would have spread thinly over every tone goes, at a finer one, to the darkest.
-
-    Why (bench/photo_tone.py): a budget that asks for lines 10 to 20 mm apart draws them as
-    separate lines that no viewer averages into a tone (the correlation of ink with darkness
-    at a 1 mm blur was 0.1 on a photo of a cat in 1 h); the same length at a pitch of a few
-    pen widths, only where the picture is darker than t, with the tone linear above it,
-    gave 0.7 to 0.8. Every style caps its pitch and uses this above the cap."""
-    d = np.asarray(d, dtype=np.float32)
-    if not amount(d) > want:
-        return d
-    lo, hi = 0.0, 1.0
-    for _ in range(24):
-        t = (lo + hi) / 2
-        if amount(np.clip((d - t) / (1 - t), 0, 1)) > want:
-            lo = t
-        else:
-            hi = t
-    hi = min(hi, float(d.max()) * (1 - 1e-6))       # the darkest pixels stay
-    return np.clip((d - hi) / (1 - hi), 0, 1).astype(np.float32)
-
-
-def line_per_track(d: np.ndarray) -> np.ndarray:
-    """The zigzag's line per mm of track at darkness d (0 where the pen lifts): the model
-    of `zigzag`, without its hysteresis."""
-    ratio = np.clip(d, 0, 1) * math.sqrt(10)
-    return np.where(ratio >= 0.5, np.maximum(ratio, 1.0), 0.0)
+def track_pitch(spacing_mm: float, pen_mm: float) -> float:
+    """The distance between tracks: the spacing, at most CAP_PENS pen widths."""
+    return min(spacing_mm, CAP_PENS * pen_mm)
 
 
 def toned(picture, spacing_mm: float, pen_mm: float) -> tuple[Picture, float]:
-    """(the picture smoothed for its tracks, the pitch to draw): `spacing_mm` itself up to
-    COARSEST_PENS pen widths; coarser, the capped pitch and the darkness `concentrate`d so
-    that the line drawn is what `spacing_mm` would have drawn (halving the spacing still
-    about doubles the line)."""
-    cap = COARSEST_PENS * pen_mm
-    if spacing_mm <= cap:
-        return smoothed(picture, spacing_mm), spacing_mm
-    want = float(line_per_track(smoothed(picture, spacing_mm).darkness[::2, ::2]).mean())
-    want /= spacing_mm
-    pic = smoothed(picture, cap)
-    d = concentrate(pic.darkness, want * cap, lambda x: float(line_per_track(x[::2, ::2]).mean()))
-    return Picture(d, picture.width_mm, picture.height_mm, picture.name), cap
+    """(the picture to draw, smoothed for its tracks, its darkness replaced by the share of
+    the line of black: f(d) x pitch / spacing; the track pitch)."""
+    p = track_pitch(spacing_mm, pen_mm)
+    pic = smoothed(picture, p)
+    d = tone.curve(pic.darkness, tone.gamma(spacing_mm, pen_mm)) * np.float32(p / spacing_mm)
+    return Picture(d, picture.width_mm, picture.height_mm, picture.name), p
 
 
 def smoothed(picture, pitch_mm: float) -> Picture:
@@ -127,16 +99,18 @@ def densest_period(pitch_mm: float) -> float:
     return max(2 * pitch_mm / 3, 0.2)
 
 
-def zigzag(centre, normal, s, dark, period, pitch, pen, width_mm, height_mm):
+def zigzag(centre, normal, s, dark, period, pitch, pen, width_mm, height_mm, track=0):
     """Turning points of a zigzag along a track: centre (M, 2) the track's points at the
-    turns, normal (M, 2) unit vectors across it, s (M,) arc length, dark (M,) darkness there,
-    period (M,) the zigzag's period there. Returns the pen-down pieces (K, 2)."""
+    turns, normal (M, 2) unit vectors across it, s (M,) arc length, dark (M,) darkness there
+    (the share of the line of black), period (M,) the zigzag's period there, track (M,) or
+    one: the track's index (its nesting level: where it is drawn at all). Returns the pen-down
+    pieces (K, 2)."""
     l_max = math.sqrt(1 + (2 * pitch / densest_period(pitch)) ** 2)
     ratio = np.clip(np.asarray(dark, dtype=float), 0, 1) * l_max     # line per track length
     amp = np.minimum(period / 4 * np.sqrt(np.maximum(ratio * ratio - 1, 0)), pitch / 2)
     sign = np.where(np.arange(len(s)) % 2 == 0, 1.0, -1.0)
     pts = centre + normal * (sign * amp)[:, None]
-    on = hysteresis(ratio >= 0.5, s, 4 * pen, 2 * pen)
+    on = hysteresis(ratio > tone.threshold(np.broadcast_to(track, ratio.shape)), s, 4 * pen, 2 * pen)
     eps = 1e-9
     on &= ((pts[:, 0] >= -eps) & (pts[:, 0] <= width_mm + eps) &
            (pts[:, 1] >= -eps) & (pts[:, 1] <= height_mm + eps))
@@ -198,7 +172,7 @@ def strokes(picture, spacing_mm: float, pen_mm: float = 0.5) -> list[Stroke]:
         centre = np.column_stack([x, np.full_like(x, y)])
         normal = np.tile([0.0, 1.0], (len(x), 1))
         dark = pic.at(centre)
-        pieces.extend(zigzag(centre, normal, s, dark, per, pitch, pen_mm, w, h))
+        pieces.extend(zigzag(centre, normal, s, dark, per, pitch, pen_mm, w, h, track=r))
     return [Stroke(p) for p in _join_rows(pieces, w, pitch)]
 
 
