@@ -16,11 +16,12 @@ The line drawn follows the budget's tone curve (`tone.py`): L = f(d) x L_max x p
 f(d) = d^gamma, the tracks p = min(spacing, CAP_PENS pen widths) apart (`track_pitch`: lines
 10 mm apart are seen as lines, not as a tone), so a coarser spacing than the cap draws less
 line, on the darker tones, and halving the spacing still about doubles the line.
-A straight track (L = 1) is the least line a track can carry; a smaller L is drawn with fewer
-tracks: track k (row k, or turn k of the spiral) is drawn straight where L passes the
-threshold of its nesting level (`tone.level`: every 16th track from L > 1/32, ..., all of
-them from 3/4), so the lightest tones get every 16th track and a darker tone never less; where
-no track is drawn the pen lifts. To keep the lifts few, gaps shorter than 4
+A straight track (L = 1) is the most line a track can carry without zigzagging; a smaller L
+is drawn with fewer tracks, straight: track k (row k, or turn k of the spiral) takes its part
+by its nesting level (`tone.dashed`: every 16th track for L from 0 to 1/16, in dashes 16
+pitches long whose drawn part grows with L, ..., every track from L = 1/2 to 1), so the
+lightest tones get short dashes on every 16th track and a darker tone more; where no track is
+drawn the pen lifts. To keep the lifts few, gaps shorter than 4
 pen widths are drawn straight through and pen-down runs shorter than 2 pen widths dropped.
 The squiggle's period follows darkness too, from 2 P0 in the light to P0 in the dark (finer
 teeth where the zigzag is steep); the spiral keeps P0.
@@ -110,7 +111,9 @@ def zigzag(centre, normal, s, dark, period, pitch, pen, width_mm, height_mm, tra
     amp = np.minimum(period / 4 * np.sqrt(np.maximum(ratio * ratio - 1, 0)), pitch / 2)
     sign = np.where(np.arange(len(s)) % 2 == 0, 1.0, -1.0)
     pts = centre + normal * (sign * amp)[:, None]
-    on = hysteresis(ratio > tone.threshold(np.broadcast_to(track, ratio.shape)), s, 4 * pen, 2 * pen)
+    track = np.broadcast_to(track, ratio.shape)
+    drawn = tone.dashed(ratio, tone.level(track), s, track, tone.DASH_LINES * pitch)
+    on = hysteresis(drawn, s, 4 * pen, 2 * pen)
     eps = 1e-9
     on &= ((pts[:, 0] >= -eps) & (pts[:, 0] <= width_mm + eps) &
            (pts[:, 1] >= -eps) & (pts[:, 1] <= height_mm + eps))

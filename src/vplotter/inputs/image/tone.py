@@ -15,16 +15,20 @@ an hour: bench/photo_tone.py). So the styles
   strictly rising, f(0) = 0, f(1) = 1, so a darker tone never gets less ink and none gets
   none;
 - show a small f with sparse lines rather than with no line: the lines (tracks, rows) of a
-  style lie on one grid at its finest pitch and line k is drawn only where f, in units of one
-  full layer of lines, passes the threshold of its nesting level (`level`): every 64th line
-  from 1/128 of a layer, the ones half-way between from 3/128, then every 16th from 3/64, ...,
-  every 2nd from 3/8 and all of them from 3/4, so that the share of the lines drawn (1/64,
-  1/32, ..., 1/2, 1) follows f in LEVELS binary-nested steps (the sparser lines stay where they
-  were when the denser ones join them).
+  style lie on one grid at its finest pitch p, and line k takes part of the tone according to
+  its nesting level (`level`): every 16th line (level 0) is drawn for a share of a full layer
+  of lines from 0 to 1/16, the ones half-way between (level 1) from 1/16 to 1/8, every 4th
+  from 1/8 to 1/4, every 2nd from 1/4 to 1/2 and the rest from 1/2 to 1, each level in dashes
+  across its range (`dashed`: period DASH_LINES x p along the line, the part of each drawn
+  rising linearly from nothing to the whole line; successive lines' dashes shifted by the
+  golden ratio of a period so they do not line up) and whole above it. The lines drawn then
+  cover the share asked for (binary-nested like the levels of `hatched`, but with no step:
+  the sparser lines stay where they were when the denser ones join them), however small: any
+  tone above white gets some line, and a darker tone more.
 
 Chosen on bench/photo_tone.py (five photographs, a grey ramp, 1 h and 3 h, 300 mm wide): a
-steeper curve wins at 1 h, a gentler one at 3 h, and the floor and the sparsest level keep the
-ramp's lightest band (darkness 0 to 0.4) inked.
+steeper curve wins at 1 h, a gentler one at 3 h (where the spacing is finer); a floor of 1/16
+or 1/64 moved no figure by more than 0.01.
 """
 
 from __future__ import annotations
@@ -38,10 +42,14 @@ SCARCE_PENS = 8.0      # ... from this many on: gamma = GAMMA_MAX
 GAMMA_MAX = 8.0
 
 EPS = 1 / 32           # the curve's linear floor
-LEVELS = 7             # nesting levels: the sparsest is every 2^(LEVELS - 1)th line
+LEVELS = 5             # nesting levels: the sparsest is every 2^(LEVELS - 1)th line (16th)
 TOP = 2 ** (LEVELS - 1)
 NEST = ((TOP, 0),) + tuple((TOP >> i, TOP >> (i + 1)) for i in range(LEVELS - 1))   # (period, offset)
-THRESH = (1 / (2 * TOP),) + tuple(3 / 2 ** (LEVELS + 1 - i) for i in range(1, LEVELS))
+# level i takes the share of a layer from LOW[i] to HIGH[i] (its lines drawn in dashes between)
+LOW = (0.0,) + tuple(2 ** (i - 1) / TOP for i in range(1, LEVELS))
+HIGH = tuple(2 ** i / TOP for i in range(LEVELS))
+DASH_LINES = TOP       # the dashes' period along a line: this many times the finest pitch
+PHI = 0.6180339887     # successive lines' dashes shifted by this much of a period
 
 
 def gamma(spacing_mm: float, pen_mm: float) -> float:
@@ -63,8 +71,8 @@ def curve(d, g: float, eps: float | None = None) -> np.ndarray:
 
 
 def level(k) -> np.ndarray:
-    """Nesting level 0..4 of line index k (0: k = 0 mod 16, 1: 8 mod 16, 2: 4 mod 8, 3: 2 mod 4,
-    4: odd)."""
+    """Nesting level 0..LEVELS-1 of line index k (with 5 levels, 0: k = 0 mod 16, 1: 8 mod 16,
+    2: 4 mod 8, 3: 2 mod 4, 4: odd)."""
     k = np.asarray(k, dtype=np.int64) % TOP
     out = np.full(k.shape, LEVELS - 1, dtype=np.int64)
     for i in range(1, LEVELS - 1):
@@ -73,9 +81,19 @@ def level(k) -> np.ndarray:
     return out
 
 
-def threshold(k) -> np.ndarray:
-    """The share of a full layer above which line k is drawn."""
-    return np.asarray(THRESH)[level(k)]
+def duty(share, lvl) -> np.ndarray:
+    """The part of its length a line of nesting level `lvl` is drawn at this share of a layer
+    (0 below the level's range, 1 above it, linear across it)."""
+    lo, hi = np.asarray(LOW)[lvl], np.asarray(HIGH)[lvl]
+    return np.clip((np.asarray(share, dtype=np.float32) - lo) / (hi - lo), 0, 1)
+
+
+def dashed(share, lvl, along_mm, line, period_mm: float) -> np.ndarray:
+    """Is the pen down at `along_mm` along line number `line` (of nesting level `lvl`) where the
+    share of a layer is `share`: dashes of period_mm, the duty's part of each drawn."""
+    u = duty(share, lvl)
+    phase = np.mod(np.asarray(along_mm) / period_mm + np.asarray(line) * PHI, 1.0)
+    return (u >= 1) | ((u > 0) & (phase < u))
 
 
 def text(name: str, spacing_mm: float, pen_mm: float, picture=None, **extra) -> str:
@@ -83,13 +101,13 @@ def text(name: str, spacing_mm: float, pen_mm: float, picture=None, **extra) -> 
     g = gamma(spacing_mm, pen_mm)
     if name == "hatch":
         from vplotter.inputs.image.hatch import full_layers
-        return (f"finest pitch {spacing_mm:.2f} mm (the spacing; every {TOP}th line in the "
-                f"lightest tones, up to {full_layers(spacing_mm, pen_mm):.1f} crossed layers "
+        return (f"finest pitch {spacing_mm:.2f} mm (the spacing; every {TOP}th line, dashed, in "
+                f"the lightest tones, up to {full_layers(spacing_mm, pen_mm):.1f} crossed layers "
                 f"in black), tone curve d^{g:.1f}")
     if name in ("spiral", "squiggle"):
         from vplotter.inputs.image.squiggle import track_pitch
-        return (f"track pitch {track_pitch(spacing_mm, pen_mm):.2f} mm (every {TOP}th track "
-                f"in the lightest tones), tone curve d^{g:.1f}")
+        return (f"track pitch {track_pitch(spacing_mm, pen_mm):.2f} mm (every {TOP}th track, "
+                f"dashed, in the lightest tones), tone curve d^{g:.1f}")
     if name == "stipple":
         from vplotter.inputs.image import stipple
         g = stipple.tone_gamma(picture, spacing_mm, pen_mm, bool(extra.get("tsp"))) if picture else 1.0
