@@ -86,6 +86,8 @@ def test_info_says_what_the_budget_chose(capsys, config_path, photo):
     assert any("no --max-time" in n for n in info["notes"])    # the default budget, said
     assert any("within 1:00:00" in n for n in info["notes"])
     assert info["time_s"]["best"] <= 3600 and "100 x 67 mm" in info["notes"][0]
+    # and what is drawn: the track pitch and the tone curve
+    assert any(re.search(r"track pitch [0-9.]+ mm .*tone curve d\^[0-9.]+", n) for n in info["notes"])
 
 
 def test_exif_orientation_makes_it_upright(capsys, config_path, tmp_path):

@@ -44,7 +44,7 @@ def _runs(flags: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return r0, s, e           # np.nonzero is row-major: starts and ends pair up in order
 
 
-def _join(k, u0, u1, spacing, inside, max_link_mm=None):
+def _join(k, u0, u1, spacing, inside, max_link_mm=None, offset=0.0):
     """Segments (line k, from u0 to u1) -> strokes in (u, v), joined back and forth where
     `inside(ua, va, ub, vb, side)` (arrays; side +1: the moves join the segments' right
     ends, -1: their left ends) allows the connecting move."""
@@ -75,8 +75,8 @@ def _join(k, u0, u1, spacing, inside, max_link_mm=None):
     dst = j[src]
     ua = np.where(forward[src], u1[src], u0[src])
     ub = np.where(forward[src], u1[dst], u0[dst])
-    va = (k[src] + 0.5) * spacing
-    vb = (k[dst] + 0.5) * spacing
+    va = (k[src] + 0.5) * spacing + offset
+    vb = (k[dst] + 0.5) * spacing + offset
     side = np.where(forward[src], 1.0, -1.0)
     ok = inside(ua, va, ub, vb, side) if len(src) else np.zeros(0, bool)
     if max_link_mm is not None:
@@ -88,7 +88,7 @@ def _join(k, u0, u1, spacing, inside, max_link_mm=None):
     k, u0, u1, forward, head = k[o], u0[o], u1[o], forward[o], head[o]
     us = np.where(forward, u0, u1)
     ue = np.where(forward, u1, u0)
-    v = (k + 0.5) * spacing
+    v = (k + 0.5) * spacing + offset
     pts = np.empty((2 * n, 2))
     pts[0::2, 0], pts[1::2, 0] = us, ue
     pts[0::2, 1] = pts[1::2, 1] = v
@@ -278,9 +278,12 @@ def _sample(mask, x, y, width_mm, height_mm):
 
 
 def hatch_mask(mask, width_mm: float, height_mm: float, spacing_mm: float, angle_deg: float,
-               min_run_mm: float = 0.0, max_link_mm: float | None = None) -> list[np.ndarray]:
+               min_run_mm: float = 0.0, max_link_mm: float | None = None,
+               offset_mm: float = 0.0) -> list[np.ndarray]:
     """Hatch lines `spacing_mm` apart at `angle_deg` where `mask` (H, W) is True; the mask
     covers [0, width_mm] x [0, height_mm] in G-code mm (row 0 at the top, y = height_mm).
+    `offset_mm` shifts the grid along the normal (line k at (k + 1/2) spacing + offset: a
+    sparse subset of a finer grid).
     Each line is sampled at the pixel pitch and cut into runs; runs shorter than `min_run_mm`
     are dropped; runs are joined back and forth (`_join`). Strokes (K, 2) in G-code mm, inside
     the rectangle."""
@@ -294,8 +297,8 @@ def hatch_mask(mask, width_mm: float, height_mm: float, spacing_mm: float, angle
     d, n = _frame(angle_deg)
     corners = np.array([[0, 0], [width_mm, 0], [0, height_mm], [width_mm, height_mm]], float)
     cu, cv = corners @ d, corners @ n
-    ks = np.arange(math.ceil(cv.min() / spacing_mm - 0.5),
-                   math.floor(cv.max() / spacing_mm - 0.5) + 1, dtype=np.int64)
+    ks = np.arange(math.ceil((cv.min() - offset_mm) / spacing_mm - 0.5),
+                   math.floor((cv.max() - offset_mm) / spacing_mm - 0.5) + 1, dtype=np.int64)
     umin = cu.min()
     ns = max(1, math.ceil((cu.max() - umin) / pitch))
     us = umin + (np.arange(ns) + 0.5) * pitch
@@ -303,7 +306,7 @@ def hatch_mask(mask, width_mm: float, height_mm: float, spacing_mm: float, angle
     chunk = max(1, 2_000_000 // ns)
     for c0 in range(0, len(ks), chunk):               # a few chunks of lines, to bound memory
         kc = ks[c0:c0 + chunk]
-        v = (kc + 0.5) * spacing_mm
+        v = (kc + 0.5) * spacing_mm + offset_mm
         x = us[None, :] * d[0] + v[:, None] * n[0]
         y = us[None, :] * d[1] + v[:, None] * n[1]
         flags = _sample(mask, x, y, width_mm, height_mm)
@@ -335,7 +338,7 @@ def hatch_mask(mask, width_mm: float, height_mm: float, spacing_mm: float, angle
         good = _sample(g2, pu * d[0] + pv * n[0], pu * d[1] + pv * n[1], width_mm, height_mm)
         return np.bincount(ci[~good], minlength=len(ua)) == 0
 
-    strokes = _join(k, u0, u1, spacing_mm, inside, max_link_mm)
+    strokes = _join(k, u0, u1, spacing_mm, inside, max_link_mm, offset_mm)
     out = []
     for s in _to_xy(strokes, d, n):
         s[:, 0] = np.clip(s[:, 0], 0.0, width_mm)

@@ -2,12 +2,15 @@
 across its track with an amplitude that follows darkness (Makelangelo's pulsing spiral, the
 "Sandy Noble" style).
 
-The track pitch is `spacing_mm`; the spiral r = pitch x theta / 2 pi starts at the picture's
+The track pitch is `spacing_mm` (at most 7 pen widths: `squiggle.track_pitch`); the spiral r = pitch x theta / 2 pi starts at the picture's
 centre and runs until it has passed the farthest corner, so it covers the whole rectangle.
 The zigzag's period is 2/3 of the pitch (2 pen widths for a 0.5 mm pen at 1.5 mm), and its
 amplitude, up to half the pitch, makes the line drawn per mm of track linear in darkness:
-the tone model of `squiggle.py` (`zigzag`), darkness blurred over half a track. Where the picture is white the
-pen lifts (short gaps are drawn straight through). Beyond the circle inscribed in the
+the tone model of `squiggle.py` (`zigzag`, `toned`: the budget's tone curve d^gamma, the
+pitch at most 7 pen widths), darkness blurred over half a track. Where the line asked for is
+less than a straight track's, only some turns are drawn, straight, some in dashes (turn k by
+its nesting level: `tone.dashed`), and where the picture is white the pen lifts
+(short gaps are drawn straight through). Beyond the circle inscribed in the
 rectangle the spiral leaves it: the pen lifts at the edge and comes back down where the
 spiral re-enters (about four lifts a turn out there).
 """
@@ -18,7 +21,7 @@ import math
 
 import numpy as np
 
-from vplotter.inputs.image.squiggle import densest_period, smoothed, zigzag
+from vplotter.inputs.image.squiggle import densest_period, toned, zigzag
 from vplotter.inputs.strokes import Stroke
 
 
@@ -37,7 +40,7 @@ def strokes(picture, spacing_mm: float, pen_mm: float = 0.5,
     if not spacing_mm > 0 or not pen_mm > 0:
         raise ValueError("spacing_mm and pen_mm must be > 0")
     w, h = picture.width_mm, picture.height_mm
-    pic = smoothed(picture, spacing_mm)
+    pic, spacing_mm = toned(picture, spacing_mm, pen_mm)     # pitch capped (squiggle.py)
     period = densest_period(spacing_mm) if period_mm is None else period_mm
     b = spacing_mm / (2 * math.pi)
     r_max = math.hypot(w, h) / 2 + spacing_mm
@@ -49,4 +52,6 @@ def strokes(picture, spacing_mm: float, pen_mm: float = 0.5,
     centre = np.array([w / 2, h / 2]) + (b * t)[:, None] * radial
     dark = pic.at(centre)
     per = np.full(len(s), period)
-    return [Stroke(p) for p in zigzag(centre, radial, s, dark, per, spacing_mm, pen_mm, w, h)]
+    turn = np.floor(t / (2 * math.pi)).astype(np.int64)
+    return [Stroke(p) for p in zigzag(centre, radial, s, dark, per, spacing_mm, pen_mm, w, h,
+                                      track=turn)]

@@ -12,13 +12,21 @@ in darkness, L = darkness x L_max (darkness blurred over about half a track, so 
 carries the tone of its own strip), so the coverage is darkness x L_max x w / pitch (about
 1.05 x darkness at 0.5 mm / 1.5 mm; a coarser spacing draws a lighter picture with less
 line, a finer one more line: halving the spacing doubles the length, as for every style).
-A straight track (L = 1) is the least the pen can draw; where L is below 1/2 it lifts (the
-nearer tone), so a white picture draws nothing. To keep the lifts few, gaps shorter than 4
+The line drawn follows the budget's tone curve (`tone.py`): L = f(d) x L_max x p / spacing with
+f(d) = d^gamma, the tracks p = min(spacing, CAP_PENS pen widths) apart (`track_pitch`: lines
+10 mm apart are seen as lines, not as a tone), so a coarser spacing than the cap draws less
+line, on the darker tones, and halving the spacing still about doubles the line.
+A straight track (L = 1) is the most line a track can carry without zigzagging; a smaller L
+is drawn with fewer tracks, straight: track k (row k, or turn k of the spiral) takes its part
+by its nesting level (`tone.dashed`: every 16th track for L from 0 to 1/16, in dashes 16
+pitches long whose drawn part grows with L, ..., every track from L = 1/2 to 1), so the
+lightest tones get short dashes on every 16th track and a darker tone more; where no track is
+drawn the pen lifts. To keep the lifts few, gaps shorter than 4
 pen widths are drawn straight through and pen-down runs shorter than 2 pen widths dropped.
 The squiggle's period follows darkness too, from 2 P0 in the light to P0 in the dark (finer
 teeth where the zigzag is steep); the spiral keeps P0.
 
-Rows are `spacing_mm` apart, centred on the picture; consecutive rows run in opposite
+Rows are the track pitch apart, centred on the picture; consecutive rows run in opposite
 directions and a row that ends at the picture's edge inked is joined to the next one that
 starts there (one stroke across several rows: fewer lifts).
 """
@@ -29,12 +37,28 @@ import math
 
 import numpy as np
 
+from vplotter.inputs.image import tone
 from vplotter.inputs.image.load import blur
 from vplotter.inputs.image.picture import Picture
 from vplotter.inputs.strokes import Stroke
 
 
 MIN_CHORD_MM = 0.1         # no shorter piece between two points (keeps the count sane)
+CAP_PENS = 7.0             # tracks never further apart than this (3.5 mm with a 0.5 mm pen)
+
+
+def track_pitch(spacing_mm: float, pen_mm: float) -> float:
+    """The distance between tracks: the spacing, at most CAP_PENS pen widths."""
+    return min(spacing_mm, CAP_PENS * pen_mm)
+
+
+def toned(picture, spacing_mm: float, pen_mm: float) -> tuple[Picture, float]:
+    """(the picture to draw, smoothed for its tracks, its darkness replaced by the share of
+    the line of black: f(d) x pitch / spacing; the track pitch)."""
+    p = track_pitch(spacing_mm, pen_mm)
+    pic = smoothed(picture, p)
+    d = tone.curve(pic.darkness, tone.gamma(spacing_mm, pen_mm)) * np.float32(p / spacing_mm)
+    return Picture(d, picture.width_mm, picture.height_mm, picture.name), p
 
 
 def smoothed(picture, pitch_mm: float) -> Picture:
@@ -76,16 +100,20 @@ def densest_period(pitch_mm: float) -> float:
     return max(2 * pitch_mm / 3, 0.2)
 
 
-def zigzag(centre, normal, s, dark, period, pitch, pen, width_mm, height_mm):
+def zigzag(centre, normal, s, dark, period, pitch, pen, width_mm, height_mm, track=0):
     """Turning points of a zigzag along a track: centre (M, 2) the track's points at the
-    turns, normal (M, 2) unit vectors across it, s (M,) arc length, dark (M,) darkness there,
-    period (M,) the zigzag's period there. Returns the pen-down pieces (K, 2)."""
+    turns, normal (M, 2) unit vectors across it, s (M,) arc length, dark (M,) darkness there
+    (the share of the line of black), period (M,) the zigzag's period there, track (M,) or
+    one: the track's index (its nesting level: where it is drawn at all). Returns the pen-down
+    pieces (K, 2)."""
     l_max = math.sqrt(1 + (2 * pitch / densest_period(pitch)) ** 2)
     ratio = np.clip(np.asarray(dark, dtype=float), 0, 1) * l_max     # line per track length
     amp = np.minimum(period / 4 * np.sqrt(np.maximum(ratio * ratio - 1, 0)), pitch / 2)
     sign = np.where(np.arange(len(s)) % 2 == 0, 1.0, -1.0)
     pts = centre + normal * (sign * amp)[:, None]
-    on = hysteresis(ratio >= 0.5, s, 4 * pen, 2 * pen)
+    track = np.broadcast_to(track, ratio.shape)
+    drawn = tone.dashed(ratio, tone.level(track), s, track, tone.DASH_LINES * pitch)
+    on = hysteresis(drawn, s, 4 * pen, 2 * pen)
     eps = 1e-9
     on &= ((pts[:, 0] >= -eps) & (pts[:, 0] <= width_mm + eps) &
            (pts[:, 1] >= -eps) & (pts[:, 1] <= height_mm + eps))
@@ -135,7 +163,7 @@ def strokes(picture, spacing_mm: float, pen_mm: float = 0.5) -> list[Stroke]:
     if not spacing_mm > 0 or not pen_mm > 0:
         raise ValueError("spacing_mm and pen_mm must be > 0")
     w, h = picture.width_mm, picture.height_mm
-    pic = smoothed(picture, spacing_mm)
+    pic, spacing_mm = toned(picture, spacing_mm, pen_mm)
     pitch = min(spacing_mm, h)
     rows = max(1, math.floor(h / pitch))
     margin = (h - rows * pitch) / 2
@@ -147,7 +175,7 @@ def strokes(picture, spacing_mm: float, pen_mm: float = 0.5) -> list[Stroke]:
         centre = np.column_stack([x, np.full_like(x, y)])
         normal = np.tile([0.0, 1.0], (len(x), 1))
         dark = pic.at(centre)
-        pieces.extend(zigzag(centre, normal, s, dark, per, pitch, pen_mm, w, h))
+        pieces.extend(zigzag(centre, normal, s, dark, per, pitch, pen_mm, w, h, track=r))
     return [Stroke(p) for p in _join_rows(pieces, w, pitch)]
 
 

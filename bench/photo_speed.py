@@ -1,0 +1,143 @@
+"""`vplotter convert` on photos: wall time, peak memory and plot time against the budget; and
+the files it must refuse (one line, quickly).
+
+Pictures (made here, in a temporary folder): a 12-megapixel JPEG (4000 x 3000, photo-like:
+gradients, lit discs, soft noise) stored with EXIF orientation 6 (shown upright as 3000 x 4000),
+a 1200 x 900 PNG and a 640 x 480 JPEG of the same scene. For each picture, style and budget
+(1 h, 3 h) at --width 300 on ./config.toml: the wall time of `vplotter convert` (a
+subprocess), its peak resident size (/usr/bin/time -f %M when there is one, else
+RUSAGE_CHILDREN of a fresh child), and the plot time `vplotter estimate OUT.ngc` gives for the
+result against the budget.
+
+Bad files: a decompression bomb (a PNG whose IHDR claims 30000 x 30000, built with struct and
+zlib: 900 MB of pixels if decoded), an empty file, a text file named .png and a JPEG cut in
+half: exit status, the one line it printed, the time.
+
+Run (from the repository root, in vplotter's venv): python bench/photo_speed.py
+    [--budgets 1h,3h] [--styles hatch,spiral,squiggle,stipple]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import shutil
+import struct
+import subprocess
+import sys
+import tempfile
+import time
+import zlib
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(ROOT, "bench"))
+STYLES = ("hatch", "spiral", "squiggle", "stipple")
+
+
+def scene(w: int, h: int):
+    from image_styles import scene as make     # the photo-like scene of bench/image_styles.py
+
+    return make(w, h)
+
+
+def pictures(tmp: str) -> list[str]:
+    from PIL import Image
+
+    big = scene(4000, 3000).transpose(Image.Transpose.ROTATE_90)   # stored on its side
+    exif = Image.Exif()
+    exif[0x0112] = 6
+    p12 = os.path.join(tmp, "phone-12mp-exif6.jpg")
+    big.save(p12, quality=90, exif=exif)
+    mid = os.path.join(tmp, "scene-1200x900.png")
+    scene(1200, 900).save(mid)
+    small = os.path.join(tmp, "scene-640x480.jpg")
+    scene(640, 480).save(small, quality=90)
+    return [p12, mid, small]
+
+
+def bad_files(tmp: str, jpeg: str) -> list[str]:
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return (struct.pack(">I", len(data)) + kind + data
+                + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
+
+    bomb = os.path.join(tmp, "bomb-30000x30000.png")
+    rows = zlib.compress(b"\x00" * 30001, 9)      # one row; the header claims 30000
+    with open(bomb, "wb") as f:
+        f.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", 30000, 30000, 8, 0,
+                                                                   0, 0, 0))
+                + chunk(b"IDAT", rows) + chunk(b"IEND", b""))
+    empty = os.path.join(tmp, "empty.jpg")
+    open(empty, "wb").close()
+    text = os.path.join(tmp, "notes.png")
+    with open(text, "w") as f:
+        f.write("this is not a picture\n" * 20)
+    cut = os.path.join(tmp, "truncated.jpg")
+    with open(jpeg, "rb") as f:
+        data = f.read()
+    with open(cut, "wb") as f:
+        f.write(data[: len(data) // 2])
+    return [bomb, empty, text, cut]
+
+
+def run(args: list[str]) -> tuple[int, str, float, float]:
+    """(exit status, stderr, wall s, peak RSS MB) of a vplotter command."""
+    timer = shutil.which("time") or ("/usr/bin/time" if os.path.exists("/usr/bin/time") else None)
+    rss_file = tempfile.mktemp(suffix=".rss")
+    cmd = ["vplotter", *args]
+    if timer:
+        cmd = [timer, "-f", "%M", "-o", rss_file] + cmd
+    t0 = time.perf_counter()
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    wall = time.perf_counter() - t0
+    if timer:
+        with open(rss_file) as f:
+            rss = int(f.read().strip().splitlines()[-1]) / 1024
+        os.unlink(rss_file)
+    else:
+        import resource
+        rss = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024   # a high-water mark
+    return r.returncode, r.stderr, wall, rss
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--budgets", default="1h,3h")
+    ap.add_argument("--styles", default=",".join(STYLES))
+    ap.add_argument("--config", default=os.path.join(ROOT, "config.toml"))
+    args = ap.parse_args()
+    cfg = ["--config", args.config]
+    with tempfile.TemporaryDirectory() as tmp:
+        pics = pictures(tmp)
+        print(f"{'picture':22} {'style':9} {'budget':6} {'wall s':>7} {'RSS MB':>7} "
+              f"{'plot time':>9} {'/ budget':>8}  chosen")
+        for pic in pics:
+            for b in args.budgets.split(","):
+                budget = {"h": 3600, "m": 60}[b[-1]] * float(b[:-1])
+                for s in args.styles.split(","):
+                    out = os.path.join(tmp, "out.ngc")
+                    code, err, wall, rss = run([*cfg, "convert", pic, "-o", out, "--style", s,
+                                                "--width", "300", "--max-time", b])
+                    if code:
+                        print(f"{os.path.basename(pic):22} {s:9} {b:6} failed: {err.strip()}")
+                        continue
+                    r = subprocess.run(["vplotter", *cfg, "estimate", out], capture_output=True,
+                                       text=True)
+                    m = re.search(r"plot time [0-9:]+ \(([0-9.]+) s\)", r.stdout)
+                    plot = float(m.group(1)) if m else float("nan")
+                    chosen = re.search(r"spacing [0-9.]+ mm", err)
+                    print(f"{os.path.basename(pic):22} {s:9} {b:6} {wall:7.1f} {rss:7.0f} "
+                          f"{time.strftime('%H:%M:%S', time.gmtime(plot)):>9} "
+                          f"{plot / budget:8.3f}  {chosen.group(0) if chosen else ''}", flush=True)
+        print(f"\n{'bad file':22} {'exit':>4} {'wall s':>6}  the line")
+        for bad in bad_files(tmp, pics[2]):
+            code, err, wall, _ = run([*cfg, "convert", bad, "-o", os.path.join(tmp, "bad.ngc"),
+                                      "--style", "hatch", "--width", "300"])
+            lines = [x for x in err.strip().splitlines() if not x.startswith("note:")]
+            print(f"{os.path.basename(bad):22} {code:4d} {wall:6.2f}  "
+                  f"{' | '.join(lines) if lines else '(nothing)'} ({len(lines)} line"
+                  f"{'s' if len(lines) != 1 else ''})", flush=True)
+
+
+if __name__ == "__main__":
+    main()
