@@ -63,7 +63,7 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
     plot_time(strokes) -> s times an ordered drawing with the draw's own planner (None: no
     budget, only with a fixed --spacing)."""
     from vplotter.inputs import image
-    from vplotter.inputs.image import load, tone
+    from vplotter.inputs.image import load
 
     try:
         style = image.style(opts.style)
@@ -91,9 +91,8 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
     if opts.spacing_mm is not None:
         if opts.max_time_s is not None:
             raise ConfigError("error: give --spacing or --max-time, not both")
-        return make(opts.spacing_mm), notes + [f"spacing {opts.spacing_mm:g} mm (--spacing)",
-                                               tone.text(opts.style, opts.spacing_mm, opts.pen_mm,
-                                                         picture, **extra)]
+        what = image.describe(opts.style, opts.spacing_mm, opts.pen_mm, picture, **extra)
+        return make(opts.spacing_mm), notes + [f"spacing {opts.spacing_mm:g} mm (--spacing)", what]
     if plot_time is None:
         raise ConfigError("error: a photo needs --spacing here (no planner to time a budget)")
     budget_s = opts.max_time_s or budget.DEFAULT_S
@@ -102,7 +101,7 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
     hi = max(w, h) / 4
     drawn, choice = budget.fit(make, plot_time, budget_s, start, lo, hi, POWER[opts.style])
     notes.append(choice.text())
-    notes.append(tone.text(opts.style, choice.spacing_mm, opts.pen_mm, picture, **extra))
+    notes.append(image.describe(opts.style, choice.spacing_mm, opts.pen_mm, picture, **extra))
     if opts.max_time_s is None:
         notes.append(f"no --max-time: the budget for a photo is {budget.clock_text(budget_s)} "
                      f"by default")

@@ -39,7 +39,6 @@ def refine(kin, v_cord, a_cord, verts, cap, line, draw, stop, origin):
     e = diff / d[:, None]
     k0s, k1s = kin.slope(verts[:-1], e), kin.slope(verts[1:], e)
     k0, k1 = np.abs(k0s), np.abs(k1s)
-    kmax = np.maximum(k0, k1)
     acc = a_cord
     with np.errstate(divide="ignore"):
         vr0 = (v_cord / np.maximum(k0, 1e-9)).min(axis=1)

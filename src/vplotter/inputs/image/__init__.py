@@ -23,3 +23,25 @@ def style(name: str):
     if name not in STYLES:
         raise ValueError(f"unknown style {name!r} (choose {', '.join(STYLES)})")
     return importlib.import_module(f"vplotter.inputs.image.{name}").strokes
+
+
+def describe(name: str, spacing_mm: float, pen_mm: float, picture=None, **extra) -> str:
+    """What a style draws at this spacing (for `info`)."""
+    from vplotter.inputs.image.tone import TOP, gamma
+
+    g = gamma(spacing_mm, pen_mm)
+    if name == "hatch":
+        from vplotter.inputs.image.hatch import full_layers
+        return (f"finest pitch {spacing_mm:.2f} mm (the spacing; every {TOP}th line, dashed, in "
+                f"the lightest tones, up to {full_layers(spacing_mm, pen_mm):.1f} crossed layers "
+                f"in black), tone curve d^{g:.1f}")
+    if name in ("spiral", "squiggle"):
+        from vplotter.inputs.image.squiggle import track_pitch
+        return (f"track pitch {track_pitch(spacing_mm, pen_mm):.2f} mm (every {TOP}th track, "
+                f"dashed, in the lightest tones), tone curve d^{g:.1f}")
+    if name == "stipple":
+        from vplotter.inputs.image import stipple
+        g = stipple.tone_gamma(picture, spacing_mm, pen_mm, bool(extra.get("tsp"))) if picture else 1.0
+        return (f"as many dots as a spacing of {spacing_mm:.2f} mm spreads evenly, tone curve "
+                f"d^{g:.1f}")
+    return f"tone curve d^{g:.1f}"

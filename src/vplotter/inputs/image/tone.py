@@ -94,23 +94,3 @@ def dashed(share, lvl, along_mm, line, period_mm: float) -> np.ndarray:
     u = duty(share, lvl)
     phase = np.mod(np.asarray(along_mm) / period_mm + np.asarray(line) * PHI, 1.0)
     return (u >= 1) | ((u > 0) & (phase < u))
-
-
-def text(name: str, spacing_mm: float, pen_mm: float, picture=None, **extra) -> str:
-    """What a style draws at this spacing (for `info`)."""
-    g = gamma(spacing_mm, pen_mm)
-    if name == "hatch":
-        from vplotter.inputs.image.hatch import full_layers
-        return (f"finest pitch {spacing_mm:.2f} mm (the spacing; every {TOP}th line, dashed, in "
-                f"the lightest tones, up to {full_layers(spacing_mm, pen_mm):.1f} crossed layers "
-                f"in black), tone curve d^{g:.1f}")
-    if name in ("spiral", "squiggle"):
-        from vplotter.inputs.image.squiggle import track_pitch
-        return (f"track pitch {track_pitch(spacing_mm, pen_mm):.2f} mm (every {TOP}th track, "
-                f"dashed, in the lightest tones), tone curve d^{g:.1f}")
-    if name == "stipple":
-        from vplotter.inputs.image import stipple
-        g = stipple.tone_gamma(picture, spacing_mm, pen_mm, bool(extra.get("tsp"))) if picture else 1.0
-        return (f"as many dots as a spacing of {spacing_mm:.2f} mm spreads evenly, tone curve "
-                f"d^{g:.1f}")
-    return f"tone curve d^{g:.1f}"
