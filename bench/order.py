@@ -62,7 +62,7 @@ def circles(nx: int = 60, ny: int = 70, k: int = 48) -> list[strokes.Stroke]:
 
 
 def plot_time_s(cfg, pos, ss) -> float:
-    prep = Prepared("bench", False, False, join_mm=cfg.motion.tolerance_mm * CHORD_SHARE)
+    prep = Prepared("bench", "svg", False, join_mm=cfg.motion.tolerance_mm * CHORD_SHARE)
     prep._strokes = ss
     return pipeline.validate(cfg, prep.records(), pos.counts, pos.ref_mm, "bench").time_s
 

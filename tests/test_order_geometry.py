@@ -59,7 +59,7 @@ def input_segments(ss: list[Stroke]) -> set:
 
 
 def records_of(ss: list[Stroke], join_mm: float) -> list:
-    prep = Prepared("x.svg", False, False, join_mm=join_mm, tol_mm=TOL)
+    prep = Prepared("x.svg", "svg", False, join_mm=join_mm, tol_mm=TOL)
     prep._strokes = ss
     return list(prep.records())
 

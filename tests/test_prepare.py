@@ -232,7 +232,7 @@ def drawings(draw):
 @given(drawings())
 def test_convert_round_trip(ss):
     cfg = config.load(REPO / "config.toml")
-    prep = Prepared("x.svg", False, False, join_mm=0.0)
+    prep = Prepared("x.svg", "svg", False, join_mm=0.0)
     prep._strokes = ss
     f = io.StringIO()
     write_gcode(prep, cfg, f)
@@ -244,7 +244,7 @@ def test_convert_round_trip(ss):
             want = a.feed_mm_s or cfg.motion.draw_speed_mm_s
             assert b.feed_mm_s == pytest.approx(want)
     # and once more: the same text
-    prep2 = Prepared("x.ngc", True, False, join_mm=0.0)
+    prep2 = Prepared("x.ngc", "gcode", False, join_mm=0.0)
     prep2._strokes = back
     g = io.StringIO()
     write_gcode(prep2, cfg, g)
@@ -272,7 +272,7 @@ def test_convert_with_m3_pen_reads_back(tmp_path):
     cfg_m3 = types.SimpleNamespace(motion=cfg.motion,
                                    gcode=types.SimpleNamespace(pen="m3", m3_down=True))
     ss = [Stroke(np.array([[0.0, 0.0], [10, 0], [10, 5]])), Stroke(np.array([[20.0, 1.0]]))]
-    prep = Prepared("x.svg", False, False, join_mm=0.0)
+    prep = Prepared("x.svg", "svg", False, join_mm=0.0)
     prep._strokes = ss
     f = io.StringIO()
     write_gcode(prep, cfg_m3, f)

@@ -18,8 +18,8 @@ from vplotter.errors import ConfigError, InputError
 from vplotter.inputs import gcode
 from vplotter.inputs.gcode import Pause
 from vplotter.motion import segment
-from vplotter.motion.planner import (ACCEL_MARGIN, CORNER_SHARE, SHARP_SHARE, TAU_S, Block, Planner, Turn,
-                                     _slice)
+from vplotter.motion.planner import (ACCEL_MARGIN, CORNER_SHARE, SHARP_SHARE, TAU_S, Block,
+                                     Planner, Turn, _slice)
 from vplotter.motion.schedule import Rows, Scheduler
 from vplotter.motion.segment import CHORD_SHARE
 

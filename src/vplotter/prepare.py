@@ -88,7 +88,7 @@ def add_file_options(p: argparse.ArgumentParser) -> None:
                    help="lift the pen after each layer and wait for Enter (change the pen)")
     ph = p.add_argument_group("photos (PNG, JPEG, WebP, BMP, TIFF, GIF: darkness drawn as line "
                               "art, at a density that fits the plot-time budget)")
-    ph.add_argument("--style", choices=PHOTO_STYLES, default="hatch",
+    ph.add_argument("--style", choices=PHOTO_STYLES,
                     help="hatch: crosshatched tone bands; spiral: one pulsing spiral; stipple: "
                          "dots (--tsp: one tour); squiggle: rows of zigzags (default hatch)")
     ph.add_argument("--max-time", metavar="TIME",
@@ -213,7 +213,7 @@ def gcode_strokes(records: Iterable, tol_mm: float) -> list:
 @dataclass
 class Prepared:
     path: str
-    is_gcode: bool
+    kind: str                     # gcode | svg | image
     passthrough: bool             # G-code streamed as it is
     strict: bool = False
     join_mm: float = 0.0075       # the joins: within this, never above tol_mm (see prepare)
@@ -224,12 +224,16 @@ class Prepared:
     tol_mm: float = 0.0075        # chords of G-code arcs read into strokes
     dialect: object = None        # config.toml [gcode] pen dialect, when the config has one
     warn: Callable[[str], None] = _stderr
-    kind: str = "gcode"           # gcode | svg | image
     notes: list[str] = field(default_factory=list)    # what was chosen and why (a photo)
+    timed_s: float | None = None  # a photo: the plot time its budget search measured
     _drawing: object = None
     _strokes: list | None = None
     _firsts: list[int] = field(default_factory=list)
     _reads: int = 0
+
+    @property
+    def is_gcode(self) -> bool:
+        return self.kind == "gcode"
 
     @property
     def drawing(self):
@@ -370,10 +374,10 @@ def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
     tol = cfg.motion.tolerance_mm * CHORD_SHARE
     join_mm = join_limit(getattr(args, "join", None), tol, warn)
     key = options_key(path, args)
-    prep = Prepared(path, kind == "gcode", passthrough=False, strict=strict, join_mm=join_mm,
+    prep = Prepared(path, kind, passthrough=False, strict=strict, join_mm=join_mm,
                     pause=pause, key=key, warn=warn,
                     start_xy=(float(start_xy[0]), float(start_xy[1])), tol_mm=tol,
-                    dialect=getattr(cfg, "gcode", None), kind=kind)
+                    dialect=getattr(cfg, "gcode", None))
     if kind == "gcode" and method == "keep" and place_opts.identity:
         prep.passthrough = True
         return prep
@@ -397,9 +401,9 @@ def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
     t0 = time.perf_counter()
     prep._strokes = order.order(placed, method, start_xy)
     prep.order_s = time.perf_counter() - t0
-    if kind == "image" and plot_time is not None and method != "keep" and placed:
+    if prep.timed_s is not None and method != "keep" and placed:
         # the budget timed the quick order; never let another order take longer
-        if _timed(prep, prep._strokes, plot_time) > _timed(prep, placed, plot_time):
+        if _timed(prep, prep._strokes, plot_time) > prep.timed_s:
             prep._strokes = placed
     return prep
 
@@ -421,19 +425,16 @@ def _photo(prep: Prepared, args, page, place_opts, plot_time) -> list:
     def timed(strokes: list) -> float:
         return _timed(prep, strokes, plot_time)
 
-    placed, prep.notes = photo.strokes(prep.path, photo_options(args), page,
-                                       _replace(place_opts, width_mm=None, height_mm=None),
-                                       timed if plot_time is not None else None, prep.start_xy)
+    placed, prep.notes, prep.timed_s = photo.strokes(
+        prep.path, photo_options(args), page, _replace(place_opts, width_mm=None, height_mm=None),
+        timed if plot_time is not None else None, prep.start_xy)
     prep._drawing = Drawing(prep.path, placed)
     return placed
 
 
 def _no_photo_options(args, path: str) -> None:
-    given = [name for name, flag in (("max_time", "--max-time"), ("spacing", "--spacing"),
-                                     ("tsp", "--tsp"), ("invert", "--invert"))
+    given = [name for name in ("style", "max_time", "spacing", "tsp", "invert")
              if getattr(args, name, None)]
-    if getattr(args, "style", "hatch") not in (None, "hatch"):
-        given.append("style")
     if given:
         flag = "--" + given[0].replace("_", "-")
         raise ConfigError(f"error: {flag} is for photos (PNG, JPEG, ...); {path} is not one")

@@ -37,13 +37,15 @@ def _plot_time(cfg, pos, xy):
 
     from vplotter import kinematics, pipeline
 
-    kin = kinematics.from_config(cfg)
-    q = kin.inverse(kin.to_machine(np.asarray(xy, dtype=float).reshape(1, 2)))[0]
-    counts = tuple(int(c) for c in np.rint((q - np.asarray(pos.ref_mm)) *
-                                           np.asarray(cfg.motors.steps_per_unit)))
+    counts: list = []           # made on the first call: only a photo's budget asks
 
     def plot_time(records) -> float:
-        return pipeline.validate(cfg, records, counts, pos.ref_mm, "budget").time_s
+        if not counts:
+            kin = kinematics.from_config(cfg)
+            q = kin.inverse(kin.to_machine(np.asarray(xy, dtype=float).reshape(1, 2)))[0]
+            counts.extend(int(c) for c in np.rint((q - np.asarray(pos.ref_mm)) *
+                                                  np.asarray(cfg.motors.steps_per_unit)))
+        return pipeline.validate(cfg, records, tuple(counts), pos.ref_mm, "budget").time_s
 
     return plot_time
 

@@ -59,7 +59,8 @@ def size_mm(aspect: float, opts: PhotoOptions, page: place.Box, margin_mm: float
 
 def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Placement,
             plot_time: Callable[[list[Stroke]], float] | None, start_xy=(0.0, 0.0)):
-    """(placed strokes in a greedy order from start_xy, notes for the person).
+    """(placed strokes in a greedy order from start_xy, notes for the person, their plot
+    time as the budget search measured it: None with a fixed --spacing).
     plot_time(strokes) -> s times an ordered drawing with the draw's own planner (None: no
     budget, only with a fixed --spacing)."""
     from vplotter.inputs import image
@@ -92,7 +93,8 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
         if opts.max_time_s is not None:
             raise ConfigError("error: give --spacing or --max-time, not both")
         what = image.describe(opts.style, opts.spacing_mm, opts.pen_mm, picture, **extra)
-        return make(opts.spacing_mm), notes + [f"spacing {opts.spacing_mm:g} mm (--spacing)", what]
+        return (make(opts.spacing_mm), notes + [f"spacing {opts.spacing_mm:g} mm (--spacing)", what],
+                None)
     if plot_time is None:
         raise ConfigError("error: a photo needs --spacing here (no planner to time a budget)")
     budget_s = opts.max_time_s or budget.DEFAULT_S
@@ -105,4 +107,4 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
     if opts.max_time_s is None:
         notes.append(f"no --max-time: the budget for a photo is {budget.clock_text(budget_s)} "
                      f"by default")
-    return drawn, notes
+    return drawn, notes, choice.time_s

@@ -33,7 +33,7 @@ def _frame(angle_deg: float):
     return d, n
 
 
-def _runs(flags: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def runs(flags: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Start and end (exclusive) indices of the runs of True in each row of a 2-D bool array:
     (rows, starts, ends) flattened."""
     f = np.zeros((flags.shape[0], flags.shape[1] + 2), dtype=np.int8)
@@ -310,7 +310,7 @@ def hatch_mask(mask, width_mm: float, height_mm: float, spacing_mm: float, angle
         x = us[None, :] * d[0] + v[:, None] * n[0]
         y = us[None, :] * d[1] + v[:, None] * n[1]
         flags = _sample(mask, x, y, width_mm, height_mm)
-        r, s, e = _runs(flags)
+        r, s, e = runs(flags)
         lo, hi = _rect_span(v, d, n, width_mm, height_mm)
         u0 = np.maximum(umin + s * pitch, lo[r])
         u1 = np.minimum(umin + e * pitch, hi[r])

@@ -37,6 +37,7 @@ import math
 
 import numpy as np
 
+from vplotter.inputs.hatch import runs
 from vplotter.inputs.image import tone
 from vplotter.inputs.image.load import blur
 from vplotter.inputs.image.picture import Picture
@@ -68,10 +69,8 @@ def smoothed(picture, pitch_mm: float) -> Picture:
 
 
 def _runs(flags: np.ndarray):
-    f = np.zeros(len(flags) + 2, dtype=np.int8)
-    f[1:-1] = flags
-    dd = np.diff(f)
-    return np.nonzero(dd == 1)[0], np.nonzero(dd == -1)[0]       # start, end (exclusive)
+    """Start and end (exclusive) indices of the runs of True in a 1-D bool array."""
+    return runs(np.asarray(flags)[None, :])[1:]
 
 
 def hysteresis(on: np.ndarray, s: np.ndarray, gap_mm: float, min_mm: float) -> np.ndarray:

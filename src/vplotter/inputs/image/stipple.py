@@ -29,10 +29,10 @@ more ink than the tone asks for: bench/image_stipple.py).
 
 The budget's tone curve (`tone.py`): up to CAP_PENS pen widths (2.5 mm) the dots follow the
 darkness as above. A coarser spacing (a scarce budget) places as many dots as it asks for with
-the density rho(f(d)), f(d) = (1 - EPS) d^gamma + EPS d, gamma the smallest from FLOOR_GAMMA up
+the density rho(f(d)), f(d) = (1 - tone.EPS) d^gamma + tone.EPS d, gamma the smallest from FLOOR_GAMMA up
 that brings them CAP_PENS pen widths together in black (`tone_gamma`): dots 6 mm apart over
 every tone are seen as dots, not tone (correlation of ink with darkness 0.08 at a 1 mm blur
-on a photo of a cat in 1 h; 0.49 so), and the floor EPS d keeps a few dots in every tone above
+on a photo of a cat in 1 h; 0.49 so), and the floor tone.EPS d keeps a few dots in every tone above
 white, more where darker. The dots' count, so their plot time, does not depend on gamma.
 """
 
@@ -59,7 +59,6 @@ EDGE_SAMPLES = 7        # tour: darkness looked at along each edge
 INSET = 1e-6            # mm: points strictly inside the picture
 CAP_PENS = 5.0          # a coarser spacing: the same dots on the darker tones, this far apart in black
 GAMMA_MAX = 64.0        # ... by the tone curve d^gamma, gamma at most this
-EPS = 1 / 32            # ... whose linear floor keeps a few dots in every tone
 FLOOR_GAMMA = 8.0       # ... and at least this
 
 
@@ -71,12 +70,11 @@ def strokes(picture: Picture, spacing_mm: float, pen_mm: float, tsp: bool = Fals
     through all of them, split where it would cross light paper (see the module's text)."""
     gamma = 2.0 if tsp else 1.0
     if dots is None and spacing_mm > CAP_PENS * pen_mm:   # as many dots, on the darker tones
-        rho, gx, gy = _grid(picture, spacing_mm)
-        dots = int(round(float((np.clip(rho, 0, 1) ** gamma).sum()) * gx * gy / spacing_mm ** 2))
+        dots = _dot_count(picture, spacing_mm, gamma)
         if dots <= 0:
             return []
-        g = tone_gamma(picture, spacing_mm, pen_mm, tsp)
-        picture = Picture(_curve(picture.darkness, g), picture.width_mm,
+        g = tone_gamma(picture, spacing_mm, pen_mm, tsp, dots)
+        picture = Picture(tone.curve(picture.darkness, g), picture.width_mm,
                           picture.height_mm, picture.name)
         spacing_mm = _black_spacing(picture, spacing_mm, dots, gamma)
     pts = points(picture, spacing_mm, seed=seed, dots=dots, gamma=gamma)
@@ -91,17 +89,24 @@ def strokes(picture: Picture, spacing_mm: float, pen_mm: float, tsp: bool = Fals
     return [Stroke(p[None, :].copy()) for p in pts]
 
 
-def _curve(d, g):
-    return tone.curve(d, g, EPS)
+def _ink_area(picture: Picture, spacing_mm: float, gamma: float) -> float:
+    """The picture's area weighted by its density rho^gamma (mm²), on the grid of spacing_mm:
+    that area / spacing² dots put them spacing_mm apart where the picture is black."""
+    rho, gx, gy = _grid(picture, spacing_mm)
+    return float((np.clip(rho, 0, 1) ** gamma).sum()) * gx * gy
+
+
+def _dot_count(picture: Picture, spacing_mm: float, gamma: float) -> int:
+    return int(round(_ink_area(picture, spacing_mm, gamma) / spacing_mm ** 2))
 
 
 def _black_spacing(picture: Picture, spacing_mm: float, dots: int, gamma: float) -> float:
     """The distance between `dots` dots where the picture is black (density rho / spacing²)."""
-    rho, gx, gy = _grid(picture, spacing_mm)
-    return max(math.sqrt(float((np.clip(rho, 0, 1) ** gamma).sum()) * gx * gy / max(dots, 1)), 1e-3)
+    return max(math.sqrt(_ink_area(picture, spacing_mm, gamma) / max(dots, 1)), 1e-3)
 
 
-def tone_gamma(picture: Picture, spacing_mm: float, pen_mm: float, tsp: bool = False) -> float:
+def tone_gamma(picture: Picture, spacing_mm: float, pen_mm: float, tsp: bool = False,
+               dots: int | None = None) -> float:
     """The tone curve's exponent: 1 up to CAP_PENS pen widths; coarser, the smallest from
     FLOOR_GAMMA to GAMMA_MAX that brings the dots the spacing asks for to CAP_PENS pen widths
     apart in black (the dots a scarce budget buys read as a tone only that close)."""
@@ -109,12 +114,11 @@ def tone_gamma(picture: Picture, spacing_mm: float, pen_mm: float, tsp: bool = F
     if not spacing_mm > cap:
         return 1.0
     gamma = 2.0 if tsp else 1.0
-    rho, gx, gy = _grid(picture, spacing_mm)
-    dots = max(1, int(round(float((np.clip(rho, 0, 1) ** gamma).sum()) * gx * gy / spacing_mm ** 2)))
+    dots = max(1, _dot_count(picture, spacing_mm, gamma) if dots is None else dots)
     small = _grid(picture, cap)[0][::2, ::2]
 
     def black(g):
-        q = Picture(_curve(small, g), picture.width_mm, picture.height_mm)
+        q = Picture(tone.curve(small, g), picture.width_mm, picture.height_mm)
         return _black_spacing(q, cap, dots, gamma)
 
     lo, hi = FLOOR_GAMMA, GAMMA_MAX
