@@ -64,11 +64,15 @@ class Dwell:
 @dataclass(frozen=True, slots=True)
 class Pause:
     """Lift the pen (already up) and wait for the person: between layers (made by `prepare`
-    for --pause-between-layers; the player waits there with the coils released)."""
+    for --pause-between-layers; the player waits there with the coils released), at M0/M1, or
+    at a pen change (`pen` names the pen to put in, the `index`-th of `count`)."""
 
     line: int
     col: int
     message: str
+    pen: str | None = None
+    index: int = 0
+    count: int = 0
 
 
 Record = Move | Pen | Dwell | Pause

@@ -28,6 +28,10 @@ class Stroke:
     feed_mm_s: float | None = None   # pen speed cap from the input (G-code F), None: config's
     layer: str | None = None         # SVG layer label or id
     src: str | None = None           # SVG element id, for messages
+    pen: str | None = None           # the pen as the file names it: an SVG colour as written
+                                     # ('red', '#ff8800'), a layer, a G-code tool ('T2');
+                                     # None: the one pen
+    colour: str | None = None        # '#rrggbb' where the file gives a colour, else None
 
     @property
     def closed(self) -> bool:
