@@ -170,3 +170,31 @@ def test_gcode_section_values_and_errors(seed):
         bad["gcode"][key] = value
         with pytest.raises(ConfigError, match=re.escape(words)):
             config.from_dict(bad)
+
+
+def test_pens_section_names_the_pens_owned(seed):
+    data = copy.deepcopy(seed)
+    assert config.from_dict(data).pens.owned == ()
+    data["pens"] = {"change_x_mm": 0, "change_y_mm": 120,
+                    "red": {"colour": "Red", "speed_mm_s": 20},
+                    "ink": {"colour": "rgb(0, 0, 50%)", "down_us": 1400, "width_mm": 0.3}}
+    pens = config.from_dict(data).pens
+    assert pens.change_at == (0.0, 120.0)
+    assert [(p.name, p.colour) for p in pens.owned] == [("red", "#ff0000"), ("ink", "#000080")]
+    assert pens.get("red").speed_mm_s == 20.0 and pens.get("ink").down_us == 1400
+    assert pens.get("blue") is None
+
+
+@pytest.mark.parametrize("pens, message", [
+    ({"red": {"color": "red"}}, r"\[pens.red\] unknown key color \(did you mean colour\?\)"),
+    ({"red": {}}, r"\[pens.red\] colour is missing"),
+    ({"red": {"colour": "reddish"}}, r"\[pens.red\] colour: not a colour: 'reddish'"),
+    ({"red": {"colour": "none"}}, r"a pen needs a colour"),
+    ({"red": {"colour": "red", "down_us": 9000}}, r"\[pens.red\] down_us"),
+    ({"chnage_x_mm": 3}, r"unknown key \[pens\] chnage_x_mm \(did you mean change_x_mm\?\)"),
+])
+def test_pens_section_errors_name_the_pen_and_key(seed, pens, message):
+    data = copy.deepcopy(seed)
+    data["pens"] = pens
+    with pytest.raises(ConfigError, match=message):
+        config.from_dict(data)

@@ -13,8 +13,8 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-from vplotter.config.schema import (NOT_USED, OPTIONAL_SECTIONS, PEN_CODES, SCHEMA,
-                                    SCHEMA_CHOICES, SECTION_CLASSES, SECTION_WHEN)
+from vplotter.config.schema import (NOT_USED, OPTIONAL_SECTIONS, PEN_CODES, PEN_KEYS,
+                                    SCHEMA, SCHEMA_CHOICES, SECTION_CLASSES, SECTION_WHEN)
 from vplotter.config.sections import (DRIVERS, DRIVES, KINDS, MOTOR_NAMES, PEN_KINDS, UNSET,
                                       Config, Cords, Gcode, Gondola, Gpio, Machine, Motion,
                                       Motors, Origin, Page, Pen, Polar, Serial)
@@ -92,6 +92,42 @@ def _choice(data: dict, path: str, section: str, key: str) -> str:
     return _value(f"{path}: [{section}] {key}", kind, table[key], lo, hi)
 
 
+def _pen_tables(table: dict, path: str) -> tuple[dict, tuple]:
+    """[pens]: split the pen tables [pens.NAME] from the section's own keys; each pen's keys
+    checked like any other (PEN_KEYS), its colour parsed to '#rrggbb'."""
+    from vplotter.config.sections import PenSpec
+
+    own, pens = {}, []
+    for name, value in table.items():
+        if not isinstance(value, dict):
+            own[name] = value
+            continue
+        where = f"{path}: [pens.{name}]"
+        for key in value:
+            if key not in PEN_KEYS:
+                close = difflib.get_close_matches(key, PEN_KEYS, n=1)
+                hint = f" (did you mean {close[0]}?)" if close else ""
+                raise ConfigError(f"{where} unknown key {key}{hint}")
+        values = {}
+        for key, (kind_, default, lo, hi) in PEN_KEYS.items():
+            if key not in value:
+                if default is None:
+                    raise ConfigError(f"{where} {key} is missing")
+                values[key] = None
+                continue
+            values[key] = _value(f"{where} {key}", kind_, value[key], lo, hi)
+        from vplotter.inputs.colour import parse
+
+        try:
+            colour = parse(values.pop("colour"))
+        except ValueError as e:
+            raise ConfigError(f"{where} colour: {e}") from None
+        if colour is None:
+            raise ConfigError(f"{where} colour: a pen needs a colour, not none")
+        pens.append(PenSpec(name=name, colour=colour, **values))
+    return own, tuple(pens)
+
+
 def from_dict(data: dict, path: str = "config.toml") -> Config:
     """Validate a parsed TOML document; raise ConfigError naming the first bad key."""
     for section in data:
@@ -125,6 +161,8 @@ def from_dict(data: dict, path: str = "config.toml") -> Config:
             table = {}
         if not isinstance(table, dict):
             raise ConfigError(f"{path}: [{section}] must be a table")
+        if section == "pens":
+            table, owned = _pen_tables(table, path)
         for key in table:
             if key not in keys:
                 close = difflib.get_close_matches(key, keys, n=1)
@@ -146,6 +184,8 @@ def from_dict(data: dict, path: str = "config.toml") -> Config:
         if section == "motors":
             values["names"] = MOTOR_NAMES[kind]
             values = {**NOT_USED, **values}
+        if section == "pens":
+            values["owned"] = owned
         if section == "pen" and values["kind"] in PEN_CODES:
             values["up_us"], values["down_us"] = PEN_CODES[values["kind"]]
         sections[section] = SECTION_CLASSES[section](**values)

@@ -25,6 +25,12 @@ SECTIONS: dict[str, str] = {
     "gondola": "Where the cords hold the gondola, relative to the pen (V-plotter).",
     "cords": "How much the cords stretch under the gondola's weight (V-plotter).",
     "gcode": "How G-code files move the pen (the pen dialect).",
+    "pens": "Where the gondola waits for a pen change, and the pens you own: one table "
+            "`[pens.NAME]` per pen with `colour` (a name such as `red`, `#rgb`, `#rrggbb`, "
+            "required), and optionally `width_mm`, `speed_mm_s` (draw speed cap with this pen) "
+            "and `down_us` (servo pulse for pen down with this pen). Colours in a file are "
+            "matched to the nearest pen you own; without pen tables each colour is a pen of its "
+            "own.",
 }
 
 DESCRIPTIONS: dict[str, str] = {
@@ -150,4 +156,8 @@ DESCRIPTIONS: dict[str, str] = {
     "gcode.m280_up_s": "Servo files: the range of S (angle) that means pen up.",
     "gcode.m280_down_s": "Servo files: the range of S that means pen down (must not overlap "
                          "`m280_up_s`; any other S is an error).",
+    # [pens]
+    "pens.change_x_mm": "G-code X where the gondola waits while you change the pen (with "
+                        "`change_y_mm`; default: where the plot started).",
+    "pens.change_y_mm": "G-code Y where the gondola waits while you change the pen.",
 }

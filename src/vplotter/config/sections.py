@@ -176,6 +176,36 @@ class Serial:
 
 
 @dataclass(frozen=True)
+class PenSpec:
+    """A pen the person owns ([pens.NAME]): its colour and what it changes when it is in."""
+
+    name: str
+    colour: str                      # '#rrggbb'
+    width_mm: float | None = None    # the line it draws (default: the tone model's --pen-width)
+    speed_mm_s: float | None = None  # draw speed cap with this pen (default [motion])
+    down_us: int | None = None       # servo pulse for pen down with this pen (default [pen])
+
+
+@dataclass(frozen=True)
+class Pens:
+    """[pens]: where the gondola waits at a pen change, and the pens the person owns (none:
+    each colour of a file is a pen of its own)."""
+
+    change_x_mm: float | None = None     # default: where the plot started
+    change_y_mm: float | None = None
+    owned: tuple[PenSpec, ...] = ()
+
+    @property
+    def change_at(self) -> tuple[float, float] | None:
+        if self.change_x_mm is None or self.change_y_mm is None:
+            return None
+        return (self.change_x_mm, self.change_y_mm)
+
+    def get(self, name: str) -> PenSpec | None:
+        return next((p for p in self.owned if p.name == name), None)
+
+
+@dataclass(frozen=True)
 class Config:
     machine: Machine
     origin: Origin
@@ -190,6 +220,7 @@ class Config:
     gcode: Gcode = Gcode()
     path: str = "config.toml"
     polar: Polar | None = None
+    pens: Pens = Pens()
 
 
 # section -> key -> (kind, default or None if required, low, high[, when]); bounds are inclusive
