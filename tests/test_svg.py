@@ -408,13 +408,13 @@ def test_clip_path_and_mask_are_ignored_and_defs_not_drawn(tmp_path):
     assert d.skipped == {"text": 0, "image": 0, "hidden": 0}
 
 
-def test_text_image_and_flowroot_are_counted_with_one_warning(tmp_path):
+def test_text_and_flowroot_are_drawn_images_counted(tmp_path):
     d, w = read(tmp_path, doc('<text>a</text><text><tspan>b</tspan></text><image width="1" height="1"/>'
                               '<flowRoot><flowRegion><rect width="50" height="50"/></flowRegion>'
                               '<flowPara>c</flowPara></flowRoot><path d="M0 0 L1 1"/>'))
-    assert len(d.strokes) == 1
-    assert d.skipped == {"text": 3, "image": 1, "hidden": 0}
-    assert w == [f"{tmp_path / 't.svg'}: warning: 3 text elements skipped: convert text to paths"]
+    assert {s.src for s in d.strokes} == {"text#2", "text#3", "flowRoot#6", "path#10"}
+    assert d.skipped == {"text": 0, "image": 1, "hidden": 0}
+    assert w == []
 
 
 # ------------------------------------------------------------------ use
@@ -573,12 +573,13 @@ def test_sample_inkscape_layers():
     assert (d.width_mm, d.height_mm) == (210, 148)
     assert [(x["label"], x["visible"]) for x in d.layers] == [
         ("Frame", True), ("Arcs", True), ("Stars", True), ("Construction", True), ("Sketch", False)]
-    assert d.skipped == {"text": 2, "image": 0, "hidden": 4}
-    assert len(w) == 2 and "'#missing'" in w[0] and "2 text elements skipped" in w[1]
+    # the title is drawn; the flowRoot sits in the hidden layer
+    assert d.skipped == {"text": 0, "image": 0, "hidden": 5}
+    assert len(w) == 1 and "'#missing'" in w[0]
     by = {}
     for s in d.strokes:
         by.setdefault(s.src, []).append(s)
-    assert list(by) == ["frame", "sun", "arcs", "skewed-arc", "skewed-circle", "star1", "star2",
+    assert list(by) == ["frame", "sun", "title", "arcs", "skewed-arc", "skewed-circle", "star1", "star2",
                         "curves", "stipple", "shown-again"]
     assert [len(s.pts) for s in by["stipple"]] == [1, 1, 1, 1]
     assert by["star1"][0].layer == "Stars" and by["frame"][0].layer == "Frame"

@@ -6,7 +6,9 @@ cascade are in `svg_style.py`, curves in `svg_geom.py`. The rules (README, secti
 
 - drawn: path, line, polyline, polygon, rect (rx/ry), circle, ellipse, and `<use>` instances,
   whatever their stroke and fill, as outlines; each subpath is one stroke;
-- skipped: <text>/<flowRoot> (counted, one warning), <image> (counted), what sits in defs,
+- text: <text> with its <tspan>s, and Inkscape's <flowRoot>, in single-stroke Hershey fonts
+  (`svg_text.py`); a flowRoot whose frame is not a plain rect is counted as skipped text;
+- skipped: <image> (counted), what sits in defs,
   symbol, clipPath, mask, marker, pattern unless a <use> places it, and anything hidden
   (display:none on itself or an ancestor; visibility:hidden, inherited, undone by
   visibility:visible below): hidden drawable elements are counted;
@@ -30,6 +32,10 @@ PREFIXES = {"http://www.inkscape.org/namespaces/inkscape": "inkscape:",
             "http://www.w3.org/XML/1998/namespace": "xml:"}
 SHAPES = {"path", "rect", "circle", "ellipse", "line", "polyline", "polygon"}
 TEXT = {"text", "flowRoot"}
+# elements whose character data is text to draw: their Node.text holds strings and child Nodes
+# in document order
+TEXT_CONTENT = {"text", "tspan", "textPath", "a", "flowRoot", "flowPara", "flowSpan",
+                "flowDiv", "flowLine"}
 CONTAINERS = {"g", "a", "svg", "switch"}
 # Not drawn where they stand (only a <use> can place a symbol or what sits in defs).
 NOT_RENDERED = {"defs", "symbol", "clipPath", "mask", "marker", "pattern", "style", "script",
@@ -94,6 +100,8 @@ def load_tree(path: str) -> tuple[Node, dict[str, Node]]:
                                      parser.CurrentColumnNumber + 1, len(numbered) + 1))
         if stack:
             stack[-1].children.append(node)
+            if stack[-1].tag in TEXT_CONTENT:
+                stack[-1].text.append(node)
         else:
             holder.append(node)
         stack.append(node)
@@ -105,7 +113,7 @@ def load_tree(path: str) -> tuple[Node, dict[str, Node]]:
         stack.pop()
 
     def chars(data):
-        if stack and stack[-1].tag == "style":
+        if stack and (stack[-1].tag == "style" or stack[-1].tag in TEXT_CONTENT):
             stack[-1].text.append(data)
 
     parser.StartElementHandler = start
@@ -150,6 +158,7 @@ class _Ctx:
     selected: bool = True         # inside a layer that --layer asked for (or no --layer)
     use: Node | None = None       # outermost <use> this instance comes from
     stack: tuple = ()             # ids of <use> targets being expanded (cycle guard)
+    font: tuple = ()              # inherited text properties (svg_text.inherit)
 
 
 class _Reader:
@@ -164,6 +173,7 @@ class _Reader:
         self.skipped = {"text": 0, "image": 0, "hidden": 0}
         self.missing: set[str] = set()
         self.visits = 0
+        self.text = None              # svg_text.TextReader, made at the first text element
 
     def err(self, node: Node, msg: str) -> InputError:
         return InputError(f"{self.path}:{node.line}:{node.col}: error: <{node.tag}> {msg}")
@@ -214,10 +224,8 @@ class _Reader:
         except RecursionError:
             raise InputError(f"{self.path}: error: elements are nested too deeply") from None
         self.check_layers()
-        if self.skipped["text"]:
-            n = self.skipped["text"]
-            self.warn(f"{self.path}: warning: {n} text element{'s' if n > 1 else ''} skipped: "
-                      f"convert text to paths")
+        if self.text is not None:
+            self.text.finish()
         return Drawing(self.path, self.strokes, w_mm, h_mm, self.layers, self.skipped)
 
     def root_size(self, root: Node, name: str) -> float | None:
@@ -260,8 +268,19 @@ class _Reader:
         vis = own.get("visibility", "inherit")
         ctx = replace(ctx, none=ctx.none or own.get("display") == "none",
                       vis=vis if vis in ("visible", "hidden", "collapse") else ctx.vis)
+        if any(prop in own for prop in self.style.TEXT_PROPS):
+            from vplotter.inputs import svg_text
+
+            try:
+                ctx = replace(ctx, font=svg_text.inherit(ctx.font, own))
+            except self.style.BadValue as e:
+                raise self.err(node, str(e)) from None
         if tag in TEXT:
-            self.skipped["text"] += ctx.selected
+            if ctx.selected:
+                if ctx.none:
+                    self.skipped["hidden"] += 1
+                else:
+                    self.draw_text(node, ctx)
             return
         if tag == "image":
             self.skipped["image"] += ctx.selected
@@ -357,6 +376,14 @@ class _Reader:
         if target.tag in NOT_RENDERED:              # e.g. <use href="#defs">: nothing
             return
         self.walk(target, inner)
+
+    # -------------------------------------------------------------- text
+    def draw_text(self, node: Node, ctx: _Ctx) -> None:
+        if self.text is None:
+            from vplotter.inputs import svg_text
+
+            self.text = svg_text.TextReader(self)
+        self.text.draw(node, ctx)
 
     # -------------------------------------------------------------- shapes
     def subpaths(self, node: Node, vp: tuple[float, float]):

@@ -230,3 +230,11 @@ def sigma_max(m: np.ndarray) -> float:
     s1 = a * a + b * b + c * c + d * d
     det = a * d - b * c
     return math.sqrt(max(0.0, (s1 + math.sqrt(max(0.0, s1 * s1 - 4 * det * det))) / 2))
+
+
+# ------------------------------------------------------------------ text (svg_text.py)
+# the inherited properties text is drawn with; the cascade above reads them as it reads
+# display and visibility
+TEXT_PROPS = ("font-size", "font-family", "font-weight", "font-style", "text-anchor",
+              "letter-spacing", "line-height")
+STYLE_PROPS = STYLE_PROPS + TEXT_PROPS
