@@ -13,6 +13,7 @@ import sys
 from typing import Callable
 
 from vplotter.commands import draw, files, live, machine, pictures, serial
+from vplotter.commands import text as text_cmd
 from vplotter.commands.common import eprint
 from vplotter.errors import BusyError, VplotterError
 
@@ -24,6 +25,8 @@ COMMANDS: dict[str, tuple[Callable, Callable, str]] = {
              "size, extent, strokes, travel and time of a file (file order and --order best)"),
     "convert": (files.cmd_convert, files.add_convert,
                 "write the placed and ordered drawing as G-code"),
+    "text": (text_cmd.cmd_text, text_cmd.add_text,
+             "text in a single-stroke Hershey font, as G-code (-o) or a summary"),
     "calibrate": (machine.cmd_calibrate, machine.add_calibrate,
                   "tell vplotter where the pen is, or measure steps/mm"),
     "status": (live.cmd_status, live.add_status,

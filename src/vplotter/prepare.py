@@ -22,6 +22,7 @@ from vplotter.errors import ConfigError, InputError
 from vplotter.inputs.image import STYLES as PHOTO_STYLES
 
 SVG_SUFFIXES = (".svg", ".svgz")
+TEXT_SUFFIXES = (".txt",)       # plain text, drawn in a Hershey font (inputs/text.py)
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".webp", ".bmp", ".tif", ".tiff", ".gif")
 IMAGE_MAGIC = (b"\x89PNG\r\n\x1a\n", b"\xff\xd8\xff", b"GIF87a", b"GIF89a", b"II*\x00",
                b"MM\x00*")
@@ -136,10 +137,12 @@ def photo_options(args):
 
 
 def file_kind(path: str) -> str:
-    """"svg", "image" or "gcode": by suffix, else by the first bytes."""
+    """"svg", "image", "text" or "gcode": by suffix, else by the first bytes."""
     low = path.lower()
     if low.endswith(SVG_SUFFIXES):
         return "svg"
+    if low.endswith(TEXT_SUFFIXES):        # unless it holds SVG
+        return "svg" if _svg_markup(path) else "text"
     if low.endswith(IMAGE_SUFFIXES):
         return "image"
     try:
@@ -150,6 +153,15 @@ def file_kind(path: str) -> str:
     if head.startswith(IMAGE_MAGIC) or (head[:4] == b"RIFF" and head[8:12] == b"WEBP"):
         return "image"
     return "svg" if is_svg(path) else "gcode"
+
+
+def _svg_markup(path: str) -> bool:
+    try:
+        with open(path, "rb") as f:
+            head = f.read(256).lstrip(b"\xef\xbb\xbf \t\r\n")
+    except OSError:
+        return False
+    return head.startswith((b"<?xml", b"<svg", b"<!--", b"<!DOCTYPE"))
 
 
 def is_svg(path: str) -> bool:
@@ -213,7 +225,7 @@ def gcode_strokes(records: Iterable, tol_mm: float) -> list:
 @dataclass
 class Prepared:
     path: str
-    kind: str                     # gcode | svg | image
+    kind: str                     # gcode | svg | image | text
     passthrough: bool             # G-code streamed as it is
     strict: bool = False
     join_mm: float = 0.0075       # the joins: within this, never above tol_mm (see prepare)
@@ -321,6 +333,8 @@ class Prepared:
             return f"{self.path}:{st.line}:{st.col}"
         if self.kind == "image":
             return f"{self.path}: stroke {k + 1}"
+        if self.kind == "text":
+            return f"{self.path}:{st.line}"
         return f"{self.path}: element {st.src}" if st.src else f"{self.path}: element {st.line}"
 
 
@@ -350,14 +364,15 @@ def options_key(path: str, args) -> str:
 
 
 def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
-            start_xy=(0.0, 0.0), plot_time: Callable[[Iterator], float] | None = None
-            ) -> Prepared:
+            start_xy=(0.0, 0.0), plot_time: Callable[[Iterator], float] | None = None,
+            drawing=None) -> Prepared:
     """Read, place and order `path` as the file options in `args` say. The pen starts at
     start_xy (G-code mm) for the travel. plot_time(records) -> s times a drawing with the
-    draw's planner (a photo's budget needs it)."""
+    draw's planner (a photo's budget needs it). `drawing`: one already made (the text
+    command's), placed and ordered as a text file's; `path` then only names it."""
     from vplotter.motion.segment import CHORD_SHARE
 
-    kind = file_kind(path)
+    kind = file_kind(path) if drawing is None else "text"
     svg = kind == "svg"
     place_opts = placement(args)
     method = getattr(args, "order", None) or ("keep" if kind == "gcode" else "best")
@@ -388,10 +403,16 @@ def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
     if kind == "image":
         placed = _photo(prep, args, page, place_opts, plot_time)
     else:
-        if svg:
+        if drawing is not None:
+            pass
+        elif svg:
             from vplotter.inputs import svg as svg_reader
 
             drawing = svg_reader.read(path, tol, layers=layers, warn=warn)
+        elif kind == "text":
+            from vplotter.inputs import text as text_reader
+
+            drawing = text_reader.read(path, warn)
         else:
             from vplotter.inputs.strokes import Drawing
 

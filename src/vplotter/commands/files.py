@@ -115,7 +115,7 @@ def cmd_info(args, argv=None) -> int:
     if args.json:
         say(json.dumps(out))
         return 0
-    kind = {"gcode": "G-code", "svg": "SVG", "image": "photo"}[best.kind]
+    kind = {"gcode": "G-code", "svg": "SVG", "image": "photo", "text": "text"}[best.kind]
     say(f"{args.file}: {kind}, {out['width_mm']:g} x "
         f"{out['height_mm']:g} mm; drawn extent X {ext[0]:.2f}..{ext[2]:.2f} "
         f"Y {ext[1]:.2f}..{ext[3]:.2f} mm")
@@ -131,7 +131,7 @@ def cmd_info(args, argv=None) -> int:
     for lay in out["layers"]:
         say(f"  layer {lay['label'] or lay['id']!s} (id {lay['id']}): "
             f"{'visible' if lay['visible'] else 'hidden'}")
-    notes = {"text": "text elements (convert text to paths to draw it)",
+    notes = {"text": "text elements (flowed text without a rect frame: convert it to text)",
              "image": "images (bitmaps are not drawn)",
              "hidden": "hidden elements (display:none or visibility:hidden)"}
     for k, n in skipped.items():

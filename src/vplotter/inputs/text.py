@@ -110,15 +110,15 @@ def _font(name: str) -> dict[str, tuple[tuple[np.ndarray, ...], float]]:
 
 def pick_font(family: str | None, bold: bool = False, italic: bool = False) -> str:
     """CSS font-family (a comma-separated list, quotes allowed), weight and style -> a Hershey
-    font name: a Hershey name is taken as it is, a known family or generic name maps by
-    FAMILIES, anything else is the default font (futural), never an error."""
+    font name: a generic name or known family maps by FAMILIES, a Hershey name is taken as it
+    is, anything else is the default font (futural; futuram when bold), never an error."""
     names = set(font_names())
     for part in (family or "").split(","):
         key = part.strip().strip("'\"").strip().lower()
+        if key in FAMILIES:          # first: CSS's "cursive" is not the Hershey font cursive
+            return FAMILIES[key][int(bold) + 2 * int(italic)]
         if key in names:
             return key
-        if key in FAMILIES:
-            return FAMILIES[key][int(bold) + 2 * int(italic)]
     return _SANS[int(bold)] if bold else DEFAULT_FONT
 
 
@@ -212,10 +212,60 @@ def missing_warning(where: str, missing: set[str], substituted: dict[str, str] |
         return None
     parts = []
     if missing:
-        parts.append("no glyph for " + ", ".join(repr(c) for c in sorted(missing))
-                     + " (left blank)")
+        parts.append("no glyph in " + (fonts or "the font") + " for "
+                     + ", ".join(repr(c) for c in sorted(missing)) + " (left blank)")
     if subs:
-        parts.append("drawn without accents: " + ", ".join(
-            f"{c!r} as {b!r}" for c, b in sorted(subs.items())))
-    font_note = f" in font {fonts}" if fonts else ""
-    return f"{where}: warning: text{font_note}: " + "; ".join(parts)
+        parts.append(", ".join(f"{c!r}" for c in sorted(subs)) + " drawn without accents ("
+                     + ", ".join(f"as {b!r}" for c, b in sorted(subs.items())) + ")")
+    return f"{where}: warning: " + "; ".join(parts)
+
+
+# ------------------------------------------------------------------ text as a drawing
+TEXT_FILE_CAP_MM = 10.0      # a .txt file's capitals, before any placement option
+
+
+def drawing(name: str, text: str, cap_mm: float = TEXT_FILE_CAP_MM, *,
+            font: str = DEFAULT_FONT, anchor: str = "start", letter_spacing: float = 0.0,
+            line_height: float = LINE_HEIGHT):
+    """Lines of text as a Drawing in G-code mm: capitals cap_mm high, the first baseline on
+    Y0 with its anchor point at X0, the next lines below. Each stroke's `line` is its text
+    line (1, 2, ...). Returns (Drawing, TextShape)."""
+    from vplotter.inputs.strokes import Drawing, Stroke
+
+    size = cap_mm / CAP_HEIGHT
+    strokes = []
+    missing: set[str] = set()
+    subs: dict[str, str] = {}
+    width = 0.0
+    for k, line in enumerate(text.splitlines() or [""]):
+        shape = layout(line.expandtabs(4), size, font=font, anchor=anchor,
+                       letter_spacing=letter_spacing)
+        dy = -k * line_height * size
+        strokes.extend(Stroke(p + (0.0, dy), k + 1) for p in shape.polylines)
+        missing |= shape.missing
+        subs.update(shape.substituted)
+        width = max(width, shape.advance)
+    return Drawing(name, strokes), TextShape([s.pts for s in strokes], width, missing, subs)
+
+
+def read(path: str, warn) -> object:
+    """A plain text file (UTF-8) as a Drawing: `drawing` with the defaults (futural, capitals
+    TEXT_FILE_CAP_MM high); characters without a glyph are named in one warning."""
+    from vplotter.errors import InputError
+
+    try:
+        with open(path, encoding="utf-8") as f:
+            text = f.read()
+    except FileNotFoundError:
+        raise InputError(f"{path}: error: no such file") from None
+    except IsADirectoryError:
+        raise InputError(f"{path}: error: is a directory, not a text file") from None
+    except UnicodeDecodeError as e:
+        raise InputError(f"{path}: error: not UTF-8 text (byte {e.start + 1})") from None
+    except OSError as e:
+        raise InputError(f"{path}: error: cannot read: {e.strerror}") from None
+    d, shape = drawing(path, text)
+    msg = missing_warning(path, shape.missing, shape.substituted, DEFAULT_FONT)
+    if msg:
+        warn(msg)
+    return d
