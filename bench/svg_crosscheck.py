@@ -20,6 +20,8 @@ from vplotter.inputs import svg
 
 warnings.filterwarnings("ignore")
 MM_PER_PX = 25.4 / 96
+# text is drawn in Hershey fonts (svg_text.py); svgelements has no glyphs to compare it with
+svg._Reader.draw_text = lambda self, node, ctx: None
 
 
 def densify(polys, step=0.001):
