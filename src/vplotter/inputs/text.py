@@ -62,12 +62,11 @@ class TextShape:
 
 @dataclass(frozen=True)
 class FontMetrics:
-    """A font's extent in font sizes (ems): every glyph lies within x in [-overhang,
-    advance + overhang] and y in [descent, ascent] (descent < 0)."""
+    """A font's extent in font sizes (ems): every glyph lies within y in [descent, ascent]
+    (descent < 0), and within its own advance in x."""
 
     ascent: float
     descent: float
-    overhang: float
 
 
 def font_names() -> list[str]:
@@ -87,7 +86,10 @@ def _package():
 
 @lru_cache(maxsize=None)
 def _font(name: str) -> dict[str, tuple[tuple[np.ndarray, ...], float]]:
-    """char -> (polylines in ems, y up, the glyph's left side at x = 0; advance in ems)."""
+    """char -> (polylines in ems, y up, the glyph's left side at x = 0; advance in ems). A
+    glyph whose strokes reach past its left or right side (italic and script fonts: the tail
+    of a j, by up to 8 units) is widened to hold them, so that a line's strokes always lie
+    within [0, advance]."""
     pkg = _package()
     if name not in pkg.default_font_names:
         raise ValueError(f"unknown font {name!r} (fonts: {', '.join(font_names())})")
@@ -99,12 +101,14 @@ def _font(name: str) -> dict[str, tuple[tuple[np.ndarray, ...], float]]:
     for ch, g in f.all_glyphs.items():
         if not (32 <= ord(ch) < 127):          # the 96th glyph sits on DEL: not a character
             continue
-        left = float(g.left_offset)
+        xs = [x for s in g.strokes for x, _ in s]
+        left = float(min([g.left_offset, *xs]))
+        right = float(max([g.left_offset + g.char_width, *xs]))
         polys = tuple(
             np.column_stack([(np.asarray(s, dtype=float)[:, 0] - left) / EM_UNITS,
                              (BASELINE - np.asarray(s, dtype=float)[:, 1]) / EM_UNITS])
             for s in g.strokes if len(s))
-        glyphs[ch] = (polys, float(g.char_width) / EM_UNITS)
+        glyphs[ch] = (polys, (right - left) / EM_UNITS)
     return glyphs
 
 
@@ -130,13 +134,8 @@ def metrics(font: str = DEFAULT_FONT) -> FontMetrics:
 @lru_cache(maxsize=None)
 def _metrics(font: str) -> FontMetrics:
     glyphs = _font(font)
-    ys = [p[:, 1] for polys, _ in glyphs.values() for p in polys]
-    over = 0.0
-    for polys, adv in glyphs.values():
-        for p in polys:
-            over = max(over, float(-p[:, 0].min()), float(p[:, 0].max() - adv))
-    y = np.concatenate(ys)
-    return FontMetrics(float(y.max()), float(y.min()), over)
+    y = np.concatenate([p[:, 1] for polys, _ in glyphs.values() for p in polys])
+    return FontMetrics(float(y.max()), float(y.min()))
 
 
 def glyph(font: str, ch: str) -> tuple[tuple[np.ndarray, ...], float, str | None]:
