@@ -327,3 +327,11 @@ def test_use_of_a_text_and_unsupported_features_warn_once(tmp_path):
     assert set(got) >= {"u1", "u2"}
     assert np.allclose(got["u2"], got["u1"] + (0, 40))
     assert len(w) == 1 and "rotate" in w[0] and "textPath" in w[0]
+
+
+def test_a_font_size_that_does_not_parse_is_ignored_as_css_does(tmp_path):
+    d1, w = read(tmp_path, '<g font-size="20"><text x="10" y="50" style="font-size:calc(1px)">'
+                           'Ab<tspan font-size="-3">c</tspan></text></g>')
+    d2, _ = read(tmp_path, '<text x="10" y="50" font-size="20">Abc</text>')
+    assert w == [] and all(np.allclose(a.pts, b.pts)
+                           for a, b in zip(d1.strokes, d2.strokes, strict=True))

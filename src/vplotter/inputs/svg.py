@@ -271,10 +271,7 @@ class _Reader:
         if any(prop in own for prop in self.style.TEXT_PROPS):
             from vplotter.inputs import svg_text
 
-            try:
-                ctx = replace(ctx, font=svg_text.inherit(ctx.font, own))
-            except self.style.BadValue as e:
-                raise self.err(node, str(e)) from None
+            ctx = replace(ctx, font=svg_text.inherit(ctx.font, own))
         if tag in TEXT:
             if ctx.selected:
                 if ctx.none:

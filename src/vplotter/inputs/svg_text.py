@@ -63,18 +63,26 @@ def font_size(text: str, parent: float) -> float:
 
 def inherit(parent: tuple, own: dict[str, str]) -> tuple:
     """The text properties an element has: its own declared ones over its parent's. font-size
-    and letter-spacing are computed here (user units), the others kept as written."""
+    and letter-spacing are computed here (user units), the others kept as written. A value
+    that does not parse (font-size: calc(...), a negative size) is dropped, as CSS drops an
+    invalid declaration: the parent's value stays."""
     d = dict(parent)
     size = d.get("font-size", DEFAULT_SIZE)
     v = own.get("font-size")
     if v is not None and v != "inherit":
-        d["font-size"] = size = font_size(v, size)
+        try:
+            d["font-size"] = size = font_size(v, size)
+        except (st.BadValue, ValueError):
+            pass
     for prop in ("font-family", "font-weight", "font-style", "text-anchor", "line-height"):
         if own.get(prop) not in (None, "inherit"):
             d[prop] = own[prop]
     v = own.get("letter-spacing")
     if v is not None and v != "inherit":
-        d["letter-spacing"] = 0.0 if v.strip() == "normal" else _relative(v, size, size)
+        try:
+            d["letter-spacing"] = 0.0 if v.strip() == "normal" else _relative(v, size, size)
+        except (st.BadValue, ValueError):
+            pass
     return tuple(d.items())
 
 
@@ -165,12 +173,7 @@ class TextReader:
             if own.get("display") == "none":
                 continue
             vis = own.get("visibility", "inherit")
-            f = font
-            if any(prop in own for prop in st.TEXT_PROPS):
-                try:
-                    f = inherit(font, own)
-                except st.BadValue as e:
-                    raise r.err(child, str(e)) from None
+            f = inherit(font, own) if any(prop in own for prop in st.TEXT_PROPS) else font
             if child.tag == "textPath":
                 self.unsupported.add("its path (textPath: on a straight line)")
             self.collect(child, f, shown if vis not in ("visible", "hidden", "collapse")
@@ -322,10 +325,7 @@ class TextReader:
             own = r.style.own_style(r.sheet, para.tag, para.attrs)
             if own.get("display") == "none":
                 continue
-            try:
-                font = inherit(ctx.font, own) if any(q in own for q in st.TEXT_PROPS) else ctx.font
-            except st.BadValue as e:
-                raise r.err(para, str(e)) from None
+            font = inherit(ctx.font, own) if any(q in own for q in st.TEXT_PROPS) else ctx.font
             vis = own.get("visibility", "inherit")
             shown = vis == "visible" if vis in ("visible", "hidden", "collapse") else \
                 ctx.vis == "visible"
