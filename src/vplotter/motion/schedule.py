@@ -77,6 +77,7 @@ class Scheduler:
         self.energized = False
         self.pen_down = False
         self.pen_us = 0
+        self.down_us = cfg.pen.down_us    # the pen-down pulse of the pen that is in
         self.line = 0
         self.steps_total = np.zeros(2, dtype=np.int64)
         self.t_us_floor = 0       # rows before this time were output already
@@ -156,7 +157,7 @@ class Scheduler:
             return None
         self.line = line
         self.pen_down = down
-        width = self.cfg.pen.down_us if down else self.cfg.pen.up_us
+        width = self.down_us if down else self.cfg.pen.up_us
         coils = self.drv.hold_word() if self.energized else self.idle
         rows = [self._row(self.t_us, coils, width),
                 self._row(self.t_us + self.settle_us, coils, 0)]
