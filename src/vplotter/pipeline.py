@@ -380,7 +380,8 @@ def plan(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str
         if isinstance(rec, gcode.Move):
             summary.moves += 1
             here_xy = (rec.x1, rec.y1)
-            parked = False             # pen up from the change point to where the move ends
+            if rec.arc or (rec.x1, rec.y1) != (rec.x0, rec.y0):
+                parked = False         # pen up from the change point to where the move ends
             if pts is not None and len(pts) == 0:
                 continue
             if pen_down:
