@@ -54,24 +54,28 @@ PENS = {2: "red", 9: "blue", 14: "green"}      # the comment lines: where each p
 CHANGE = (-10.0, 12.0)
 
 
-@pytest.fixture
-def pen_file(tmp_path, monkeypatch):
-    """The G-code file, read with a pen-change Pause at each `(pen NAME)` line."""
+def pens_file(tmp_path, monkeypatch, text: str, pens: dict):
+    """A G-code file, read with a pen-change Pause at each `(pen NAME)` line (pens)."""
     f = tmp_path / "pens.ngc"
-    f.write_text(PENS_GCODE)
+    f.write_text(text)
     orig = Prepared.records
 
     def records(self):
-        todo = sorted(PENS.items())
+        todo = sorted(pens.items())
         for rec in orig(self):
             while todo and todo[0][0] < rec.line:
                 line, pen = todo.pop(0)
-                k = sorted(PENS).index(line) + 1
-                yield Pause(line, 1, f"pen {pen}", pen=pen, index=k, count=len(PENS))
+                k = sorted(pens).index(line) + 1
+                yield Pause(line, 1, f"pen {pen}", pen=pen, index=k, count=len(pens))
             yield rec
 
     monkeypatch.setattr(Prepared, "records", records)
     return f
+
+
+@pytest.fixture
+def pen_file(tmp_path, monkeypatch):
+    return pens_file(tmp_path, monkeypatch, PENS_GCODE, PENS)
 
 
 def write_config(tmp_path, extra: str = "") -> str:
@@ -216,6 +220,22 @@ def test_without_a_change_point_the_gondola_waits_where_the_plot_started(
     for steps, _, _ in watch.at_pause:
         assert np.hypot(*(watch.xy(steps, pos) - (5.0, -20.0))) <= 0.02
     covers(drawn(trace, cfg_path, (5.0, -20.0)), pen_file)
+
+
+def test_a_pen_change_in_the_middle_of_a_stroke_lifts_parks_and_goes_back_down(
+        capsys, cfg_path, tmp_path, monkeypatch):
+    text = PENS_GCODE.replace("(pen blue)\n", "").replace("G01 X4 Y4\n", "(pen blue)\nG01 X4 Y4\n")
+    f = pens_file(tmp_path, monkeypatch, text, {2: "red", 7: "blue", 14: "green"})
+    trace = tmp_path / "t.csv"
+    watch = Watch(monkeypatch, cfg_path)
+    enter_at_each_prompt(monkeypatch, watch, 3)
+    assert run(capsys, "--config", cfg_path, "calibrate", "--at", "0", "0")[0] == 0
+    pos = state.load()
+    assert run(capsys, "--config", cfg_path, "draw", f, "--backend", "fake", "--trace",
+               trace)[0] == 0
+    steps, word, pen = watch.at_pause[1]
+    assert np.hypot(*(watch.xy(steps, pos) - CHANGE)) <= 0.02 and pen == 500
+    covers(drawn(trace, cfg_path), f)
 
 
 def test_a_change_point_off_the_page_is_an_error_before_anything_moves(capsys, tmp_path,

@@ -361,9 +361,13 @@ def plan(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str
                 elif isinstance(rec, Pause) and rec.pen is not None:
                     pending = rec
                 continue
-            if pending is not None and not (isinstance(rec, Pause) and rec.pen is not None):
+            at_change = isinstance(rec, Pause) and rec.pen is not None
+            if pending is not None and not at_change:
                 yield from change(pending, False)       # the pen is up here (start lifts it)
             parked = False
+            if at_change and not pen_down:     # resumed at a pen change: it parks, goes on
+                start_at = None
+        if start_at is not None:
             # travel pen up to where the drawing goes on, then put the pen as the file has it
             there = file_xy
             if isinstance(rec, gcode.Move):
