@@ -432,3 +432,29 @@ def test_live_waiting_state_and_continue_requests(monkeypatch):
     assert live.pen_prompt(Pause(1, 0, "layer a done; next: layer b")) == \
         "layer a done; next: layer b"
     pub.close()
+
+
+def test_without_a_terminal_a_pen_change_waits_for_continue(capsys, cfg_path, pen_file,
+                                                             monkeypatch):
+    """A draw whose standard input is closed (a systemd service) does not skip a pen change:
+    it waits for `vplotter continue`; Enter's wait also ends on `continue`."""
+    assert run(capsys, "--config", cfg_path, "calibrate", "--at", "0", "0")[0] == 0
+    polls = []
+
+    def sleep(s):
+        polls.append(s)
+        assert nested("continue") == 0
+
+    monkeypatch.setattr(draw_cmd, "_sleep", sleep)
+    monkeypatch.setattr(sys, "stdin", io.StringIO(""))
+    code, out, err = run(capsys, "--config", cfg_path, "draw", pen_file, "--backend", "fake")
+    assert code == 0 and len(polls) == 3
+    assert err.count("standard input is closed: waiting for `vplotter continue`") == 3
+    assert out.count("continuing pid") == 3 and "going on with the green pen" in out
+    r, w = os.pipe()                                  # a terminal where nobody types
+    with os.fdopen(r) as f:
+        calls = []
+        assert draw_cmd.wait_enter(f, lambda: False, poll_s=0,
+                                   go=lambda: calls.append(1) or len(calls) > 2)
+    os.close(w)
+    assert len(calls) == 3

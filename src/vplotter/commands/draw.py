@@ -211,7 +211,9 @@ def _pause_handler(s, progress, detached: bool = False):
             wait_continue(stop, live.take_continue)
         elif p.pen is not None:
             say(f"pause: {text}, then press Enter")
-            wait_enter(sys.stdin, stop, go=live.take_continue)
+            if not wait_enter(sys.stdin, stop, go=live.take_continue,
+                              closed="waiting for `vplotter continue`"):
+                wait_continue(stop, live.take_continue)     # no terminal (a service)
         else:
             say(f"pause: {text}: change the pen, then press Enter")
             wait_enter(sys.stdin, stop, go=live.take_continue)
@@ -232,9 +234,11 @@ def wait_continue(stop, go) -> None:
         _sleep(POLL_S)
 
 
-def wait_enter(stdin, stop, poll_s: float = POLL_S, go=lambda: False) -> None:
+def wait_enter(stdin, stop, poll_s: float = POLL_S, go=lambda: False,
+               closed: str = "not waiting at the pause") -> bool:
     """Read one line from stdin; polls so that a signal (stop() true) or `vplotter continue`
-    (go() true) ends the wait. With stdin closed (end of file) it says so and goes on."""
+    (go() true) ends the wait. With stdin closed (end of file) it says so (`closed`: what
+    happens then) and returns False."""
     try:
         fd = stdin.fileno()
     except (AttributeError, OSError, ValueError):
@@ -247,11 +251,13 @@ def wait_enter(stdin, stop, poll_s: float = POLL_S, go=lambda: False) -> None:
             if ready:
                 break
             if go():
-                return
+                return True
         else:
-            return
+            return True
     if stdin.readline() == "":
-        eprint("vplotter: warning: standard input is closed: not waiting at the pause")
+        eprint(f"vplotter: warning: standard input is closed: {closed}")
+        return False
+    return True
 
 
 def cmd_estimate(args, argv=None) -> int:

@@ -13,6 +13,7 @@ import queue
 import signal
 import sys
 import threading
+import time
 from dataclasses import dataclass
 from typing import Iterable
 
@@ -115,6 +116,7 @@ class Session:
         # (the position stays exact while a pen is pushed in), at other pauses they are released
         self.on_pause = None
         self.waiting = None     # the Pause being waited at
+        self._waited = (0, 0)   # pauses waited at, and for how long (ns)
         self.pen_in: dict | None = position.extra.get("pen_in") if position is not None else None
 
     @property
@@ -272,8 +274,11 @@ class Session:
         self.waiting = p
         if self.live is not None:
             self.live.waiting(p)
+        t0 = time.monotonic_ns()
         if self.on_pause is not None:
             self.on_pause(p)
+        # a real-time player moves its timeline by the wait: that is no lateness
+        self._waited = (self._waited[0] + 1, self._waited[1] + time.monotonic_ns() - t0)
         if self._signum:                 # stopped while waiting: the change is still to do
             return k
         self.waiting = None
@@ -285,6 +290,8 @@ class Session:
 
     def _publish(self, force: bool = False) -> None:
         shifts, lost_ns = self.backend.shifts()
+        if shifts:
+            shifts, lost_ns = max(0, shifts - self._waited[0]), max(0, lost_ns - self._waited[1])
         self.live.update(self.t_us / 1e6, self.line, shifts, lost_ns / 1e9, force)
 
     def _played(self, part: Rows, n: int) -> None:
@@ -368,13 +375,13 @@ class Session:
             pos.extra.pop("drawing", None)
         if self.pen_in is not None:               # the pen in the gondola, as far as known
             pos.extra["pen_in"] = self.pen_in
-        pos.extra.pop("pen_change", None)
-        w = self.waiting
-        if w is not None and w.pen is not None:   # stopped while waiting for this pen
-            pos.extra["pen_change"] = {"pen": w.pen, "index": int(w.index),
-                                       "count": int(w.count), "message": w.message}
         if self.resume_info is not None:          # only draw says where to resume (or not)
             pos.extra.pop("resume", None)
+            pos.extra.pop("pen_change", None)
+            w = self.waiting
+            if w is not None and w.pen is not None:   # stopped while waiting for this pen
+                pos.extra["pen_change"] = {"pen": w.pen, "index": int(w.index),
+                                           "count": int(w.count), "message": w.message}
             if self.resume_info:
                 pos.extra["resume"] = self.resume_info
         state.save(pos)
