@@ -26,7 +26,7 @@ from vplotter import config, kinematics
 from vplotter.backends.fake import FakeBackend
 from vplotter.cli import COMMANDS, build_parser, main
 from vplotter.commands import draw as draw_cmd
-from vplotter.inputs.gcode import Pause
+from vplotter.inputs.gcode import Pause, Pen
 from vplotter.machine import live, state
 from vplotter.prepare import Prepared
 
@@ -54,19 +54,30 @@ PENS = {2: "red", 9: "blue", 14: "green"}      # the comment lines: where each p
 CHANGE = (-10.0, 12.0)
 
 
-def pens_file(tmp_path, monkeypatch, text: str, pens: dict):
-    """A G-code file, read with a pen-change Pause at each `(pen NAME)` line (pens)."""
+def pens_file(tmp_path, monkeypatch, text: str, pens: dict, lift: bool = False):
+    """A G-code file, read with a pen-change Pause at each `(pen NAME)` line (pens); lift:
+    a pen that is down is lifted before the pause and lowered after it on the pause's line,
+    as the G-code reader does at a tool change."""
     f = tmp_path / "pens.ngc"
     f.write_text(text)
     orig = Prepared.records
 
     def records(self):
         todo = sorted(pens.items())
+        down = False
         for rec in orig(self):
             while todo and todo[0][0] < rec.line:
                 line, pen = todo.pop(0)
                 k = sorted(pens).index(line) + 1
-                yield Pause(line, 1, f"pen {pen}", pen=pen, index=k, count=len(pens))
+                around = lift and down
+                if around:
+                    yield Pen(line, 1, False)
+                yield Pause(line, 1, f"put in the {pen} pen ({k} of {len(pens)})", pen=pen,
+                            index=k, count=len(pens))
+                if around:
+                    yield Pen(line, 1, True)
+            if isinstance(rec, Pen):
+                down = rec.down
             yield rec
 
     monkeypatch.setattr(Prepared, "records", records)
@@ -222,10 +233,15 @@ def test_without_a_change_point_the_gondola_waits_where_the_plot_started(
     covers(drawn(trace, cfg_path, (5.0, -20.0)), pen_file)
 
 
+MID_STROKE = PENS_GCODE.replace("(pen blue)\n", "").replace("G01 X4 Y4\n",
+                                                             "(pen blue)\nG01 X4 Y4\n")
+MID_PENS = {2: "red", 7: "blue", 14: "green"}
+
+
+@pytest.mark.parametrize("lift", [False, True])
 def test_a_pen_change_in_the_middle_of_a_stroke_lifts_parks_and_goes_back_down(
-        capsys, cfg_path, tmp_path, monkeypatch):
-    text = PENS_GCODE.replace("(pen blue)\n", "").replace("G01 X4 Y4\n", "(pen blue)\nG01 X4 Y4\n")
-    f = pens_file(tmp_path, monkeypatch, text, {2: "red", 7: "blue", 14: "green"})
+        capsys, cfg_path, tmp_path, monkeypatch, lift):
+    f = pens_file(tmp_path, monkeypatch, MID_STROKE, MID_PENS, lift)
     trace = tmp_path / "t.csv"
     watch = Watch(monkeypatch, cfg_path)
     enter_at_each_prompt(monkeypatch, watch, 3)
@@ -417,10 +433,10 @@ def test_live_waiting_state_and_continue_requests(monkeypatch):
     assert live.read(me, now=1000.0)["waiting"] is None
     live.request_continue(os.getpid())                 # left over from before: dropped
     now["t"] = 1001.0
-    pub.waiting(Pause(12, 0, "pen red", pen="red", index=2, count=3))
+    pub.waiting(Pause(12, 0, "", pen="red", index=2, count=3))
     assert not live.continue_path().exists()
     d = live.read(me, now=1002.0)
-    assert d["waiting"] == {"message": "pen red", "pen": "red", "index": 2, "count": 3,
+    assert d["waiting"] == {"message": "", "pen": "red", "index": 2, "count": 3,
                             "since": 1001.0, "prompt": "put in the red pen (2 of 3)"}
     assert live.describe(d).startswith("waiting in a.svg line 12: put in the red pen (2 of 3)")
     live.request_continue(os.getpid() + 1)             # for someone else
@@ -458,3 +474,45 @@ def test_without_a_terminal_a_pen_change_waits_for_continue(capsys, cfg_path, pe
                                    go=lambda: calls.append(1) or len(calls) > 2)
     os.close(w)
     assert len(calls) == 3
+
+
+@pytest.mark.parametrize("power_cut", [False, True])
+def test_a_resume_on_a_tool_change_line_asks_for_that_pen_once(
+        capsys, cfg_path, tmp_path, monkeypatch, power_cut):
+    """A G-code tool change lifts the pen, pauses and lowers it on one line: stopped while
+    waiting there, or a power cut on the way back from the change point (the journal names
+    that line), the resumed draw asks for that pen, not the one before it."""
+    f = pens_file(tmp_path, monkeypatch, MID_STROKE, MID_PENS, lift=True)
+    t1, t2 = tmp_path / "t1.csv", tmp_path / "t2.csv"
+    assert run(capsys, "--config", cfg_path, "calibrate", "--at", "0", "0")[0] == 0
+
+    def meanwhile(k):
+        if k == 1:
+            assert nested("continue") == 0
+        else:
+            os.kill(os.getpid(), signal.SIGINT)
+
+    code, polls = detached_draw(capsys, cfg_path, f, monkeypatch, meanwhile, "--trace", t1)
+    assert code == 130 and len(polls) == 2
+    capsys.readouterr()
+    pos = state.load()
+    assert pos.extra["resume"]["line"] == 7
+    extra = []
+    if power_cut:
+        resume = pos.extra.pop("resume")
+        pos.clean = False
+        pos.extra["drawing"] = {k: resume[k] for k in ("file", "sha256", "options", "start")}
+        state.save(pos)
+        j = state.Journal()
+        j.record(pos.counts, (0, 0), 7, "up")
+        j.close()
+        extra = ["--trust-position"]
+    monkeypatch.setattr(sys, "stdin", io.StringIO("\n\n"))
+    code, out, _ = run(capsys, "--config", cfg_path, "draw", f, "--backend", "fake",
+                       "--resume", "--trace", t2, *extra)
+    assert code == 0
+    assert [line for line in out.splitlines() if line.startswith("pause:")] == [
+        "pause: put in the blue pen (2 of 3), then press Enter",
+        "pause: put in the green pen (3 of 3), then press Enter"]
+    xy = watchless_xy(cfg_path, pos)
+    covers(np.vstack([drawn(t1, cfg_path), drawn(t2, cfg_path, tuple(xy))]), f)

@@ -350,10 +350,12 @@ def plan(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str
     keep_pen = pen_down is not None
     yield ("start", pen_down)
     pen_down = bool(pen_down)
-    for rec in records:
+    pairs = ((r, False) for r in records) if start_at is None else \
+        _before_resume(records, start_at.line)
+    for rec, before in pairs:
         pts = None
         if start_at is not None:
-            if rec.line < start_at.line:
+            if before:
                 if isinstance(rec, gcode.Pen):
                     pen_down = rec.down
                 elif isinstance(rec, gcode.Move):
@@ -415,6 +417,26 @@ def plan(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str
         raise InputError(f"{name}: error: line {start_at.line} is past the last move of the file")
     yield from flush(True)
     yield ("finish", not keep_pen)
+
+
+def _before_resume(records, line: int) -> Iterator[tuple]:
+    """(record, whether it lies before the place a resume starts at `line`). Those of the
+    resume line itself do when a pen-change pause follows on it (a G-code tool change lifts
+    the pen, pauses and lowers it on one line): a resume there begins with that change."""
+    held: list = []
+    it = iter(records)
+    for rec in it:
+        if rec.line < line:
+            yield rec, True
+        elif rec.line == line and not (isinstance(rec, Pause) and rec.pen is not None):
+            held.append(rec)
+        else:
+            change = rec.line == line
+            yield from ((h, change) for h in held)
+            yield rec, False
+            yield from ((r, False) for r in it)
+            return
+    yield from ((h, False) for h in held)
 
 
 def validate(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str = "<input>",

@@ -40,8 +40,10 @@ def continue_path():
 
 
 def pen_prompt(p) -> str:
-    """What a person is asked at a Pause: "put in the red pen (2 of 3)", or its message."""
-    if getattr(p, "pen", None) is None:
+    """What a person is asked at a Pause: its message ("put in the red pen (2 of 3)", "80 m
+    drawn with the red pen: put in a fresh one or refill it"); a pen change without one is
+    asked for by the pen's name."""
+    if p.message or getattr(p, "pen", None) is None:
         return p.message
     of = f" ({p.index} of {p.count})" if p.count else ""
     return f"put in the {p.pen} pen{of}"
