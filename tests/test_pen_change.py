@@ -322,6 +322,7 @@ def test_a_background_draw_waits_for_continue_and_status_shows_it(capsys, cfg_pa
                                      "`vplotter continue` goes on")
     w = info["drawing"]["waiting"]
     assert info["last_stop"] == "running" and info["drawing"]["pid"] == os.getpid()
+    assert info["drawing"]["state"] == "waiting" and seen[1]["drawing"]["state"] == "waiting"
     assert {k: w[k] for k in ("pen", "index", "count", "prompt")} == {
         "pen": "blue", "index": 2, "count": 3, "prompt": "put in the blue pen (2 of 3)"}
     assert "WAITING: put in the blue pen (2 of 3), then `vplotter continue`" in text
@@ -431,6 +432,7 @@ def test_live_waiting_state_and_continue_requests(monkeypatch):
     pub.update(40.0, 12, force=True)
     me = {"pid": os.getpid(), "command": "vplotter draw a.svg", "since": 1000.0}
     assert live.read(me, now=1000.0)["waiting"] is None
+    assert live.read(me, now=1000.0)["state"] == "drawing"
     live.request_continue(os.getpid())                 # left over from before: dropped
     now["t"] = 1001.0
     pub.waiting(Pause(12, 0, "", pen="red", index=2, count=3))
@@ -443,8 +445,10 @@ def test_live_waiting_state_and_continue_requests(monkeypatch):
     assert not live.take_continue()
     live.request_continue(os.getpid())
     assert live.take_continue() and not live.take_continue()
+    assert d["state"] == "waiting"
     pub.waiting(None)
     assert live.read(me, now=1003.0)["waiting"] is None
+    assert live.read(me, now=1003.0)["state"] == "drawing"
     assert live.pen_prompt(Pause(1, 0, "layer a done; next: layer b")) == \
         "layer a done; next: layer b"
     pub.close()

@@ -4,12 +4,13 @@ removed when the draw ends. Nobody reads the running process's internals: only t
 the lock file for whether its writer is still alive.
 
     {"pid", "command", "file", "started", "updated", "line", "done_s", "total_s",
-     "shifts", "lost_s", "waiting"}
+     "shifts", "lost_s", "state", "waiting"}
 
 done_s is the plot time played so far, total_s the plot time of the whole draw (what the
 summary printed), both on the schedule's clock; lost_s the time the real-time player has lost
-to lateness (the plot takes that much longer). waiting is null while the draw runs, and while
-it waits at a pause (a pen change) {"message", "pen", "index", "count", "since", "prompt"}:
+to lateness (the plot takes that much longer). state is "drawing", or "waiting" while the
+draw waits at a pause (a pen change); waiting is null while it draws, else {"message", "pen",
+"index", "count", "since", "prompt"}:
 the pen to put in (null at a plain pause), the index-th of count, since when (epoch seconds),
 and the one line a person reads ("put in the red pen (2 of 3)"). Whoever wants to tell
 someone that the plotter waits (a notification) watches this key; `vplotter continue` (or
@@ -86,7 +87,8 @@ class Publisher:
         self.clock = clock
         self.info = {"pid": os.getpid(), "command": command, "file": file,
                      "started": clock(), "updated": 0.0, "line": 0, "done_s": 0.0,
-                     "total_s": float(total_s), "shifts": 0, "lost_s": 0.0, "waiting": None}
+                     "total_s": float(total_s), "shifts": 0, "lost_s": 0.0, "state": "drawing",
+                     "waiting": None}
         self.last = -1e9
 
     def waiting(self, pause) -> None:
@@ -101,6 +103,7 @@ class Publisher:
                      "count": int(pause.count), "since": self.clock(),
                      "prompt": pen_prompt(pause)}
         self.info["waiting"] = pause
+        self.info["state"] = "drawing" if pause is None else "waiting"
         self.update(self.info["done_s"], self.info["line"], self.info["shifts"],
                     self.info["lost_s"], force=True)
 
@@ -141,10 +144,10 @@ def _write(info: dict) -> None:
 
 def read(holder: dict | None = None, now: float | None = None) -> dict | None:
     """The running draw as status shows it: {"pid", "command", "file", "line", "percent",
-    "elapsed_s", "remaining_s", "finish", "shifts", "lost_s", "waiting"}, or None when no
-    draw is running (waiting: see the module doc; finish counts from now while it waits). `holder` is the
-    lock holder (lock.holder()); a live.json whose writer does not hold the lock is left over
-    from a crash and means nothing."""
+    "elapsed_s", "remaining_s", "finish", "shifts", "lost_s", "state", "waiting"}, or None
+    when no draw is running (state, waiting: see the module doc; finish counts from now while
+    it waits). `holder` is the lock holder (lock.holder()); a live.json whose writer does not
+    hold the lock is left over from a crash and means nothing."""
     if holder is None:
         holder = lock.holder()
     if holder is None:
@@ -164,6 +167,7 @@ def read(holder: dict | None = None, now: float | None = None) -> dict | None:
                 "remaining_s": round(remaining, 1),
                 "finish": time.strftime("%H:%M", time.localtime(now + remaining)),
                 "shifts": int(info.get("shifts", 0)), "lost_s": float(info.get("lost_s", 0.0)),
+                "state": str(info.get("state", "drawing")),
                 "waiting": info.get("waiting") or None}
     except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return None
