@@ -355,6 +355,8 @@ def test_stop_while_waiting_is_clean_and_resume_asks_for_that_pen_again(
     assert np.hypot(*(xy - CHANGE)) <= 0.02            # still at the change point
     assert run(capsys, "--config", cfg_path, "status")[1].count(
         "stopped at a pen change: put in the blue pen (2 of 3)") == 1
+    info = json.loads(run(capsys, "--config", cfg_path, "status", "--json")[1])
+    assert info["pen_change"]["pen"] == "blue" and info["pen_in"]["pen"] == "red"
     monkeypatch.setattr(sys, "stdin", io.StringIO("\n\n"))
     code, out, _ = run(capsys, "--config", cfg_path, "draw", pen_file, "--backend", "fake",
                        "--resume", "--trace", t2)
