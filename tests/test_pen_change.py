@@ -275,9 +275,15 @@ def test_each_pen_draws_with_its_own_down_pulse(capsys, tmp_path, pen_file, monk
     watch = Watch(monkeypatch, cfg_path)
     enter_at_each_prompt(monkeypatch, watch, 3)
     assert run(capsys, "--config", cfg_path, "calibrate", "--at", "0", "0")[0] == 0
-    assert run(capsys, "--config", cfg_path, "draw", pen_file, "--backend", "fake")[0] == 0
+    trace = tmp_path / "t.csv"
+    assert run(capsys, "--config", cfg_path, "draw", pen_file, "--backend", "fake", "--trace",
+               trace)[0] == 0
     downs = {line: us for line, us in watch.pulses if us != 500}
     assert downs == {5: 1500, 10: 1300, 16: 1500}      # red, blue (its own), green
+    from vplotter.machine.trace import read_steps     # what `simulate` reads: 3 strokes down
+
+    down = read_steps(str(trace), watch.cfg.motors, watch.cfg.pen).down.astype(int)
+    assert int((np.diff(down) == 1).sum()) == 3
 
 
 # ---------------------------------------------------------------- in the background
