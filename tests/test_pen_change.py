@@ -528,3 +528,22 @@ def test_a_resume_on_a_tool_change_line_asks_for_that_pen_once(
         "pause: put in the green pen (3 of 3), then press Enter"]
     xy = watchless_xy(cfg_path, pos)
     covers(np.vstack([drawn(t1, cfg_path), drawn(t2, cfg_path, tuple(xy))]), f)
+
+
+def test_the_servo_backends_take_each_pens_own_pulse(tmp_path):
+    """gpiozero's servo spans every pulse width the pens use; lgpio refuses one it cannot make
+    when it opens, before anything moves."""
+    from fake_lgpio import FakeLgpio, SimClock
+    from test_backends import gpiozero_backend, make_rows, mock_outputs
+    from vplotter.backends import create
+    from vplotter.errors import BackendError
+
+    cfg = config.load(write_config(tmp_path, '[pens.blue]\ncolour = "#0000ff"\ndown_us = 2000\n'))
+    clock = SimClock(tick_ns=1000)
+    b, factory = gpiozero_backend(cfg, clock)
+    with b:
+        b.play(make_rows([0, 10], [0, 0], [2000, 2000]))
+        assert mock_outputs(cfg, factory)[1] == 2000
+    bad = config.load(write_config(tmp_path, '[pens.blue]\ncolour = "#0000ff"\ndown_us = 2600\n'))
+    with pytest.raises(BackendError, match="not 2600"):
+        create("lgpio", bad, lgpio=FakeLgpio(clock), clock=clock.now, sleep=clock.sleep).open()
