@@ -15,7 +15,8 @@ one-coil neighbour (one half step back, which its next move takes up) and takes 
 before it is released. Every energise and release is then one pin, so a board written one pin
 at a time never shows a half step that the rows do not have. Energised motors are held for one
 step interval before they move, so no step is lost. A `Turn` (the polar table at its centre)
-moves the motors from rest to rest with the pen standing still.
+moves the motors from rest to rest with the pen standing still. A pause for a new pen (a pen
+change) is not released: the motors hold the gondola while the pen is put in.
 """
 
 from __future__ import annotations
