@@ -33,6 +33,8 @@ COMMANDS: dict[str, tuple[Callable, Callable, str]] = {
                "where the pen is, whether the last stop was clean, the running draw"),
     "stop": (live.cmd_stop, live.add_stop,
              "pause the running draw: pen up, position stored, ready to --resume"),
+    "continue": (live.cmd_continue, live.add_continue,
+                 "let a draw waiting at a pen change go on (as Enter on its terminal)"),
     "log": (live.cmd_log, live.add_log, "print the output of the background draw (--detach)"),
     "pen": (machine.cmd_pen, machine.add_pen, "lift, lower or cycle the pen"),
     "jog": (machine.cmd_jog, machine.add_jog,

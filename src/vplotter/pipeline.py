@@ -65,7 +65,8 @@ PLAN_LIMIT = 100_000   # pieces (about 11 MB): a validated plan up to this size 
 def stream(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str = "<input>",
            emit: bool = True, summary: Summary | None = None,
            start_at: StartAt | None = None, pen_down: bool | None = None,
-           keep: Kept | None = None, scheduler=Scheduler, where=None) -> Iterator[Rows | Pause]:
+           keep: Kept | None = None, scheduler=Scheduler, where=None,
+           park=None) -> Iterator[Rows | Pause]:
     """Rows for drawing `records` starting from the given step counts (cords = ref + counts / steps per unit).
 
     With `start_at`, records before that line are skipped (their pen changes still count), the
@@ -74,12 +75,15 @@ def stream(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: s
     `replay` can make the same rows later without parsing and planning again.
     `scheduler` makes what is played from the plan (Rows for GPIO; the serial backend's
     `linestream.LineScheduler` makes G-code lines); its `chord_share` cuts arcs.
-    A Pause record (pen up, coils released) is passed on as it is, for the player to wait.
+    A Pause record is passed on as it is, for the player to wait: a plain one with the pen up
+    and the coils released; a pen change (Pause.pen) with the gondola parked at the change
+    point (`park`, G-code mm: where pen changes happen when config.toml [pens] has no change
+    point; None: where this plan starts), the pen up and the motors holding.
     where(line, col) names the file place of a line in errors (default: name:line:col).
     """
     summary = summary if summary is not None else Summary()
     ops = plan(cfg, records, counts, ref_mm, name, summary, start_at, pen_down,
-               getattr(scheduler, "chord_share", CHORD_SHARE), where)
+               getattr(scheduler, "chord_share", CHORD_SHARE), where, park)
     if keep is not None:
         ops = _keeping(ops, keep)
     yield from _schedule(cfg, ops, counts, ref_mm, emit, summary, scheduler)
@@ -135,10 +139,13 @@ def _schedule(cfg, ops, counts, ref_mm, emit: bool, summary: Summary,
         elif kind == "start":
             rows = sched.start(op[1])
         elif kind == "pause":
-            rows = sched.release()
-            if emit:
-                if rows is not None:
+            if op[1].pen is None:            # a plain pause: the coils are released
+                rows = sched.release()
+                if emit and rows is not None:
                     yield rows
+            else:                            # a pen change: held; the new pen's pen-down pulse
+                sched.down_us = pen_down_us(cfg, op[1].pen)
+            if emit:
                 yield op[1]
             continue
         else:
@@ -147,6 +154,31 @@ def _schedule(cfg, ops, counts, ref_mm, emit: bool, summary: Summary,
             yield rows
     summary.steps = sched.steps_total.copy()
     summary.time_s = sched.t_us / 1e6
+
+
+def pen_down_us(cfg: Config, pen: str | None) -> int:
+    """The pen-down pulse while `pen` is in: its [pens.NAME] down_us (servo pens), else
+    [pen] down_us."""
+    spec = cfg.pens.get(pen) if pen is not None else None
+    if cfg.pen.kind == "servo" and spec is not None and spec.down_us is not None:
+        return int(spec.down_us)
+    return cfg.pen.down_us
+
+
+def change_point(cfg: Config, park, where: str) -> tuple[float, float]:
+    """Where the gondola waits at a pen change (G-code mm): config.toml [pens] change_x_mm,
+    change_y_mm, else `park` (where the plot started); checked against the page."""
+    xy = cfg.pens.change_at
+    what = "[pens] change_x_mm, change_y_mm"
+    if xy is None:
+        xy, what = park, f"where the plot started; set {what} to choose one"
+    x, y = float(xy[0]), float(xy[1])
+    page = cfg.page
+    if not (page.x_min_mm <= x <= page.x_max_mm and page.y_min_mm <= y <= page.y_max_mm):
+        raise ConfigError(f"{where}: error: the pen change point X{x:.3f} Y{y:.3f} ({what}) is "
+                          f"outside the page (X {page.x_min_mm:g}..{page.x_max_mm:g}, "
+                          f"Y {page.y_min_mm:g}..{page.y_max_mm:g})")
+    return (x, y)
 
 
 def _parts(block: Block, spu: np.ndarray) -> Iterator[Block]:
@@ -191,14 +223,18 @@ def _chord_turn(cfg: Config):
 def plan(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str,
          summary: Summary, start_at: StartAt | None = None,
          pen_down: bool | None = None, chord_share: float = CHORD_SHARE,
-         where=None) -> Iterator[tuple]:
+         where=None, park=None) -> Iterator[tuple]:
     """The plan: ("start", pen_down), ("motion", Block), ("turn", Turn), ("pen", down, line),
     ("dwell", seconds, line) and ("finish", lift) in the order the machine does them.
 
     Pen changes and dwells are stops inside the planner's look-ahead, so that many short
     strokes are planned together: they travel with the planned pieces as the events of the
     stop they happen at, and come out right after the block that ends there. A Pause record
-    gives ("pause", record), a stop like a pen change."""
+    gives ("pause", record), a stop like a pen change; before a pen change (Pause.pen) the
+    gondola travels pen up to the change point and goes on from there (`park`: see stream).
+    A resumed plan asks for the pen in use at the resume point first (the last pen change
+    before it), so that a stop or a power cut during or after a pen change goes on with the
+    right pen."""
     where = where or (lambda line, col: f"{name}:{line}:{col}")
     kin = kinematics.from_config(cfg)
     spu = np.asarray(cfg.motors.steps_per_unit)
@@ -213,6 +249,10 @@ def plan(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str
     turn = _chord_turn(cfg)
     mo = cfg.motion
     file_xy = (0.0, 0.0)
+    here_xy = tuple(kin.to_gcode(start[None, :])[0].tolist())   # the file's pen point
+    park_xy = here_xy if park is None else (float(park[0]), float(park[1]))
+    parked = False                       # at the change point, not where the file's pen is
+    pending: Pause | None = None         # resume: the pen change of the records skipped
 
     def blocks(bs: Iterator[Block | Turn]) -> Iterator[tuple]:
         for b in bs:
@@ -289,18 +329,47 @@ def plan(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str
         if stop:
             yield from blocks(planner.stop())
 
+    def travel_to(xy, line: int, col: int) -> None:
+        batch.append(np.array([xy], dtype=float))
+        meta.append((mo.travel_speed_mm_s, line, col, False))
+
+    def change(p: Pause, down: bool) -> Iterator[tuple]:
+        """A pen change: pen up, to the change point, wait; a pen that was down (a file that
+        changes pens mid-stroke) goes back and down again."""
+        nonlocal parked
+        xy = change_point(cfg, park_xy, where(p.line, p.col))
+        if down:
+            yield from stop_for(("pen", False, p.line))
+        travel_to(xy, p.line, p.col)
+        yield from stop_for(("pause", p))
+        if down:
+            travel_to(here_xy, p.line, p.col)
+            yield from stop_for(("pen", True, p.line))
+        parked = not down
+
     keep_pen = pen_down is not None
     yield ("start", pen_down)
     pen_down = bool(pen_down)
-    for rec in records:
+    pairs = ((r, False) for r in records) if start_at is None else \
+        _before_resume(records, start_at.line)
+    for rec, before in pairs:
         pts = None
         if start_at is not None:
-            if rec.line < start_at.line:
+            if before:
                 if isinstance(rec, gcode.Pen):
                     pen_down = rec.down
                 elif isinstance(rec, gcode.Move):
-                    file_xy = (rec.x1, rec.y1)
+                    file_xy = here_xy = (rec.x1, rec.y1)
+                elif isinstance(rec, Pause) and rec.pen is not None:
+                    pending = rec
                 continue
+            at_change = isinstance(rec, Pause) and rec.pen is not None
+            if pending is not None and not at_change:
+                yield from change(pending, False)       # the pen is up here (start lifts it)
+            parked = False
+            if at_change and not pen_down:     # resumed at a pen change: it parks, goes on
+                start_at = None
+        if start_at is not None:
             # travel pen up to where the drawing goes on, then put the pen as the file has it
             there = file_xy
             if isinstance(rec, gcode.Move):
@@ -316,6 +385,9 @@ def plan(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str
                 yield ("pen", True, rec.line)
         if isinstance(rec, gcode.Move):
             summary.moves += 1
+            here_xy = (rec.x1, rec.y1)
+            if rec.arc or (rec.x1, rec.y1) != (rec.x0, rec.y0):
+                parked = False         # pen up from the change point to where the move ends
             if pts is not None and len(pts) == 0:
                 continue
             if pen_down:
@@ -330,10 +402,15 @@ def plan(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str
                 yield from flush(False)
         elif isinstance(rec, gcode.Pen):
             summary.pen_downs += int(rec.down)
+            if rec.down and parked:    # back from the change point to where the pen goes down
+                travel_to(here_xy, rec.line, rec.col)
+            parked = False
             yield from stop_for(("pen", rec.down, rec.line))
             pen_down = rec.down
         elif isinstance(rec, gcode.Dwell):
             yield from stop_for(("dwell", rec.seconds, rec.line))
+        elif isinstance(rec, Pause) and rec.pen is not None:
+            yield from change(rec, pen_down)
         elif isinstance(rec, Pause):
             yield from stop_for(("pause", rec))
     if start_at is not None:
@@ -342,15 +419,36 @@ def plan(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str
     yield ("finish", not keep_pen)
 
 
+def _before_resume(records, line: int) -> Iterator[tuple]:
+    """(record, whether it lies before the place a resume starts at `line`). Those of the
+    resume line itself do when a pen-change pause follows on it (a G-code tool change lifts
+    the pen, pauses and lowers it on one line): a resume there begins with that change."""
+    held: list = []
+    it = iter(records)
+    for rec in it:
+        if rec.line < line:
+            yield rec, True
+        elif rec.line == line and not (isinstance(rec, Pause) and rec.pen is not None):
+            held.append(rec)
+        else:
+            change = rec.line == line
+            yield from ((h, change) for h in held)
+            yield rec, False
+            yield from ((r, False) for r in it)
+            return
+    yield from ((h, False) for h in held)
+
+
 def validate(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str = "<input>",
              start_at: StartAt | None = None, stop=lambda: False,
-             scheduler=Scheduler, where=None) -> Summary | None:
+             scheduler=Scheduler, where=None, park=None) -> Summary | None:
     """The validation pass: every record checked, planned and timed, no step computed.
     Returns the summary, or None if stop() turned true first."""
     summary = Summary()
     kept = Kept()
     ops = _keeping(plan(cfg, records, counts, ref_mm, name, summary, start_at,
-                        chord_share=getattr(scheduler, "chord_share", CHORD_SHARE), where=where),
+                        chord_share=getattr(scheduler, "chord_share", CHORD_SHARE), where=where,
+                        park=park),
                    kept)
     stopped = False
 

@@ -45,7 +45,9 @@ class GpiozeroBackend(Backend):
         self._pen_dev = None                 # the pen pin on the lgpio factory
         self._kind_pen = None                # a solenoid or a cam (pens.py)
         self._pen_devices = []
-        lo, hi = sorted((cfg.pen.up_us, cfg.pen.down_us))
+        widths = [cfg.pen.up_us, cfg.pen.down_us] + [p.down_us for p in cfg.pens.owned
+                                                    if p.down_us is not None]
+        lo, hi = min(widths), max(widths)      # [pens.NAME] down_us: per-pen pen-down pulses
         self._pen_range = (lo, hi)
         self._clock, self._sleep = clock or time.perf_counter_ns, sleep or time.sleep
         # coils: one pin at a time in a legal order, 1 / max_step_rate between two changes of
@@ -159,7 +161,8 @@ class GpiozeroBackend(Backend):
     def _lgpio_pen(self, factory) -> None:
         from gpiozero import DigitalOutputDevice
 
-        for w in (self.cfg.pen.up_us, self.cfg.pen.down_us):
+        for w in (self.cfg.pen.up_us, self.cfg.pen.down_us,
+                  *(p.down_us for p in self.cfg.pens.owned if p.down_us is not None)):
             if not 500 <= w <= 2500:
                 raise ValueError(f"lgpio makes servo pulses of 500..2500 us, not {w} ([pen] "
                                  f"up_us/down_us)")

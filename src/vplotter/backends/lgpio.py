@@ -64,7 +64,8 @@ class LgpioBackend(Backend):
         if self.cfg.pen.kind != "servo":
             raise BackendError(f"error: the lgpio backend drives a servo pen; for [pen] kind = "
                                f"\"{self.cfg.pen.kind}\" use --backend gpiozero")
-        for w in (self.cfg.pen.up_us, self.cfg.pen.down_us):
+        for w in (self.cfg.pen.up_us, self.cfg.pen.down_us,
+                  *(p.down_us for p in self.cfg.pens.owned if p.down_us is not None)):
             if not 500 <= w <= 2500:
                 raise BackendError(f"error: servo pulses are 500..2500 us, not {w} "
                                    f"([pen] up_us/down_us)")

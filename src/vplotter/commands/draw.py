@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
 
 from vplotter.commands.common import (Progress, add_machine_options, command_line, eprint,
                                       file_hash, load_config, position, say, session)
@@ -100,7 +101,7 @@ def cmd_draw(args, argv=None) -> int:
         sess.drawing["start"] = list(prep.start_xy)
         # validation pass: the whole file, page limits and exact plot time before anything moves
         summary = pipeline.validate(cfg, prep.records(), pos.counts, pos.ref_mm, args.file, begin,
-                                    lambda: s.stop_pending, where=prep.where)
+                                    lambda: s.stop_pending, where=prep.where, park=prep.start_xy)
         if summary is not None and not s.dry_run and not args.detach:
             # published before the summary is printed: whoever sees the summary finds it
             s.live = live.Publisher(command_line(argv), os.path.abspath(args.file), summary.time_s)
@@ -114,12 +115,12 @@ def cmd_draw(args, argv=None) -> int:
             rows = pipeline.replay(cfg, summary.plan, pos.counts, pos.ref_mm)
         else:
             rows = pipeline.stream(cfg, prep.records(), pos.counts, pos.ref_mm, args.file,
-                                   start_at=begin, where=prep.where)
+                                   start_at=begin, where=prep.where, park=prep.start_xy)
         if s.tracer is not None:
             s.tracer.comment(f"file {os.path.abspath(args.file)}")
         progress = (Progress(summary) if summary and sys.stderr.isatty() and not s.dry_run
                     else None)
-        s.on_pause = _pause_handler(s, progress)
+        s.on_pause = _pause_handler(s, progress, args.detached)
         try:
             s.play(rows, progress)
         except Interrupted:
@@ -155,8 +156,6 @@ def cmd_draw(args, argv=None) -> int:
             if args.verbose:
                 say(text)
         if args.detached:
-            import time
-
             say(f"{args.file}: finished at {time.strftime('%H:%M:%S')}")
     return 0
 
@@ -192,23 +191,54 @@ def _ordered(prep) -> None:
         say(f"{prep.path}: {len(prep.strokes)} strokes placed and ordered in {prep.order_s:.2f} s")
 
 
-def _pause_handler(s, progress):
-    """What happens at a Pause (between layers): the pen is up and the coils are released.
-    A dry run only notes it; a real draw waits for Enter (a signal still stops it)."""
+def _pause_handler(s, progress, detached: bool = False):
+    """What happens at a Pause: the pen is up (at a pen change the gondola is parked at the
+    change point and held there; at a plain pause the coils are released). A dry run only
+    notes it; a draw waits for Enter or `vplotter continue`, a background draw (--detach) for
+    `vplotter continue`; a signal (`vplotter stop`) ends any wait."""
+    from vplotter.machine import live
+
     def on_pause(p) -> None:
         if progress:
             progress.done()
+        text = live.pen_prompt(p)
+        stop = lambda: s.stop_pending   # noqa: E731
         if s.dry_run:
-            say(f"pause: {p.message} (dry run: not waiting)")
+            say(f"pause: {text} (dry run: not waiting)")
             return
-        say(f"pause: {p.message}: change the pen, then press Enter")
-        wait_enter(sys.stdin, lambda: s.stop_pending)
+        if detached:
+            say(f"pause: {text}; waiting: `vplotter continue` goes on")
+            wait_continue(stop, live.take_continue)
+        elif p.pen is not None:
+            say(f"pause: {text}, then press Enter")
+            if not wait_enter(sys.stdin, stop, go=live.take_continue,
+                              closed="waiting for `vplotter continue`"):
+                wait_continue(stop, live.take_continue)     # no terminal (a service)
+        else:
+            say(f"pause: {text}: change the pen, then press Enter")
+            wait_enter(sys.stdin, stop, go=live.take_continue)
+        if not s.stop_pending and p.pen is not None:
+            say(f"going on with the {p.pen} pen")
     return on_pause
 
 
-def wait_enter(stdin, stop, poll_s: float = 0.2) -> None:
-    """Read one line from stdin; polls so that a signal (stop() true) ends the wait. With
-    stdin closed (end of file) it says so and goes on."""
+POLL_S = 0.2          # a waiting draw looks for `vplotter continue` (or a stop) this often
+
+
+_sleep = time.sleep    # (tests make the wait run on a simulated clock)
+
+
+def wait_continue(stop, go) -> None:
+    """Wait until go() (someone ran `vplotter continue`) or stop() (a signal) turns true."""
+    while not stop() and not go():
+        _sleep(POLL_S)
+
+
+def wait_enter(stdin, stop, poll_s: float = POLL_S, go=lambda: False,
+               closed: str = "not waiting at the pause") -> bool:
+    """Read one line from stdin; polls so that a signal (stop() true) or `vplotter continue`
+    (go() true) ends the wait. With stdin closed (end of file) it says so (`closed`: what
+    happens then) and returns False."""
     try:
         fd = stdin.fileno()
     except (AttributeError, OSError, ValueError):
@@ -220,10 +250,14 @@ def wait_enter(stdin, stop, poll_s: float = 0.2) -> None:
             ready, _, _ = select.select([fd], [], [], poll_s)
             if ready:
                 break
+            if go():
+                return True
         else:
-            return
+            return True
     if stdin.readline() == "":
-        eprint("vplotter: warning: standard input is closed: not waiting at the pause")
+        eprint(f"vplotter: warning: standard input is closed: {closed}")
+        return False
+    return True
 
 
 def cmd_estimate(args, argv=None) -> int:

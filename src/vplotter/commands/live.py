@@ -1,4 +1,4 @@
-"""status, stop and log: what people use while a draw runs (over SSH, from a phone).
+"""status, stop, log and continue: what people use while a draw runs (over SSH, from a phone).
 
 None of them takes the plotter lock: they read the stored position, the lock file's holder and
 what the running draw publishes (vplotter.machine.live).
@@ -75,6 +75,8 @@ def _print_json(cfg, pos, holder, drawing) -> None:
         "last_stop": "running" if running else ("clean" if pos.clean else "unclean"),
         "uncertainty_mm": round(job.uncertainty_mm(cfg, pos), 4),
         "resume": None if running else pos.extra.get("resume") or None, "state_file": str(state.state_path()),
+        "pen_in": pos.extra.get("pen_in"),      # the pen put in last: {"pen", "index", "count"}
+        "pen_change": None if running else pos.extra.get("pen_change"),   # stopped waiting
         "busy": _busy(holder), "drawing": drawing}))
 
 
@@ -86,6 +88,9 @@ def _print_text(cfg, pos, holder, drawing) -> None:
         busy = _busy(holder)
         print(f"{'drawing now' if drawing else 'busy'}: pid {busy['pid']} ({busy['command']}) "
               f"since {busy['since']}")
+        if drawing and drawing.get("waiting"):
+            print(f"  WAITING: {drawing['waiting']['prompt']}, then `vplotter continue` (or "
+                  f"Enter on its terminal)")
         if drawing:
             print(f"  {drawing['file']} line {drawing['line']}: {drawing['percent']:.1f} % of the "
                   f"plot time done, {clock_text(drawing['elapsed_s'])} elapsed, "
@@ -108,6 +113,11 @@ def _print_text(cfg, pos, holder, drawing) -> None:
             print(f"last stop: UNCLEAN (crash or power cut): the position may be off by up to "
                   f"{off:.2f} mm; check it and run `vplotter calibrate`, or draw with "
                   f"--trust-position")
+    pen_in, change = pos.extra.get("pen_in"), pos.extra.get("pen_change")
+    if change and holder is None:
+        print(f"stopped at a pen change: {_pen_text(change)}; --resume asks for it again")
+    elif pen_in:
+        print(f"pen in: {_pen_text(pen_in)}")
     resume = pos.extra.get("resume")
     if resume and holder is None:
         where = (f"at X{resume['xy'][0]:.3f} Y{resume['xy'][1]:.3f}" if resume.get("xy")
@@ -115,6 +125,13 @@ def _print_text(cfg, pos, holder, drawing) -> None:
         print(f"resume: {resume['file']} line {resume['line']} {where} "
               f"(vplotter draw FILE --resume)")
     print(f"state file: {state.state_path()}")
+
+
+def _pen_text(p: dict) -> str:
+    from vplotter.machine.live import pen_prompt
+    from types import SimpleNamespace
+
+    return pen_prompt(SimpleNamespace(**{"message": "", "index": 0, "count": 0, **p}))
 
 
 def _watch() -> None:
@@ -127,7 +144,9 @@ def _watch() -> None:
         d = live.read(holder) if holder else None
         if holder is None:
             break
-        if d is not None:
+        if d is not None and d.get("waiting"):
+            text = f"\rwaiting: {d['waiting']['prompt']} (vplotter continue goes on) "
+        elif d is not None:
             text = (f"\r[{live.bar(d['percent'])}] {d['percent']:5.1f} %  line {d['line']}  "
                     f"{clock_text(d['elapsed_s'])} elapsed  "
                     f"{clock_text(d['remaining_s'])} left  finish {d['finish']} ")
@@ -185,6 +204,28 @@ def cmd_stop(args, argv=None) -> int:
     resume = pos.extra.get("resume")
     if resume:
         say(f"resume with: vplotter draw {resume['file']} --resume")
+    return 0
+
+
+def add_continue(p) -> None:
+    pass
+
+
+def cmd_continue(args, argv=None) -> int:
+    """Let the draw that waits at a pen change (or another pause) go on: it polls for the
+    request (machine/live.py), the same as Enter on its terminal."""
+    from vplotter.errors import MachineError
+    from vplotter.machine import live, lock
+
+    holder = lock.holder()
+    drawing = live.read(holder) if holder else None
+    waiting = (drawing or {}).get("waiting")
+    if not waiting:
+        what = "no vplotter is driving the plotter" if holder is None else \
+            f"pid {holder['pid']} is not waiting at a pause"
+        raise MachineError(f"error: nothing to continue: {what}")
+    live.request_continue(drawing["pid"])
+    say(f"continuing pid {drawing['pid']}: {waiting['prompt']}")
     return 0
 
 

@@ -13,6 +13,7 @@ import queue
 import signal
 import sys
 import threading
+import time
 from dataclasses import dataclass
 from typing import Iterable
 
@@ -21,6 +22,7 @@ import numpy as np
 from vplotter.motion import drivers
 from vplotter.backends import memory
 from vplotter.machine import state
+from vplotter.machine.writer import Writer as _Writer
 from vplotter.errors import BackendError, Interrupted, MachineError, StateError
 from vplotter.motion.schedule import Rows
 
@@ -109,7 +111,13 @@ class Session:
         self.drawing: dict | None = None     # {"file", "sha256"} while a draw runs
         self.live = None                     # live.Publisher while a draw runs
         self.ignore_hangup = False           # a background draw goes on when SIGHUP comes
-        self.on_pause = None    # on_pause(pause): a Pause came up (pen up, coils released)
+        # on_pause(pause): a Pause came up, everything before it played: the pen is up; at a
+        # pen change (pause.pen) the gondola is at the change point and the motors hold it
+        # (the position stays exact while a pen is pushed in), at other pauses they are released
+        self.on_pause = None
+        self.waiting = None     # the Pause being waited at
+        self._waited = (0, 0)   # pauses waited at, and for how long (ns)
+        self.pen_in: dict | None = position.extra.get("pen_in") if position is not None else None
 
     @property
     def saves_state(self) -> bool:
@@ -216,8 +224,9 @@ class Session:
             while cur is not None and not self._signum:
                 if not isinstance(cur, Rows):        # a pause: wait once all is played
                     self.backend.drain()
-                    if self.on_pause is not None:
-                        self.on_pause(cur)
+                    k = self._pause(cur, k)
+                    if self._signum:
+                        break
                     cur = ahead.get()
                     continue
                 nxt = ahead.get()
@@ -226,7 +235,8 @@ class Session:
                     # until the next record lands the motors are in this part or the next
                     span = cur if not isinstance(nxt, Rows) else Rows.concat([cur, nxt])
                     dev = np.abs(span.steps - np.asarray(self.counts)).max(axis=0)
-                    down = self.pen_down or bool((cur.pen_us == self.cfg.pen.down_us).any())
+                    up = self.cfg.pen.up_us           # any other pulse is a pen down (per pen)
+                    down = self.pen_down or bool(((cur.pen_us > 0) & (cur.pen_us != up)).any())
                     self._writer.wait_journal(k - 1)
                     self._writer.journal(self._journal, self.counts, dev, int(cur.line[0]),
                                          "down" if down else "up")
@@ -251,8 +261,37 @@ class Session:
             self.stop = Stop(signum, self.counts, self.line)
             raise Interrupted(f"stopped by {signal.Signals(signum).name}", signum)
 
+    def _pause(self, p, k: int) -> int:
+        """Wait at a Pause: it is the line being done (a stop now resumes there, and a
+        resumed draw asks for the pen again), the journal has the exact position (the motors
+        stand), status shows the wait. Returns the journal records written."""
+        self.line = int(p.line)
+        if self._journal is not None:
+            self._writer.wait_journal(k - 1)
+            self._writer.journal(self._journal, self.counts, (0, 0), self.line, "up")
+            self._writer.wait_journal(k + 1)
+            k += 1
+        self.waiting = p
+        if self.live is not None:
+            self.live.waiting(p)
+        t0 = time.monotonic_ns()
+        if self.on_pause is not None:
+            self.on_pause(p)
+        # a real-time player moves its timeline by the wait: that is no lateness
+        self._waited = (self._waited[0] + 1, self._waited[1] + time.monotonic_ns() - t0)
+        if self._signum:                 # stopped while waiting: the change is still to do
+            return k
+        self.waiting = None
+        if p.pen is not None:
+            self.pen_in = {"pen": p.pen, "index": int(p.index), "count": int(p.count)}
+        if self.live is not None:
+            self.live.waiting(None)
+        return k
+
     def _publish(self, force: bool = False) -> None:
         shifts, lost_ns = self.backend.shifts()
+        if shifts:
+            shifts, lost_ns = max(0, shifts - self._waited[0]), max(0, lost_ns - self._waited[1])
         self.live.update(self.t_us / 1e6, self.line, shifts, lost_ns / 1e9, force)
 
     def _played(self, part: Rows, n: int) -> None:
@@ -273,7 +312,7 @@ class Session:
         self.coils = int(done.coils[-1])
         pens = done.pen_us[done.pen_us > 0]
         if len(pens):
-            self.pen_down = int(pens[-1]) == self.cfg.pen.down_us
+            self.pen_down = int(pens[-1]) != self.cfg.pen.up_us
         self._moved = True
 
     def _begin_motion(self) -> None:
@@ -334,8 +373,15 @@ class Session:
         pos.extra = {k: v for k, v in pos.extra.items() if k not in ("uncertain_steps", "line")}
         if clean:
             pos.extra.pop("drawing", None)
+        if self.pen_in is not None:               # the pen in the gondola, as far as known
+            pos.extra["pen_in"] = self.pen_in
         if self.resume_info is not None:          # only draw says where to resume (or not)
             pos.extra.pop("resume", None)
+            pos.extra.pop("pen_change", None)
+            w = self.waiting
+            if w is not None and w.pen is not None:   # stopped while waiting for this pen
+                pos.extra["pen_change"] = {"pen": w.pen, "index": int(w.index),
+                                           "count": int(w.count), "message": w.message}
             if self.resume_info:
                 pos.extra["resume"] = self.resume_info
         state.save(pos)
@@ -425,67 +471,3 @@ class _Ahead:
         self.stopped.set()
         if self.thread is not None:
             self.thread.join(timeout=5)
-
-
-class _Writer:
-    """Writes journal records and trace rows in order on a helper thread (fsync and text
-    formatting stay off the thread that drives the outputs)."""
-
-    def __init__(self, tracer, threaded: bool = True):
-        """threaded=False: write at once, on the calling thread."""
-        self.tracer = tracer
-        self.q: queue.Queue = queue.Queue(maxsize=64)   # a dry run must not outrun it unbounded
-        self.landed = 0
-        self.cond = threading.Condition()
-        self.error: BaseException | None = None
-        self.thread = None
-        if threaded:
-            self.thread = threading.Thread(target=self._run, daemon=True, name="vplotter-write")
-            self.thread.start()
-
-    def _run(self) -> None:
-        while True:
-            item = self.q.get()
-            if item is None:
-                return
-            try:
-                self._do(*item)
-            except BaseException as e:  # noqa: BLE001 - reported by close()
-                self.error = e
-                with self.cond:
-                    self.landed = 1 << 62
-                    self.cond.notify_all()
-
-    def _do(self, kind: str, args) -> None:
-        if kind == "journal":
-            journal, *rest = args
-            journal.record(*rest)
-            with self.cond:
-                self.landed += 1
-                self.cond.notify_all()
-        elif self.tracer is not None:
-            self.tracer.write(args)
-
-    def _put(self, item) -> None:
-        if self.thread is None:
-            self._do(*item)
-        else:
-            self.q.put(item)
-
-    def journal(self, journal, counts, dev, line: int, pen: str) -> None:
-        self._put(("journal", (journal, tuple(counts), tuple(int(d) for d in dev), line, pen)))
-
-    def trace(self, rows: Rows) -> None:
-        self._put(("trace", rows))
-
-    def wait_journal(self, records: int) -> None:
-        with self.cond:
-            while self.landed < records:
-                self.cond.wait()
-
-    def close(self) -> None:
-        if self.thread is not None:
-            self.q.put(None)
-            self.thread.join()
-        if self.error is not None:
-            raise self.error

@@ -4,11 +4,17 @@ removed when the draw ends. Nobody reads the running process's internals: only t
 the lock file for whether its writer is still alive.
 
     {"pid", "command", "file", "started", "updated", "line", "done_s", "total_s",
-     "shifts", "lost_s"}
+     "shifts", "lost_s", "state", "waiting"}
 
 done_s is the plot time played so far, total_s the plot time of the whole draw (what the
 summary printed), both on the schedule's clock; lost_s the time the real-time player has lost
-to lateness (the plot takes that much longer).
+to lateness (the plot takes that much longer). state is "drawing", or "waiting" while the
+draw waits at a pause (a pen change); waiting is null while it draws, else {"message", "pen",
+"index", "count", "since", "prompt"}:
+the pen to put in (null at a plain pause), the index-th of count, since when (epoch seconds),
+and the one line a person reads ("put in the red pen (2 of 3)"). Whoever wants to tell
+someone that the plotter waits (a notification) watches this key; `vplotter continue` (or
+request_continue) lets the draw go on.
 """
 
 from __future__ import annotations
@@ -29,6 +35,46 @@ def live_path():
     return state_dir() / "live.json"
 
 
+def continue_path():
+    """The request a waiting draw polls for: the pid it is for (`vplotter continue`)."""
+    return state_dir() / "continue"
+
+
+def pen_prompt(p) -> str:
+    """What a person is asked at a Pause: its message ("put in the red pen (2 of 3)", "80 m
+    drawn with the red pen: put in a fresh one or refill it"); a pen change without one is
+    asked for by the pen's name."""
+    if p.message or getattr(p, "pen", None) is None:
+        return p.message
+    of = f" ({p.index} of {p.count})" if p.count else ""
+    return f"put in the {p.pen} pen{of}"
+
+
+def request_continue(pid: int) -> None:
+    """Ask the draw `pid` that waits at a pause to go on."""
+    path = continue_path()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".continue.", suffix=".tmp")
+    with os.fdopen(fd, "w", encoding="utf-8") as f:
+        f.write(f"{int(pid)}\n")
+    os.replace(tmp, path)
+
+
+def take_continue(pid: int | None = None) -> bool:
+    """True (and the request gone) if someone asked this process (pid) to go on."""
+    path = continue_path()
+    try:
+        mine = int(path.read_text(encoding="utf-8").strip() or 0) == (pid or os.getpid())
+    except (OSError, ValueError):
+        return False
+    if mine:
+        try:
+            os.unlink(path)
+        except OSError:
+            pass
+    return mine
+
+
 def log_path():
     """Where a background draw (`draw --detach`) writes what it prints."""
     return state_dir() / "draw.log"
@@ -41,8 +87,25 @@ class Publisher:
         self.clock = clock
         self.info = {"pid": os.getpid(), "command": command, "file": file,
                      "started": clock(), "updated": 0.0, "line": 0, "done_s": 0.0,
-                     "total_s": float(total_s), "shifts": 0, "lost_s": 0.0}
+                     "total_s": float(total_s), "shifts": 0, "lost_s": 0.0, "state": "drawing",
+                     "waiting": None}
         self.last = -1e9
+
+    def waiting(self, pause) -> None:
+        """The draw waits at `pause` (None: it goes on again); written at once. A request
+        to go on left from before is dropped: only one made while this wait shows counts."""
+        if pause is not None:
+            try:
+                os.unlink(continue_path())
+            except OSError:
+                pass
+            pause = {"message": pause.message, "pen": pause.pen, "index": int(pause.index),
+                     "count": int(pause.count), "since": self.clock(),
+                     "prompt": pen_prompt(pause)}
+        self.info["waiting"] = pause
+        self.info["state"] = "drawing" if pause is None else "waiting"
+        self.update(self.info["done_s"], self.info["line"], self.info["shifts"],
+                    self.info["lost_s"], force=True)
 
     def update(self, done_s: float, line: int, shifts: int = 0, lost_s: float = 0.0,
                force: bool = False) -> None:
@@ -81,9 +144,10 @@ def _write(info: dict) -> None:
 
 def read(holder: dict | None = None, now: float | None = None) -> dict | None:
     """The running draw as status shows it: {"pid", "command", "file", "line", "percent",
-    "elapsed_s", "remaining_s", "finish"}, or None when no draw is running. `holder` is the
-    lock holder (lock.holder()); a live.json whose writer does not hold the lock is left over
-    from a crash and means nothing."""
+    "elapsed_s", "remaining_s", "finish", "shifts", "lost_s", "state", "waiting"}, or None
+    when no draw is running (state, waiting: see the module doc; finish counts from now while
+    it waits). `holder` is the lock holder (lock.holder()); a live.json whose writer does not
+    hold the lock is left over from a crash and means nothing."""
     if holder is None:
         holder = lock.holder()
     if holder is None:
@@ -102,13 +166,21 @@ def read(holder: dict | None = None, now: float | None = None) -> dict | None:
                 "elapsed_s": round(now - float(info["started"]), 1),
                 "remaining_s": round(remaining, 1),
                 "finish": time.strftime("%H:%M", time.localtime(now + remaining)),
-                "shifts": int(info.get("shifts", 0)), "lost_s": float(info.get("lost_s", 0.0))}
+                "shifts": int(info.get("shifts", 0)), "lost_s": float(info.get("lost_s", 0.0)),
+                "state": str(info.get("state", "drawing")),
+                "waiting": info.get("waiting") or None}
     except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return None
 
 
 def describe(d: dict) -> str:
-    """One line: drawing car.ngc line 120, 35.2 % done, 12:04 elapsed, 20:30 left (finish 14:35)."""
+    """One line: drawing car.ngc line 120, 35.2 % done, 12:04 elapsed, 20:30 left (finish 14:35);
+    waiting: put in the red pen (2 of 3) when it waits."""
+    w = d.get("waiting")
+    if w:
+        return (f"waiting in {os.path.basename(d['file'])} line {d['line']}: {w['prompt']} "
+                f"(`vplotter continue` goes on), {d['percent']:.1f} % done, "
+                f"{clock_text(d['remaining_s'])} left")
     return (f"drawing {os.path.basename(d['file'])} line {d['line']}, {d['percent']:.1f} % done, "
             f"{clock_text(d['elapsed_s'])} elapsed, {clock_text(d['remaining_s'])} left "
             f"(finish {d['finish']})")

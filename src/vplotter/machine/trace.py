@@ -84,7 +84,8 @@ def _t(t_us: int) -> str:
 class Steps:
     """What a trace did, on one timeline: after each change (t_s), the steps each motor has made
     since the start (cord direction: + lengthens, reverse flags applied) and whether the pen is
-    down (the last pulse width other than 0 equals down_us, settled or not)."""
+    down (the last pulse width other than 0 is not up_us, settled or not: a pen of [pens.NAME]
+    may have a down_us of its own)."""
 
     t_s: np.ndarray          # (N,)
     steps: np.ndarray        # (N, 2) int64, left and right
@@ -114,7 +115,7 @@ def read_steps(path: str, motors, pen) -> Steps:
     runs = [_motor(path, t_us, pin, value, coil[m], table, m) for m in ("left", "right")]
     # the pen: only pulse widths other than 0 say where it is
     is_pen = (pin == pen.pin) & (value != 0)
-    t_pen, pen_down = _last_per_time(t_us[is_pen], value[is_pen] == pen.down_us)
+    t_pen, pen_down = _last_per_time(t_us[is_pen], value[is_pen] != pen.up_us)
     times = np.sort(np.concatenate([runs[0][0], runs[1][0], t_pen]))
     times = times[np.r_[True, times[1:] != times[:-1]]]
     steps = np.stack([sign[m] * _at(times, t, s, 0) for m, (t, s) in zip(("left", "right"), runs)],

@@ -15,7 +15,8 @@ one-coil neighbour (one half step back, which its next move takes up) and takes 
 before it is released. Every energise and release is then one pin, so a board written one pin
 at a time never shows a half step that the rows do not have. Energised motors are held for one
 step interval before they move, so no step is lost. A `Turn` (the polar table at its centre)
-moves the motors from rest to rest with the pen standing still.
+moves the motors from rest to rest with the pen standing still. A pause for a new pen (a pen
+change) is not released: the motors hold the gondola while the pen is put in.
 """
 
 from __future__ import annotations
@@ -77,6 +78,7 @@ class Scheduler:
         self.energized = False
         self.pen_down = False
         self.pen_us = 0
+        self.down_us = cfg.pen.down_us    # the pen-down pulse of the pen that is in
         self.line = 0
         self.steps_total = np.zeros(2, dtype=np.int64)
         self.t_us_floor = 0       # rows before this time were output already
@@ -156,7 +158,7 @@ class Scheduler:
             return None
         self.line = line
         self.pen_down = down
-        width = self.cfg.pen.down_us if down else self.cfg.pen.up_us
+        width = self.down_us if down else self.cfg.pen.up_us
         coils = self.drv.hold_word() if self.energized else self.idle
         rows = [self._row(self.t_us, coils, width),
                 self._row(self.t_us + self.settle_us, coils, 0)]
