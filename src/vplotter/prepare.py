@@ -104,6 +104,14 @@ def add_file_options(p: argparse.ArgumentParser) -> None:
     ph.add_argument("--invert", action="store_true", help="draw the light parts dark")
     ph.add_argument("--tsp", action="store_true",
                     help="stipple: one tour through the dots instead of dots (TSP art)")
+    fl = p.add_argument_group("fills (SVG)")
+    fl.add_argument("--fill", choices=("none", "outline", "hatch"),
+                    help="filled shapes: none (only what has a stroke is drawn), outline (every "
+                         "shape's outline, the default), hatch (outline and hatch lines)")
+    fl.add_argument("--fill-spacing", type=_number("fill spacing", 0, above=True), metavar="MM",
+                    help="hatch lines MM apart on the wall (default: --pen-width, 0.5)")
+    fl.add_argument("--fill-angle", type=_number("fill angle"), metavar="DEG",
+                    help="hatch lines at DEG counter-clockwise from +X on the wall (default 45)")
 
 
 def placement(args):
@@ -133,6 +141,15 @@ def photo_options(args):
                         tsp=bool(getattr(args, "tsp", False)),
                         width_mm=getattr(args, "width", None),
                         height_mm=getattr(args, "height", None))
+
+
+def fill_options(args):
+    from vplotter.inputs.fill import FillOptions
+
+    spacing = getattr(args, "fill_spacing", None) or getattr(args, "pen_width", None) or 0.5
+    angle = getattr(args, "fill_angle", None)
+    return FillOptions(mode=getattr(args, "fill", None) or "outline", spacing_mm=spacing,
+                       angle_deg=45.0 if angle is None else angle)
 
 
 def file_kind(path: str) -> str:
@@ -226,6 +243,7 @@ class Prepared:
     warn: Callable[[str], None] = _stderr
     notes: list[str] = field(default_factory=list)    # what was chosen and why (a photo)
     timed_s: float | None = None  # a photo: the plot time its budget search measured
+    fill: object = None           # SVG: inputs.fill.FillOptions (--fill, --fill-spacing ...)
     _drawing: object = None
     _strokes: list | None = None
     _firsts: list[int] = field(default_factory=list)
@@ -344,9 +362,12 @@ def options_key(path: str, args) -> str:
     kind = file_kind(path)
     method = getattr(args, "order", None) or ("keep" if kind == "gcode" else "best")
     photo = photo_options(args) if kind == "image" else None
-    return repr((method, placement(args), getattr(args, "join", None),
-                 getattr(args, "layer", None), bool(getattr(args, "pause_between_layers", False)),
-                 photo))
+    key = (method, placement(args), getattr(args, "join", None),
+           getattr(args, "layer", None), bool(getattr(args, "pause_between_layers", False)),
+           photo)
+    if kind == "svg" and getattr(args, "fill", None) not in (None, "outline"):
+        key += (fill_options(args),)
+    return repr(key)
 
 
 def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
@@ -366,6 +387,7 @@ def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
         raise ConfigError(f"error: --layer is for SVG files; {path} is not one")
     if kind != "image":
         _no_photo_options(args, path)
+    _fill_options_for_svg(args, path, svg)
     if (place_opts.width_mm or place_opts.height_mm) and (place_opts.fit or
                                                           place_opts.scale != 1.0):
         raise ConfigError("error: give --width/--height, --scale or --fit, not two of them")
@@ -377,7 +399,7 @@ def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
     prep = Prepared(path, kind, passthrough=False, strict=strict, join_mm=join_mm,
                     pause=pause, key=key, warn=warn,
                     start_xy=(float(start_xy[0]), float(start_xy[1])), tol_mm=tol,
-                    dialect=getattr(cfg, "gcode", None))
+                    dialect=getattr(cfg, "gcode", None), fill=fill_options(args) if svg else None)
     if kind == "gcode" and method == "keep" and place_opts.identity:
         prep.passthrough = True
         return prep
@@ -391,11 +413,13 @@ def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
         if svg:
             from vplotter.inputs import svg as svg_reader
 
-            drawing = svg_reader.read(path, tol, layers=layers, warn=warn)
+            drawing, fills = svg_reader.read_fills(path, tol, layers, warn, prep.fill)
         else:
             from vplotter.inputs.strokes import Drawing
 
-            drawing = Drawing(path, prep._read_gcode_strokes())
+            drawing, fills = Drawing(path, prep._read_gcode_strokes()), []
+        if fills and drawing.strokes:
+            drawing.strokes = _hatched(drawing.strokes, fills, place_opts, page, prep.fill)
         prep._drawing = drawing
         placed = place.place(drawing.strokes, place_opts, page)
     t0 = time.perf_counter()
@@ -406,6 +430,28 @@ def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
         if _timed(prep, prep._strokes, plot_time) > prep.timed_s:
             prep._strokes = placed
     return prep
+
+
+def _hatched(strokes: list, fills: list, place_opts, page, opts) -> list:
+    """The strokes with the fills hatched on the wall (the rings placed as the strokes will
+    be, so spacing and angle are wall mm and degrees), in the strokes' frame."""
+    import numpy as np
+
+    from vplotter.drawing import place
+    from vplotter.inputs import fill
+
+    A, b = np.eye(2), np.zeros(2)
+    if not place_opts.identity:
+        A, b = place.matrix(place_opts, np.concatenate([s.pts for s in strokes]), page)
+    return fill.merge(strokes, fills, opts, A, b)
+
+
+def _fill_options_for_svg(args, path: str, svg: bool) -> None:
+    given = [name for name in ("fill", "fill_spacing", "fill_angle")
+             if getattr(args, name, None) is not None]
+    if given and not svg:
+        flag = "--" + given[0].replace("_", "-")
+        raise ConfigError(f"error: {flag} is for SVG files; {path} is not one")
 
 
 def _timed(prep: Prepared, strokes: list, plot_time) -> float:

@@ -5,7 +5,11 @@ data and transform lists are parsed by svgelements; units, viewBox and the displ
 cascade are in `svg_style.py`, curves in `svg_geom.py`. The rules (README, section "SVG"):
 
 - drawn: path, line, polyline, polygon, rect (rx/ry), circle, ellipse, and `<use>` instances,
-  whatever their stroke and fill, as outlines; each subpath is one stroke;
+  whatever their stroke and fill, as outlines; each subpath is one stroke (`--fill none`: only
+  what has a stroke; `--fill hatch`: filled elements are also hatched, `inputs/fill.py`);
+- paint (`svg_paint.py`): an outline's pen is its stroke colour as the file writes it, or its
+  fill colour when it has no stroke; a hatch's is the fill colour; each colour is one pen,
+  named as the file first writes it;
 - skipped: <text>/<flowRoot> (counted, one warning), <image> (counted), what sits in defs,
   symbol, clipPath, mask, marker, pattern unless a <use> places it, and anything hidden
   (display:none on itself or an ancestor; visibility:hidden, inherited, undone by
@@ -22,6 +26,7 @@ from typing import Callable
 
 from vplotter.errors import InputError
 from vplotter.inputs.strokes import Drawing, Stroke
+from vplotter.inputs import svg_paint
 
 SVG_NS = "http://www.w3.org/2000/svg"
 PREFIXES = {"http://www.inkscape.org/namespaces/inkscape": "inkscape:",
@@ -150,11 +155,14 @@ class _Ctx:
     selected: bool = True         # inside a layer that --layer asked for (or no --layer)
     use: Node | None = None       # outermost <use> this instance comes from
     stack: tuple = ()             # ids of <use> targets being expanded (cycle guard)
+    paint: svg_paint.Paint = svg_paint.INITIAL    # fill, stroke, color, fill-rule here
 
 
 class _Reader:
-    def __init__(self, path: str, tol_mm: float, layers: list[str] | None, warn: Warn):
+    def __init__(self, path: str, tol_mm: float, layers: list[str] | None, warn: Warn,
+                 fill=None):
         from vplotter.inputs import svg_style
+        from vplotter.inputs.fill import FillOptions
 
         self.path, self.tol_mm, self.wanted, self.warn = path, tol_mm, layers, warn
         self.style = svg_style
@@ -164,6 +172,8 @@ class _Reader:
         self.skipped = {"text": 0, "image": 0, "hidden": 0}
         self.missing: set[str] = set()
         self.visits = 0
+        self.fill = fill or FillOptions()
+        self.regions: list = []
 
     def err(self, node: Node, msg: str) -> InputError:
         return InputError(f"{self.path}:{node.line}:{node.col}: error: <{node.tag}> {msg}")
@@ -214,6 +224,7 @@ class _Reader:
         except RecursionError:
             raise InputError(f"{self.path}: error: elements are nested too deeply") from None
         self.check_layers()
+        self.one_pen_per_colour()
         if self.skipped["text"]:
             n = self.skipped["text"]
             self.warn(f"{self.path}: warning: {n} text element{'s' if n > 1 else ''} skipped: "
@@ -259,7 +270,8 @@ class _Reader:
         own = self.style.own_style(self.sheet, tag, node.attrs)
         vis = own.get("visibility", "inherit")
         ctx = replace(ctx, none=ctx.none or own.get("display") == "none",
-                      vis=vis if vis in ("visible", "hidden", "collapse") else ctx.vis)
+                      vis=vis if vis in ("visible", "hidden", "collapse") else ctx.vis,
+                      paint=self.cascade(ctx, own))
         if tag in TEXT:
             self.skipped["text"] += ctx.selected
             return
@@ -350,6 +362,7 @@ class _Reader:
             vis = own.get("visibility", "inherit")
             if vis in ("visible", "hidden", "collapse"):
                 inner = replace(inner, vis=vis)
+            inner = replace(inner, paint=self.cascade(inner, own))
             for child in target.children:
                 self.walk(child, inner)
             return
@@ -403,15 +416,59 @@ class _Reader:
         from vplotter.inputs import svg_geom as geo
 
         m = ctx.m @ self.transform(node)
-        source = ctx.use or node
-        line, src = source.num, source.src()
+        polys = []
         for sub in self.subpaths(node, ctx.vp):
             try:
                 pts = geo.flatten(sub, m, self.tol_mm)
             except ValueError as e:
                 raise self.err(node, str(e)) from None
             if pts is not None:
-                self.strokes.append(Stroke(pts, line, 0, None, ctx.layer, src))
+                polys.append(pts)
+        self.emit(node, ctx, polys)
+
+    # -------------------------------------------------------------- paint
+    def cascade(self, ctx: _Ctx, own: dict):
+        return svg_paint.cascade(ctx.paint, own)
+
+    def pens(self, node: Node, ctx: _Ctx):
+        """(fill, stroke) of a drawn element: each (pen, '#rrggbb') or None (no paint)."""
+        def server(ident: str):
+            return svg_paint.first_stop(self.ids, ident,
+                                        lambda a: self.style.own_style(self.sheet, "stop", a))
+
+        p, out = ctx.paint, []
+        for name, value in (("fill", p.fill), ("stroke", p.stroke)):
+            try:
+                out.append(svg_paint.paint(value, p.color, server))
+            except ValueError as e:
+                raise self.err(node, f"{name}: {e}") from None
+        return out[0], out[1]
+
+    def emit(self, node: Node, ctx: _Ctx, polys: list) -> None:
+        """One element's polylines (G-code mm, each subpath one) as outline strokes and, with
+        `--fill hatch`, its filled region, painted as its fill and stroke say."""
+        from vplotter.inputs.fill import Region
+
+        fill, stroke = self.pens(node, ctx)
+        source = ctx.use or node
+        line, src = source.num, source.src()
+        if fill is not None and self.fill.mode == "hatch" and polys:
+            self.regions.append(Region(polys, ctx.paint.rule, fill[0], fill[1],
+                                       len(self.strokes), line, ctx.layer, src))
+        if stroke is None and self.fill.mode == "none":
+            return                      # a fill alone (or no paint) draws nothing
+        pen, colour = stroke or fill or (None, None)
+        for pts in polys:
+            self.strokes.append(Stroke(pts, line, 0, None, ctx.layer, src, pen, colour))
+
+    def one_pen_per_colour(self) -> None:
+        from vplotter.inputs import fill
+
+        names = svg_paint.unify([(s.pen, s.colour) if s.pen else None for s in self.strokes] +
+                                [(r.pen, r.colour) if r.pen else None for r in self.regions])
+        if names:
+            self.strokes = [replace(s, pen=names.get(s.pen, s.pen)) for s in self.strokes]
+            self.regions = fill.rename(self.regions, names)
 
 
 def read(path: str, tol_mm: float, layers: list[str] | None = None,
@@ -419,6 +476,16 @@ def read(path: str, tol_mm: float, layers: list[str] | None = None,
     """Read an SVG file into a Drawing in G-code mm with the default placement (the page
     centred on X0 Y0, +Y up). Curves stay within tol_mm of the true (transformed) curve.
     `layers`: draw only these Inkscape layers (label or id). Raises InputError."""
+    return read_fills(path, tol_mm, layers, warn)[0]
+
+
+def read_fills(path: str, tol_mm: float, layers: list[str] | None = None,
+               warn: Warn = _stderr, fill=None) -> tuple[Drawing, list]:
+    """`read` with fill options (`inputs.fill.FillOptions`): the Drawing and, for `--fill
+    hatch`, the filled regions (`inputs.fill.Region`) that `fill.merge` hatches once the
+    drawing is placed."""
     if not tol_mm > 0:
         raise ValueError("tol_mm must be above 0")
-    return _Reader(path, tol_mm, layers, warn).read()
+    r = _Reader(path, tol_mm, layers, warn, fill)
+    drawing = r.read()
+    return drawing, r.regions
