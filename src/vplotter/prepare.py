@@ -387,7 +387,10 @@ def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
         raise ConfigError(f"error: --layer is for SVG files; {path} is not one")
     if kind != "image":
         _no_photo_options(args, path)
-    _fill_options_for_svg(args, path, svg)
+    for name in ("fill", "fill_spacing", "fill_angle"):
+        if getattr(args, name, None) is not None and not svg:
+            raise ConfigError(f"error: --{name.replace('_', '-')} is for SVG files; {path} is "
+                              f"not one")
     if (place_opts.width_mm or place_opts.height_mm) and (place_opts.fit or
                                                           place_opts.scale != 1.0):
         raise ConfigError("error: give --width/--height, --scale or --fit, not two of them")
@@ -413,13 +416,19 @@ def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
         if svg:
             from vplotter.inputs import svg as svg_reader
 
-            drawing, fills = svg_reader.read_fills(path, tol, layers, warn, prep.fill)
+            if prep.fill.mode == "outline":
+                drawing, fills = svg_reader.read(path, tol, layers=layers, warn=warn), []
+            else:
+                drawing, fills = svg_reader.read_fills(path, tol, layers, warn, prep.fill)
         else:
             from vplotter.inputs.strokes import Drawing
 
             drawing, fills = Drawing(path, prep._read_gcode_strokes()), []
-        if fills and drawing.strokes:
-            drawing.strokes = _hatched(drawing.strokes, fills, place_opts, page, prep.fill)
+        if fills and drawing.strokes:          # hatched as placed: spacing in wall mm
+            from vplotter.inputs import fill
+
+            drawing.strokes = fill.merge(drawing.strokes, fills, prep.fill,
+                                         lambda pts: place.matrix(place_opts, pts, page))
         prep._drawing = drawing
         placed = place.place(drawing.strokes, place_opts, page)
     t0 = time.perf_counter()
@@ -430,28 +439,6 @@ def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
         if _timed(prep, prep._strokes, plot_time) > prep.timed_s:
             prep._strokes = placed
     return prep
-
-
-def _hatched(strokes: list, fills: list, place_opts, page, opts) -> list:
-    """The strokes with the fills hatched on the wall (the rings placed as the strokes will
-    be, so spacing and angle are wall mm and degrees), in the strokes' frame."""
-    import numpy as np
-
-    from vplotter.drawing import place
-    from vplotter.inputs import fill
-
-    A, b = np.eye(2), np.zeros(2)
-    if not place_opts.identity:
-        A, b = place.matrix(place_opts, np.concatenate([s.pts for s in strokes]), page)
-    return fill.merge(strokes, fills, opts, A, b)
-
-
-def _fill_options_for_svg(args, path: str, svg: bool) -> None:
-    given = [name for name in ("fill", "fill_spacing", "fill_angle")
-             if getattr(args, name, None) is not None]
-    if given and not svg:
-        flag = "--" + given[0].replace("_", "-")
-        raise ConfigError(f"error: {flag} is for SVG files; {path} is not one")
 
 
 def _timed(prep: Prepared, strokes: list, plot_time) -> float:

@@ -60,12 +60,15 @@ def hatch(region: Region, opts: FillOptions, A=None, b=None) -> list[Stroke]:
                    region.colour) for p in lines]
 
 
-def merge(strokes: list[Stroke], regions: list[Region], opts: FillOptions, A=None,
-          b=None) -> list[Stroke]:
-    """The strokes with each region's hatching (in their frame) before its outline; A, b: the
-    placement the strokes will get."""
-    if not regions or opts.mode != "hatch":
+def merge(strokes: list[Stroke], regions: list[Region], opts: FillOptions,
+          placement=None) -> list[Stroke]:
+    """The strokes with each region's hatching (in their frame) before its outline.
+    `placement(points) -> (A, b)`: the placement the strokes will get (None: none)."""
+    if not regions or opts.mode != "hatch" or not strokes:
         return strokes
+    A, b = None, None
+    if placement is not None:
+        A, b = placement(np.concatenate([s.pts for s in strokes]))
     out: list[Stroke] = []
     k = 0
     for reg in sorted(regions, key=lambda r: r.at):
