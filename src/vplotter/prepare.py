@@ -96,7 +96,8 @@ def add_file_options(p: argparse.ArgumentParser) -> None:
     ph.add_argument("--spacing", type=_number("spacing", 0, above=True), metavar="MM",
                     help="a fixed line spacing instead of the budget")
     ph.add_argument("--pen-width", type=_number("pen width", 0, above=True), default=0.5,
-                    metavar="MM", help="the line width the tone model assumes (default 0.5)")
+                    metavar="MM", help="the line width the tone model assumes (default 0.5; "
+                    "also --fill-spacing's default)")
     ph.add_argument("--contrast", type=_number("contrast", 0), default=1.0, metavar="K",
                     help="scale the tone about mid-grey (default 1)")
     ph.add_argument("--brightness", type=_number("brightness"), default=0.0, metavar="B",
