@@ -25,8 +25,8 @@ from dataclasses import dataclass, replace
 from typing import Callable
 
 from vplotter.errors import InputError
-from vplotter.inputs.strokes import Drawing, Stroke
 from vplotter.inputs import svg_paint
+from vplotter.inputs.strokes import Drawing, Stroke
 
 SVG_NS = "http://www.w3.org/2000/svg"
 PREFIXES = {"http://www.inkscape.org/namespaces/inkscape": "inkscape:",
