@@ -326,7 +326,6 @@ def test_convert_fill_hatch_end_to_end(tmp_path, config_path, capsys, scale):
     hole = outer / 2
     t = np.linspace(0, 2 * np.pi, 200, endpoint=False)
     dot = scale * 5 * np.column_stack([np.cos(t), np.sin(t)])
-    drawn = np.concatenate([outer, hole])
     pts = np.random.default_rng(1).uniform(-31 * scale, 31 * scale, (2000, 2))
     ring = inside(pts, [outer, hole], "evenodd")
     circle = inside(pts, [dot], "nonzero")
@@ -344,7 +343,6 @@ def test_convert_fill_hatch_end_to_end(tmp_path, config_path, capsys, scale):
     assert h.sum() > 20
     frac = (v[h] / spacing - 0.5) % 1
     assert np.all(np.minimum(frac, 1 - frac) < 1e-3)
-    del drawn
 
 
 def test_fill_options_are_for_svg(tmp_path, config_path, capsys):
@@ -362,3 +360,29 @@ def test_bad_colour_is_one_line_with_its_place(tmp_path, config_path, capsys):
     assert main(["--config", str(config_path), "info", str(p)]) == 2
     err = [line for line in capsys.readouterr().err.splitlines() if "error" in line]
     assert len(err) == 1 and err[0].startswith(f"{p}:2:3: error: <rect> fill: not a colour")
+
+
+@pytest.mark.parametrize("opts", [["--fit", "--rotate", "30"], ["--width", "37", "--rotate", "-70"]])
+def test_hatch_spacing_and_angle_are_on_the_wall(tmp_path, config_path, capsys, opts):
+    """Whatever the placement, the hatch lines are spacing apart at the angle on the wall: on
+    the grid fixed to X0 Y0, and as long as the placed area over the spacing."""
+    src, out = tmp_path / "holed.svg", tmp_path / "out.ngc"
+    src.write_text(HOLED)
+    spacing, angle = 0.8, 45.0
+    code = main(["--config", str(config_path), "convert", str(src), "--fill", "hatch",
+                 "--fill-spacing", str(spacing), "--fill-angle", str(angle), *opts,
+                 "-o", str(out)])
+    assert code == 0, capsys.readouterr().err
+    segs = read_gcode(out)
+    turn = math.radians(float(opts[-1]))
+    width = np.ptp(segs[:, [0, 2]])              # the outer square's bounding box, as placed
+    s = width / (60 * (abs(math.cos(turn)) + abs(math.sin(turn))))
+    dx, dy = segs[:, 2] - segs[:, 0], segs[:, 3] - segs[:, 1]
+    length = np.hypot(dx, dy)
+    a = np.radians(angle)
+    on_angle = np.abs(dx * math.sin(a) - dy * math.cos(a)) < 1e-3 * np.maximum(length, 1)
+    hatch = on_angle & (length > 0.5)
+    v = (-segs[hatch, 0] * math.sin(a) + segs[hatch, 1] * math.cos(a)) / spacing - 0.5
+    assert np.all(np.abs(v - np.round(v)) < 2e-3)
+    area = (60 ** 2 - 30 ** 2 + math.pi * 5 ** 2) * s * s
+    assert length[hatch].sum() == pytest.approx(area / spacing, rel=0.03)
