@@ -386,3 +386,15 @@ def test_hatch_spacing_and_angle_are_on_the_wall(tmp_path, config_path, capsys, 
     assert np.all(np.abs(v - np.round(v)) < 2e-3)
     area = (60 ** 2 - 30 ** 2 + math.pi * 5 ** 2) * s * s
     assert length[hatch].sum() == pytest.approx(area / spacing, rel=0.03)
+
+
+@given(st.integers(0, 255), st.integers(0, 255), st.integers(0, 255), st.integers(0, 4),
+       st.booleans())
+def test_every_spelling_of_a_colour_is_one_colour(r, g, b, form, upper):
+    hexed = f"#{r:02x}{g:02x}{b:02x}"
+    text = [hexed, f"rgb({r},{g},{b})", f"rgb( {r} {g} {b} )", f"rgba({r}, {g}, {b}, 0.5)",
+            f"{hexed}ff"][form]
+    text = text.upper() if upper else text
+    assert svg_paint.paint(text, "black", lambda i: None) == (hexed, hexed)
+    assert svg_paint.paint("currentColor", text, lambda i: None) == (hexed, hexed)
+    assert svg_paint.paint(f"url(#g) {text}", "black", lambda i: "red") == (hexed, hexed)
