@@ -255,6 +255,10 @@ def test_fill_modes(tmp_path):
     assert outline == ["filled", "stroked", "both", "neither"]
     assert pens(tmp_path, body, FillOptions("outline")) == pens(tmp_path, body)
     assert [p[0] for p in pens(tmp_path, body, FillOptions("none"))] == ["stroked", "both"]
+    warnings: list[str] = []
+    svg.read_fills(str(tmp_path / "t.svg"), TOL, None, warnings.append, FillOptions("none"))
+    assert warnings == [f"{tmp_path / 't.svg'}: warning: --fill none: 2 shapes without a stroke "
+                        f"not drawn (--fill outline draws their outlines)"]
     d, regions = read(tmp_path, body, FillOptions("hatch", 1.0))
     assert [s.src for s in d.strokes] == outline
     assert [(r.src, r.pen, r.at) for r in regions] == [("filled", "red", 0), ("both", "yellow", 2)]

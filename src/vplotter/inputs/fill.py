@@ -79,5 +79,13 @@ def merge(strokes: list[Stroke], regions: list[Region], opts: FillOptions,
     return out
 
 
-def rename(regions: list[Region], names: dict[str, str]) -> list[Region]:
-    return [replace(r, pen=names.get(r.pen, r.pen)) for r in regions]
+def one_pen_per_colour(strokes: list[Stroke], regions: list[Region]):
+    """(strokes, regions) with each colour one pen, named as the file first writes it."""
+    from vplotter.inputs.svg_paint import unify
+
+    names = unify([(s.pen, s.colour) if s.pen else None for s in strokes] +
+                  [(r.pen, r.colour) if r.pen else None for r in regions])
+    if not names:
+        return strokes, regions
+    return ([replace(s, pen=names.get(s.pen, s.pen)) for s in strokes],
+            [replace(r, pen=names.get(r.pen, r.pen)) for r in regions])

@@ -174,6 +174,7 @@ class _Reader:
         self.visits = 0
         self.fill = fill or FillOptions()
         self.regions: list = []
+        self.unstroked = 0            # --fill none: shapes not drawn for want of a stroke
 
     def err(self, node: Node, msg: str) -> InputError:
         return InputError(f"{self.path}:{node.line}:{node.col}: error: <{node.tag}> {msg}")
@@ -224,7 +225,9 @@ class _Reader:
         except RecursionError:
             raise InputError(f"{self.path}: error: elements are nested too deeply") from None
         self.check_layers()
-        self.one_pen_per_colour()
+        from vplotter.inputs import fill
+
+        self.strokes, self.regions = fill.one_pen_per_colour(self.strokes, self.regions)
         if self.skipped["text"]:
             n = self.skipped["text"]
             self.warn(f"{self.path}: warning: {n} text element{'s' if n > 1 else ''} skipped: "
@@ -271,7 +274,7 @@ class _Reader:
         vis = own.get("visibility", "inherit")
         ctx = replace(ctx, none=ctx.none or own.get("display") == "none",
                       vis=vis if vis in ("visible", "hidden", "collapse") else ctx.vis,
-                      paint=self.cascade(ctx, own))
+                      paint=svg_paint.cascade(ctx.paint, own))
         if tag in TEXT:
             self.skipped["text"] += ctx.selected
             return
@@ -362,7 +365,7 @@ class _Reader:
             vis = own.get("visibility", "inherit")
             if vis in ("visible", "hidden", "collapse"):
                 inner = replace(inner, vis=vis)
-            inner = replace(inner, paint=self.cascade(inner, own))
+            inner = replace(inner, paint=svg_paint.cascade(inner.paint, own))
             for child in target.children:
                 self.walk(child, inner)
             return
@@ -427,9 +430,6 @@ class _Reader:
         self.emit(node, ctx, polys)
 
     # -------------------------------------------------------------- paint
-    def cascade(self, ctx: _Ctx, own: dict):
-        return svg_paint.cascade(ctx.paint, own)
-
     def pens(self, node: Node, ctx: _Ctx):
         """(fill, stroke) of a drawn element: each (pen, '#rrggbb') or None (no paint)."""
         def server(ident: str):
@@ -456,19 +456,11 @@ class _Reader:
             self.regions.append(Region(polys, ctx.paint.rule, fill[0], fill[1],
                                        len(self.strokes), line, ctx.layer, src))
         if stroke is None and self.fill.mode == "none":
-            return                      # a fill alone (or no paint) draws nothing
+            self.unstroked += 1         # a fill alone (or no paint) draws nothing
+            return
         pen, colour = stroke or fill or (None, None)
         for pts in polys:
             self.strokes.append(Stroke(pts, line, 0, None, ctx.layer, src, pen, colour))
-
-    def one_pen_per_colour(self) -> None:
-        from vplotter.inputs import fill
-
-        names = svg_paint.unify([(s.pen, s.colour) if s.pen else None for s in self.strokes] +
-                                [(r.pen, r.colour) if r.pen else None for r in self.regions])
-        if names:
-            self.strokes = [replace(s, pen=names.get(s.pen, s.pen)) for s in self.strokes]
-            self.regions = fill.rename(self.regions, names)
 
 
 def read(path: str, tol_mm: float, layers: list[str] | None = None,
@@ -488,4 +480,8 @@ def read_fills(path: str, tol_mm: float, layers: list[str] | None = None,
         raise ValueError("tol_mm must be above 0")
     r = _Reader(path, tol_mm, layers, warn, fill)
     drawing = r.read()
+    if r.unstroked:
+        n = r.unstroked
+        warn(f"{path}: warning: --fill none: {n} shape{'s' if n > 1 else ''} without a stroke "
+             f"not drawn (--fill outline draws {'their outlines' if n > 1 else 'its outline'})")
     return drawing, r.regions
