@@ -402,3 +402,14 @@ def test_every_spelling_of_a_colour_is_one_colour(r, g, b, form, upper):
     assert svg_paint.paint(text, "black", lambda i: None) == (hexed, hexed)
     assert svg_paint.paint("currentColor", text, lambda i: None) == (hexed, hexed)
     assert svg_paint.paint(f"url(#g) {text}", "black", lambda i: "red") == (hexed, hexed)
+
+
+def test_a_fill_spacing_far_too_fine_is_an_error(tmp_path, config_path, capsys):
+    src = tmp_path / "holed.svg"
+    src.write_text(HOLED)
+    assert main(["--config", str(config_path), "info", str(src), "--fill", "hatch",
+                 "--fill-spacing", "0.0001"]) == 2
+    err = [line for line in capsys.readouterr().err.splitlines() if "error" in line]
+    assert len(err) == 1 and err[0].endswith(
+        "error: --fill-spacing 0.0001 mm is too fine: path#3 would take more than 200,000 "
+        "hatch lines")

@@ -18,10 +18,12 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from vplotter.errors import ConfigError
 from vplotter.inputs.strokes import Stroke
 
 MODES = ("none", "outline", "hatch")
 LINK_SPACINGS = 4.0
+MAX_LINES = 200_000           # hatch lines across one shape: beyond, --fill-spacing is a typo
 
 
 @dataclass(frozen=True)
@@ -53,6 +55,12 @@ def hatch(region: Region, opts: FillOptions, A=None, b=None) -> list[Stroke]:
     rings = [r @ A.T + b for r in region.rings if len(r) >= 3]
     if not rings:
         return []
+    a = np.radians(opts.angle_deg)
+    v = np.concatenate(rings) @ np.array([-np.sin(a), np.cos(a)])
+    if np.ptp(v) / opts.spacing_mm > MAX_LINES:
+        raise ConfigError(f"error: --fill-spacing {opts.spacing_mm:g} mm is too fine: "
+                          f"{region.src or 'a shape'} would take more than {MAX_LINES:,} "
+                          f"hatch lines")
     lines = hatch_polygons(rings, opts.spacing_mm, opts.angle_deg, region.rule,
                            max_link_mm=LINK_SPACINGS * opts.spacing_mm)
     back = np.linalg.inv(A).T
