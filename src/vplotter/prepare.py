@@ -97,7 +97,8 @@ def add_file_options(p: argparse.ArgumentParser) -> None:
     ph.add_argument("--spacing", type=_number("spacing", 0, above=True), metavar="MM",
                     help="a fixed line spacing instead of the budget")
     ph.add_argument("--pen-width", type=_number("pen width", 0, above=True), default=0.5,
-                    metavar="MM", help="the line width the tone model assumes (default 0.5)")
+                    metavar="MM", help="the line width the tone model assumes (default 0.5; "
+                    "also --fill-spacing's default)")
     ph.add_argument("--contrast", type=_number("contrast", 0), default=1.0, metavar="K",
                     help="scale the tone about mid-grey (default 1)")
     ph.add_argument("--brightness", type=_number("brightness"), default=0.0, metavar="B",
@@ -105,6 +106,14 @@ def add_file_options(p: argparse.ArgumentParser) -> None:
     ph.add_argument("--invert", action="store_true", help="draw the light parts dark")
     ph.add_argument("--tsp", action="store_true",
                     help="stipple: one tour through the dots instead of dots (TSP art)")
+    fl = p.add_argument_group("fills (SVG)")
+    fl.add_argument("--fill", choices=("none", "outline", "hatch"),
+                    help="filled shapes: none (only what has a stroke is drawn), outline (every "
+                         "shape's outline, the default), hatch (outline and hatch lines)")
+    fl.add_argument("--fill-spacing", type=_number("fill spacing", 0, above=True), metavar="MM",
+                    help="hatch lines MM apart on the wall (default: --pen-width, 0.5)")
+    fl.add_argument("--fill-angle", type=_number("fill angle"), metavar="DEG",
+                    help="hatch lines at DEG counter-clockwise from +X on the wall (default 45)")
 
 
 def placement(args):
@@ -134,6 +143,15 @@ def photo_options(args):
                         tsp=bool(getattr(args, "tsp", False)),
                         width_mm=getattr(args, "width", None),
                         height_mm=getattr(args, "height", None))
+
+
+def fill_options(args):
+    from vplotter.inputs.fill import FillOptions
+
+    spacing = getattr(args, "fill_spacing", None) or getattr(args, "pen_width", None) or 0.5
+    angle = getattr(args, "fill_angle", None)
+    return FillOptions(mode=getattr(args, "fill", None) or "outline", spacing_mm=spacing,
+                       angle_deg=45.0 if angle is None else angle)
 
 
 def file_kind(path: str) -> str:
@@ -238,6 +256,7 @@ class Prepared:
     warn: Callable[[str], None] = _stderr
     notes: list[str] = field(default_factory=list)    # what was chosen and why (a photo)
     timed_s: float | None = None  # a photo: the plot time its budget search measured
+    fill: object = None           # SVG: inputs.fill.FillOptions (--fill, --fill-spacing ...)
     _drawing: object = None
     _strokes: list | None = None
     _firsts: list[int] = field(default_factory=list)
@@ -358,9 +377,12 @@ def options_key(path: str, args) -> str:
     kind = file_kind(path)
     method = getattr(args, "order", None) or ("keep" if kind == "gcode" else "best")
     photo = photo_options(args) if kind == "image" else None
-    return repr((method, placement(args), getattr(args, "join", None),
-                 getattr(args, "layer", None), bool(getattr(args, "pause_between_layers", False)),
-                 photo))
+    key = (method, placement(args), getattr(args, "join", None),
+           getattr(args, "layer", None), bool(getattr(args, "pause_between_layers", False)),
+           photo)
+    if kind == "svg" and getattr(args, "fill", None) not in (None, "outline"):
+        key += (fill_options(args),)
+    return repr(key)
 
 
 def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
@@ -381,6 +403,10 @@ def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
         raise ConfigError(f"error: --layer is for SVG files; {path} is not one")
     if kind != "image":
         _no_photo_options(args, path)
+    for name in ("fill", "fill_spacing", "fill_angle"):
+        if getattr(args, name, None) is not None and not svg:
+            raise ConfigError(f"error: --{name.replace('_', '-')} is for SVG files; {path} is "
+                              f"not one")
     if (place_opts.width_mm or place_opts.height_mm) and (place_opts.fit or
                                                           place_opts.scale != 1.0):
         raise ConfigError("error: give --width/--height, --scale or --fit, not two of them")
@@ -392,7 +418,7 @@ def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
     prep = Prepared(path, kind, passthrough=False, strict=strict, join_mm=join_mm,
                     pause=pause, key=key, warn=warn,
                     start_xy=(float(start_xy[0]), float(start_xy[1])), tol_mm=tol,
-                    dialect=getattr(cfg, "gcode", None))
+                    dialect=getattr(cfg, "gcode", None), fill=fill_options(args) if svg else None)
     if kind == "gcode" and method == "keep" and place_opts.identity:
         prep.passthrough = True
         return prep
@@ -403,12 +429,16 @@ def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
     if kind == "image":
         placed = _photo(prep, args, page, place_opts, plot_time)
     else:
+        fills = []
         if drawing is not None:
             pass
         elif svg:
             from vplotter.inputs import svg as svg_reader
 
-            drawing = svg_reader.read(path, tol, layers=layers, warn=warn)
+            if prep.fill.mode == "outline":
+                drawing, fills = svg_reader.read(path, tol, layers=layers, warn=warn), []
+            else:
+                drawing, fills = svg_reader.read_fills(path, tol, layers, warn, prep.fill)
         elif kind == "text":
             from vplotter.inputs import text as text_reader
 
@@ -417,6 +447,11 @@ def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
             from vplotter.inputs.strokes import Drawing
 
             drawing = Drawing(path, prep._read_gcode_strokes())
+        if fills and drawing.strokes:          # hatched as placed: spacing in wall mm
+            from vplotter.inputs import fill
+
+            drawing.strokes = fill.merge(drawing.strokes, fills, prep.fill,
+                                         lambda pts: place.matrix(place_opts, pts, page))
         prep._drawing = drawing
         placed = place.place(drawing.strokes, place_opts, page)
     t0 = time.perf_counter()

@@ -5,7 +5,11 @@ data and transform lists are parsed by svgelements; units, viewBox and the displ
 cascade are in `svg_style.py`, curves in `svg_geom.py`. The rules (README, section "SVG"):
 
 - drawn: path, line, polyline, polygon, rect (rx/ry), circle, ellipse, and `<use>` instances,
-  whatever their stroke and fill, as outlines; each subpath is one stroke;
+  whatever their stroke and fill, as outlines; each subpath is one stroke (`--fill none`: only
+  what has a stroke; `--fill hatch`: filled elements are also hatched, `inputs/fill.py`);
+- paint (`svg_paint.py`): an outline's pen is its stroke colour as the file writes it, or its
+  fill colour when it has no stroke; a hatch's is the fill colour; each colour is one pen,
+  named as the file first writes it;
 - text: <text> with its <tspan>s, and Inkscape's <flowRoot>, in single-stroke Hershey fonts
   (`svg_text.py`); a flowRoot whose frame is not a plain rect is counted as skipped text;
 - skipped: <image> (counted), what sits in defs,
@@ -23,6 +27,7 @@ from dataclasses import dataclass, replace
 from typing import Callable
 
 from vplotter.errors import InputError
+from vplotter.inputs import svg_paint
 from vplotter.inputs.strokes import Drawing, Stroke
 
 SVG_NS = "http://www.w3.org/2000/svg"
@@ -159,11 +164,14 @@ class _Ctx:
     use: Node | None = None       # outermost <use> this instance comes from
     stack: tuple = ()             # ids of <use> targets being expanded (cycle guard)
     font: tuple = ()              # inherited text properties (svg_text.inherit)
+    paint: svg_paint.Paint = svg_paint.INITIAL    # fill, stroke, color, fill-rule here
 
 
 class _Reader:
-    def __init__(self, path: str, tol_mm: float, layers: list[str] | None, warn: Warn):
+    def __init__(self, path: str, tol_mm: float, layers: list[str] | None, warn: Warn,
+                 fill=None):
         from vplotter.inputs import svg_style
+        from vplotter.inputs.fill import FillOptions
 
         self.path, self.tol_mm, self.wanted, self.warn = path, tol_mm, layers, warn
         self.style = svg_style
@@ -174,6 +182,9 @@ class _Reader:
         self.missing: set[str] = set()
         self.visits = 0
         self.text = None              # svg_text.TextReader, made at the first text element
+        self.fill = fill or FillOptions()
+        self.regions: list = []
+        self.unstroked = 0            # --fill none: shapes not drawn for want of a stroke
 
     def err(self, node: Node, msg: str) -> InputError:
         return InputError(f"{self.path}:{node.line}:{node.col}: error: <{node.tag}> {msg}")
@@ -226,6 +237,9 @@ class _Reader:
         self.check_layers()
         if self.text is not None:
             self.text.finish()
+        from vplotter.inputs import fill
+
+        self.strokes, self.regions = fill.one_pen_per_colour(self.strokes, self.regions)
         return Drawing(self.path, self.strokes, w_mm, h_mm, self.layers, self.skipped)
 
     def root_size(self, root: Node, name: str) -> float | None:
@@ -267,7 +281,8 @@ class _Reader:
         own = self.style.own_style(self.sheet, tag, node.attrs)
         vis = own.get("visibility", "inherit")
         ctx = replace(ctx, none=ctx.none or own.get("display") == "none",
-                      vis=vis if vis in ("visible", "hidden", "collapse") else ctx.vis)
+                      vis=vis if vis in ("visible", "hidden", "collapse") else ctx.vis,
+                      paint=svg_paint.cascade(ctx.paint, own))
         if any(prop in own for prop in self.style.TEXT_PROPS):
             from vplotter.inputs import svg_text
 
@@ -366,6 +381,7 @@ class _Reader:
             vis = own.get("visibility", "inherit")
             if vis in ("visible", "hidden", "collapse"):
                 inner = replace(inner, vis=vis)
+            inner = replace(inner, paint=svg_paint.cascade(inner.paint, own))
             for child in target.children:
                 self.walk(child, inner)
             return
@@ -427,15 +443,34 @@ class _Reader:
         from vplotter.inputs import svg_geom as geo
 
         m = ctx.m @ self.transform(node)
-        source = ctx.use or node
-        line, src = source.num, source.src()
+        polys = []
         for sub in self.subpaths(node, ctx.vp):
             try:
                 pts = geo.flatten(sub, m, self.tol_mm)
             except ValueError as e:
                 raise self.err(node, str(e)) from None
             if pts is not None:
-                self.strokes.append(Stroke(pts, line, 0, None, ctx.layer, src))
+                polys.append(pts)
+        self.emit(node, ctx, polys)
+
+    # -------------------------------------------------------------- paint
+    def emit(self, node: Node, ctx: _Ctx, polys: list) -> None:
+        """One element's polylines (G-code mm, each subpath one) as outline strokes and, with
+        `--fill hatch`, its filled region, painted as its fill and stroke say."""
+        from vplotter.inputs.fill import Region
+
+        fill, stroke = svg_paint.pens(self, node, ctx)
+        source = ctx.use or node
+        line, src = source.num, source.src()
+        if fill is not None and self.fill.mode == "hatch" and polys:
+            self.regions.append(Region(polys, ctx.paint.rule, fill[0], fill[1],
+                                       len(self.strokes), line, ctx.layer, src))
+        if stroke is None and self.fill.mode == "none":
+            self.unstroked += 1         # a fill alone (or no paint) draws nothing
+            return
+        pen, colour = stroke or fill or (None, None)
+        for pts in polys:
+            self.strokes.append(Stroke(pts, line, 0, None, ctx.layer, src, pen, colour))
 
 
 def read(path: str, tol_mm: float, layers: list[str] | None = None,
@@ -443,6 +478,20 @@ def read(path: str, tol_mm: float, layers: list[str] | None = None,
     """Read an SVG file into a Drawing in G-code mm with the default placement (the page
     centred on X0 Y0, +Y up). Curves stay within tol_mm of the true (transformed) curve.
     `layers`: draw only these Inkscape layers (label or id). Raises InputError."""
+    return read_fills(path, tol_mm, layers, warn)[0]
+
+
+def read_fills(path: str, tol_mm: float, layers: list[str] | None = None,
+               warn: Warn = _stderr, fill=None) -> tuple[Drawing, list]:
+    """`read` with fill options (`inputs.fill.FillOptions`): the Drawing and, for `--fill
+    hatch`, the filled regions (`inputs.fill.Region`) that `fill.merge` hatches once the
+    drawing is placed."""
     if not tol_mm > 0:
         raise ValueError("tol_mm must be above 0")
-    return _Reader(path, tol_mm, layers, warn).read()
+    r = _Reader(path, tol_mm, layers, warn, fill)
+    drawing = r.read()
+    if r.unstroked:
+        n = r.unstroked
+        warn(f"{path}: warning: --fill none: {n} shape{'s' if n > 1 else ''} without a stroke "
+             f"not drawn (--fill outline draws {'their outlines' if n > 1 else 'its outline'})")
+    return drawing, r.regions

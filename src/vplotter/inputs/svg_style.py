@@ -1,6 +1,7 @@
 """The parts of SVG styling and coordinates that the SVG reader needs: lengths and units,
-viewBox + preserveAspectRatio, transforms, and the cascade of `display` and `visibility`
-(style attribute, presentation attribute, simple <style> rules).
+viewBox + preserveAspectRatio, transforms, and the declared values of `display`,
+`visibility` and the paint properties (`fill`, `stroke`, `color`, `fill-rule`, `stop-color`:
+style attribute, presentation attribute, simple <style> rules; inheritance is `svg_paint.py`'s).
 
 Matrices are 3x3 numpy arrays acting on column vectors (x, y, 1): x' = a x + c y + e.
 """
@@ -130,7 +131,8 @@ def transform(text: str | None) -> np.ndarray:
 
 
 # ------------------------------------------------------------------ style cascade
-STYLE_PROPS = ("display", "visibility")
+STYLE_PROPS = ("display", "visibility", "fill", "stroke", "color", "fill-rule", "stop-color")
+CASED = ("fill", "stroke")           # url(#Id) keeps its case; every other value is lower-cased
 _COMMENT = re.compile(r"/\*.*?\*/", re.S)
 _SIMPLE_SELECTOR = re.compile(r"(\*|[A-Za-z_][\w-]*)?((?:[.#][\w-]+)*)$")
 _PART = re.compile(r"([.#])([\w-]+)")
@@ -146,10 +148,12 @@ def declarations(text: str | None) -> dict[str, tuple[str, bool]]:
         prop = prop.strip().lower()
         if prop not in STYLE_PROPS:
             continue
-        value = value.strip().lower()
-        important = value.endswith("!important")
+        value = value.strip()
+        important = re.search(r"!\s*important$", value, re.I) is not None
         if important:
-            value = value[: -len("!important")].strip()
+            value = value[: value.rindex("!")].strip()
+        if prop not in CASED:
+            value = value.lower()
         out[prop] = (value, important)
     return out
 
@@ -204,12 +208,13 @@ class StyleSheet:
 
 
 def own_style(sheet: StyleSheet, tag: str, attrs: dict[str, str]) -> dict[str, str]:
-    """The declared (not inherited) display/visibility of one element: style attribute over
+    """The declared (not inherited) values of STYLE_PROPS on one element: style attribute over
     <style> rules (by specificity, then order; !important wins) over presentation attributes."""
     out: dict[str, tuple[tuple, str]] = {}
     for prop in STYLE_PROPS:
         if prop in attrs:
-            out[prop] = ((0,), attrs[prop].strip().lower())
+            value = attrs[prop].strip()
+            out[prop] = ((0,), value if prop in CASED else value.lower())
     if sheet.rules:
         classes = set(attrs.get("class", "").split())
         for spec, order, decls in sheet.matching(tag, classes, attrs.get("id")):

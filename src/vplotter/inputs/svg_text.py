@@ -293,7 +293,7 @@ class TextReader:
         r = self.r
         m = ctx.m @ r.transform(node)
         source = ctx.use or node
-        pen, colour = text_paint(node, ctx)
+        pen, colour = text_paint(r, node, ctx)
         for q in polys:
             pts = q @ m[:2, :2].T + m[:2, 2]
             if np.all(np.isfinite(pts)):
@@ -384,7 +384,10 @@ class TextReader:
         return lines
 
 
-def text_paint(node, ctx) -> tuple[str | None, str | None]:
-    """(pen, colour) of a text element's strokes: None, None (the one pen) for now. The SVG
-    paint helper sets a text element's colour here, as it does a shape's."""
-    return None, None
+def text_paint(reader, node, ctx) -> tuple[str | None, str | None]:
+    """(pen, colour) of a text element's strokes: the colour it is filled with (what text shows),
+    else its stroke colour, else the one pen."""
+    from vplotter.inputs import svg_paint
+
+    fill, stroke = svg_paint.pens(reader, node, ctx)
+    return fill or stroke or (None, None)
