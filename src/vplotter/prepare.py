@@ -23,6 +23,7 @@ from vplotter.inputs.image import STYLES as PHOTO_STYLES
 
 SVG_SUFFIXES = (".svg", ".svgz")
 TEXT_SUFFIXES = (".txt",)       # plain text, drawn in a Hershey font (inputs/text.py)
+DXF_SUFFIXES = (".dxf",)
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".webp", ".bmp", ".tif", ".tiff", ".gif")
 IMAGE_MAGIC = (b"\x89PNG\r\n\x1a\n", b"\xff\xd8\xff", b"GIF87a", b"GIF89a", b"II*\x00",
                b"MM\x00*")
@@ -155,12 +156,14 @@ def fill_options(args):
 
 
 def file_kind(path: str) -> str:
-    """"svg", "image", "text" or "gcode": by suffix, else by the first bytes."""
+    """"svg", "dxf", "image", "text" or "gcode": by suffix, else by the first bytes."""
     low = path.lower()
     if low.endswith(SVG_SUFFIXES):
         return "svg"
     if low.endswith(TEXT_SUFFIXES):        # unless it holds SVG
         return "svg" if _svg_markup(path) else "text"
+    if low.endswith(DXF_SUFFIXES):
+        return "dxf"
     if low.endswith(IMAGE_SUFFIXES):
         return "image"
     try:
@@ -170,6 +173,8 @@ def file_kind(path: str) -> str:
         return "gcode"      # the reader reports it
     if head.startswith(IMAGE_MAGIC) or (head[:4] == b"RIFF" and head[8:12] == b"WEBP"):
         return "image"
+    if is_dxf(path):
+        return "dxf"
     return "svg" if is_svg(path) else "gcode"
 
 
@@ -180,6 +185,20 @@ def _svg_markup(path: str) -> bool:
     except OSError:
         return False
     return head.startswith((b"<?xml", b"<svg", b"<!--", b"<!DOCTYPE"))
+
+
+def is_dxf(path: str) -> bool:
+    """By content: a text DXF starts with group code 0 and SECTION, a binary one with its
+    sentinel."""
+    import re
+
+    try:
+        with open(path, "rb") as f:
+            head = f.read(64)
+    except OSError:
+        return False
+    return (head.startswith(b"AutoCAD Binary DXF") or
+            re.match(rb"(\xef\xbb\xbf)?\s*0\s+SECTION\s", head) is not None)
 
 
 def is_svg(path: str) -> bool:
@@ -243,7 +262,7 @@ def gcode_strokes(records: Iterable, tol_mm: float) -> list:
 @dataclass
 class Prepared:
     path: str
-    kind: str                     # gcode | svg | image | text
+    kind: str                     # gcode | svg | dxf | image | text
     passthrough: bool             # G-code streamed as it is
     strict: bool = False
     join_mm: float = 0.0075       # the joins: within this, never above tol_mm (see prepare)
@@ -354,6 +373,8 @@ class Prepared:
             return f"{self.path}: stroke {k + 1}"
         if self.kind == "text":
             return f"{self.path}:{st.line}"
+        if self.kind == "dxf":
+            return f"{self.path}: entity {st.src}"
         return f"{self.path}: element {st.src}" if st.src else f"{self.path}: element {st.line}"
 
 
@@ -399,8 +420,8 @@ def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
     place_opts = placement(args)
     method = getattr(args, "order", None) or ("keep" if kind == "gcode" else "best")
     layers = getattr(args, "layer", None)
-    if layers and not svg:
-        raise ConfigError(f"error: --layer is for SVG files; {path} is not one")
+    if layers and not (svg or kind == "dxf"):
+        raise ConfigError(f"error: --layer is for SVG and DXF files; {path} is neither")
     if kind != "image":
         _no_photo_options(args, path)
     for name in ("fill", "fill_spacing", "fill_angle"):
@@ -443,6 +464,10 @@ def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
             from vplotter.inputs import text as text_reader
 
             drawing = text_reader.read(path, warn)
+        elif kind == "dxf":
+            from vplotter.inputs import dxf
+
+            drawing = dxf.read(path, tol, layers=layers, warn=warn)
         else:
             from vplotter.inputs.strokes import Drawing
 

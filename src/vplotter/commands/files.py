@@ -115,7 +115,8 @@ def cmd_info(args, argv=None) -> int:
     if args.json:
         say(json.dumps(out))
         return 0
-    kind = {"gcode": "G-code", "svg": "SVG", "image": "photo", "text": "text"}[best.kind]
+    kind = {"gcode": "G-code", "svg": "SVG", "dxf": "DXF", "image": "photo",
+            "text": "text"}[best.kind]
     say(f"{args.file}: {kind}, {out['width_mm']:g} x "
         f"{out['height_mm']:g} mm; drawn extent X {ext[0]:.2f}..{ext[2]:.2f} "
         f"Y {ext[1]:.2f}..{ext[3]:.2f} mm")

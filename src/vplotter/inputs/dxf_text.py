@@ -1,0 +1,177 @@
+"""DXF TEXT, ATTRIB and MTEXT -> polylines in the entity's frame, in single-stroke Hershey fonts
+(`text.py`).
+
+A DXF text height is the height of the capitals (as in CAD programs), so the Hershey font size
+(the em) is height / text.CAP_HEIGHT: an 'H' of a 5 mm text is 5 mm tall.
+
+- TEXT/ATTRIB: insertion point, height, rotation, width factor, oblique angle, backward and
+  upside-down flags, horizontal alignment (left, center, right, aligned, middle, fit: the last
+  two between the insertion and alignment points) and vertical alignment (baseline, bottom,
+  middle, top) about the alignment point; in the entity's OCS.
+- MTEXT: the plain text (formatting codes dropped; \\P breaks lines), char height, insertion
+  point, rotation or text direction, extrusion, attachment point (top/middle/bottom x
+  left/center/right), the line spacing factor (baselines 5/3 x height apart, as CAD programs
+  space them) and the reference width (lines wrapped at spaces to fit it).
+- Fonts: the text style's font file names the Hershey font (txt, simplex, romans -> rowmans;
+  romand, isoct -> rowmand; romant, romanc, complex -> rowmant; italic -> timesi; script ->
+  scripts; gothic -> gothiceng; a TrueType family name as CSS names it, e.g. arial ->
+  futural); anything else is futural.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Callable
+
+import numpy as np
+
+from vplotter.inputs import text as hershey
+
+LINE_PITCH = 5.0 / 3.0      # MTEXT baseline distance / char height at line spacing factor 1
+DEFAULT_HEIGHT = 2.5        # a TEXT of height 0 whose style has no fixed height
+SHX = {"txt": "rowmans", "simplex": "rowmans", "romans": "rowmans", "monotxt": "rowmans",
+       "isocp": "rowmans", "isocpeur": "rowmans", "iso": "rowmans", "romand": "rowmand",
+       "isoct": "rowmand", "isocteur": "rowmand", "romant": "rowmant", "romanc": "rowmant",
+       "complex": "rowmant", "italic": "timesi", "italicc": "timesi", "italict": "timesi",
+       "scripts": "scripts", "scriptc": "scriptc", "gothice": "gothiceng",
+       "gothicg": "gothicger", "gothici": "gothicita", "greeks": "greeks", "greekc": "greekc",
+       "cyrillic": "cyrillic", "cyriltlc": "cyrilc_1"}
+
+
+class TextWriter:
+    """Lays out the text entities of one file (fonts looked up once per style) and gives one
+    warning for characters the fonts lack."""
+
+    def __init__(self, path: str, doc, warn: Callable[[str], None]):
+        self.path, self.doc, self.warn = path, doc, warn
+        self.fonts: dict[str, str] = {}
+        self.missing: set[str] = set()
+        self.subs: dict[str, str] = {}
+        self.used: set[str] = set()
+
+    def font(self, e) -> str:
+        name = e.dxf.get("style", "Standard")
+        if name not in self.fonts:
+            style = self.doc.styles.get(name)
+            file = (style.dxf.get("font", "") if style is not None else "") or "txt"
+            stem = file.replace("\\", "/").rsplit("/", 1)[-1].rsplit(".", 1)[0].lower()
+            self.fonts[name] = SHX.get(stem) or hershey.pick_font(stem)
+        self.used.add(self.fonts[name])
+        return self.fonts[name]
+
+    def layout(self, line: str, size: float, font: str, anchor: str = "start"):
+        shape = hershey.layout(line, size, font=font, anchor=anchor)
+        self.missing |= shape.missing
+        self.subs.update(shape.substituted)
+        return shape
+
+    def polylines(self, e, t: str) -> tuple[np.ndarray, list[np.ndarray]]:
+        """(frame 4x4 row vectors: the text's plane -> the block's coordinates, [(K, 2)])."""
+        if t == "MTEXT":
+            return self.mtext(e)
+        return self.text(e)
+
+    def finish(self) -> None:
+        msg = hershey.missing_warning(self.path, self.missing, self.subs,
+                                      ", ".join(sorted(self.used)))
+        if msg:
+            self.warn(msg)
+
+    # -------------------------------------------------------------- TEXT, ATTRIB
+    def text(self, e) -> tuple[np.ndarray, list[np.ndarray]]:
+        d = e.dxf
+        content = e.plain_text()
+        h = float(d.get("height", 0.0))
+        if not h > 0:
+            style = self.doc.styles.get(d.get("style", "Standard"))
+            h = float(style.dxf.get("height", 0.0)) if style is not None else 0.0
+            h = h if h > 0 else DEFAULT_HEIGHT
+        font = self.font(e)
+        size = h / hershey.CAP_HEIGHT
+        shape = self.layout(content, size, font)
+        wf = float(d.get("width", 1.0)) or 1.0
+        shear = math.tan(math.radians(float(d.get("oblique", 0.0))))
+        halign, valign = int(d.get("halign", 0)), int(d.get("valign", 0))
+        p1 = np.array(list(d.get("insert", (0, 0, 0))), dtype=float)
+        p2 = np.array(list(d.get("align_point", p1)), dtype=float)
+        rot = math.radians(float(d.get("rotation", 0.0)))
+        a = np.array([[wf, 0.0], [shear, 1.0]])          # row vectors: (x, y) @ a
+        width = shape.advance * wf
+        he = h
+        anchor = p2
+        if halign in (3, 5) and width > 0:               # aligned, fit: from p1 to p2
+            span = p2[:2] - p1[:2]
+            length = float(np.hypot(*span))
+            if length > 0:
+                rot = math.atan2(span[1], span[0])
+                k = length / width
+                a = a @ (np.diag([k, k]) if halign == 3 else np.diag([k, 1.0]))
+                he = h * k if halign == 3 else h
+            width = length
+            anchor = p1
+        elif halign == 0 and valign == 0:
+            anchor = p1
+        dx = {0: 0.0, 1: -width / 2, 2: -width, 3: 0.0, 4: -width / 2, 5: 0.0}.get(halign, 0.0)
+        descent = hershey.metrics(font).descent * size * he / h
+        dy = {0: 0.0, 1: -descent, 2: -he / 2, 3: -he}.get(valign, 0.0)
+        if halign == 4:
+            dy = -he / 2
+        flags = int(d.get("text_generation_flag", 0))
+        flip = np.diag([-1.0 if flags & 2 else 1.0, -1.0 if flags & 4 else 1.0])
+        polys = [((p @ a) + (dx, dy)) @ flip for p in shape.polylines]
+        c, s = math.cos(rot), math.sin(rot)
+        place = np.array([[c, s, 0, 0], [-s, c, 0, 0], [0, 0, 1, 0],
+                          [anchor[0], anchor[1], anchor[2], 1]], dtype=float)
+        o = e.ocs()
+        ocs = np.eye(4)
+        ocs[0, :3], ocs[1, :3], ocs[2, :3] = tuple(o.ux), tuple(o.uy), tuple(o.uz)
+        return place @ ocs, polys
+
+    # -------------------------------------------------------------- MTEXT
+    def mtext(self, e) -> tuple[np.ndarray, list[np.ndarray]]:
+        d = e.dxf
+        h = float(d.get("char_height", DEFAULT_HEIGHT)) or DEFAULT_HEIGHT
+        font = self.font(e)
+        size = h / hershey.CAP_HEIGHT
+        ap = int(d.get("attachment_point", 1))
+        ap = ap if 1 <= ap <= 9 else 1
+        anchor = ("start", "middle", "end")[(ap - 1) % 3]
+        lines = self.wrap(e.plain_text(split=False), size, font, float(d.get("width", 0.0)))
+        pitch = LINE_PITCH * h * float(d.get("line_spacing_factor", 1.0) or 1.0)
+        total = h + (len(lines) - 1) * pitch
+        first = {0: -h, 1: total / 2 - h, 2: total - h}[(ap - 1) // 3]
+        polys: list[np.ndarray] = []
+        for k, line in enumerate(lines):
+            shape = self.layout(line, size, font, anchor)
+            y = first - k * pitch
+            polys.extend(p + (0.0, y) for p in shape.polylines)
+        return _m44(e.ucs().matrix), polys
+
+    def wrap(self, content: str, size: float, font: str, width: float) -> list[str]:
+        """The lines of an MTEXT: its line breaks, and breaks at spaces to keep each line
+        within `width` (0: no wrapping; a word longer than the width stands alone)."""
+        out: list[str] = []
+        for para in content.split("\n"):
+            if not width > 0:
+                out.append(para)
+                continue
+            words = para.split(" ")
+            space = hershey.glyph(font, " ")[1] * size
+            line, used = words[0], self.advance(words[0], size, font)
+            for word in words[1:]:
+                w = self.advance(word, size, font)
+                if used + space + w > width * (1 + 1e-9) and line:
+                    out.append(line)
+                    line, used = word, w
+                else:
+                    line, used = f"{line} {word}", used + space + w
+            out.append(line)
+        return out
+
+    @staticmethod
+    def advance(word: str, size: float, font: str) -> float:
+        return sum(hershey.glyph(font, ch)[1] for ch in word) * size
+
+
+def _m44(m) -> np.ndarray:
+    return np.array([list(m.get_row(i)) for i in range(4)], dtype=float)
