@@ -61,14 +61,14 @@ class _Ctx:
 
 
 def read(path: str, tol_mm: float, layers: list[str] | None = None,
-         warn: Warn = _stderr) -> Drawing:
+         warn: Warn = _stderr, centre: bool = True) -> Drawing:
     """Read a DXF file's model space into a Drawing in G-code mm, its extent centred on X0 Y0
-    (+Y up). Curves stay within tol_mm of the true curve. `layers`: draw only these layers.
-    Raises InputError."""
+    (+Y up; centre=False: where the file puts it, in mm). Curves stay within tol_mm of the true
+    curve. `layers`: draw only these layers. Raises InputError."""
     if not tol_mm > 0:
         raise ValueError("tol_mm must be above 0")
     doc = _open(path)
-    return _Reader(path, doc, tol_mm, layers, warn).read()
+    return _Reader(path, doc, tol_mm, layers, warn).read(centre)
 
 
 def _open(path: str):
@@ -97,8 +97,10 @@ def _open(path: str):
         if "not a DXF file" in str(e):
             what = "not a DXF file (no DXF section structure at its start)"
         raise InputError(f"{path}: error: {what}") from None
-    except (ValueError, TypeError, KeyError, IndexError, AttributeError, RecursionError,
-            EOFError, AssertionError) as e:      # ezdxf on truncated or garbled input
+    except MemoryError:
+        raise InputError(f"{path}: error: too large to read into memory") from None
+    except Exception as e:      # noqa: BLE001 - ezdxf on truncated or garbled input raises
+        # whatever its parsing met (IndexError, struct.error, ValueError, ...): one line
         raise InputError(f"{path}: error: not a valid DXF file: {_first_line(e)}") from None
 
 
@@ -120,13 +122,15 @@ def _ocs(entity) -> np.ndarray:
     return f
 
 
-def _arc(cx: float, cy: float, r: float, a0: float, sweep: float, tol: float) -> np.ndarray:
+def _arc(cx: float, cy: float, r: float, a0: float, sweep: float, tol: float,
+         multiple: int = 1) -> np.ndarray:
     """(K, 2) points along a circular arc from angle a0 (radians) through `sweep` (signed),
-    chords within tol of the arc; both ends exact."""
+    chords within tol of the arc (their number a multiple of `multiple`); both ends exact."""
     if r <= 0:
         return np.array([[cx, cy]])
     step = 2 * math.acos(max(1 - tol / r, -1.0)) if tol < r else math.pi / 2
     n = max(int(math.ceil(abs(sweep) / max(min(step, math.pi / 2), 1e-9))), 1)
+    n = -(-n // multiple) * multiple
     if n > MAX_POINTS:
         raise OverflowError
     t = a0 + sweep * np.linspace(0.0, 1.0, n + 1)
@@ -171,7 +175,7 @@ class _Reader:
         self.text = None             # dxf_text.TextWriter, made at the first text
 
     # -------------------------------------------------------------- document
-    def read(self) -> Drawing:
+    def read(self, centre: bool = True) -> Drawing:
         msp = self.doc.modelspace()
         self.check_blocks(msp)
         ctx = _Ctx(np.diag([self.unit_mm(), self.unit_mm(), self.unit_mm(), 1.0]))
@@ -189,7 +193,7 @@ class _Reader:
                                                               key=lambda kv: (-kv[1], kv[0])))
             self.warn(f"{self.path}: warning: not drawn: {parts} (drawn: lines, polylines, "
                       f"arcs, circles, ellipses, splines, blocks, text)")
-        return self.centred()
+        return self.drawing(centre)
 
     def unit_mm(self) -> float:
         from ezdxf import units
@@ -203,13 +207,13 @@ class _Reader:
                       f"read as mm")
             return 1.0
 
-    def centred(self) -> Drawing:
+    def drawing(self, centre: bool) -> Drawing:
         w = h = None
         if self.strokes:
             lo = np.min([s.pts.min(axis=0) for s in self.strokes], axis=0)
             hi = np.max([s.pts.max(axis=0) for s in self.strokes], axis=0)
             c = (lo + hi) / 2
-            for s in self.strokes:
+            for s in self.strokes if centre else ():
                 s.pts = s.pts - c
             w, h = float(hi[0] - lo[0]), float(hi[1] - lo[1])
         layers = [{"id": name, "label": name, "visible": d["visible"]}
@@ -361,8 +365,8 @@ class _Reader:
             tol = self.local_tol(frame, ctx)
             c = d.center
             z = c[2]
-            if t == "CIRCLE":
-                pts = _arc(c[0], c[1], d.radius, 0.0, 2 * math.pi, tol)
+            if t == "CIRCLE":           # a multiple of 4 chords: its extent is exact
+                pts = _arc(c[0], c[1], d.radius, 0.0, 2 * math.pi, tol, 4)
                 pts[-1] = pts[0]
             else:
                 a0, a1 = math.radians(d.start_angle), math.radians(d.end_angle)

@@ -83,7 +83,7 @@ class _Refused(Exception):
 
 ENTITY_MAX_CHARS = 1024     # an internal entity's value, at most (Illustrator's are ~50)
 ENTITY_MAX_COUNT = 64       # entity declarations, at most
-EXPANDED_MAX = 1 << 24      # attribute and text characters beyond the file's own, at most
+EXPANDED_MAX = 1 << 22      # attribute and text characters beyond the file's own, at most
 
 
 def _guard_entities(parser, path: str) -> list[int]:
@@ -92,7 +92,7 @@ def _guard_entities(parser, path: str) -> list[int]:
     file does not declare (an external DTD is never read: expat is not given a loader), and
     internal entities that refer to other entities (the billion laughs) or are long; plain
     internal entities (Illustrator's namespace names) are kept, and once a file declares one, the
-    characters its attributes and text expand to are bounded. Returns [line, col] of the refusal
+    characters its attributes and text expand to beyond the file's own are bounded. Returns [line, col] of the refusal
     (filled when _Refused is raised from a handler)."""
     where = [0, 0]
     count = [0, 0]          # declarations, expanded characters
@@ -119,7 +119,7 @@ def _guard_entities(parser, path: str) -> list[int]:
 
             def counted(n: int) -> None:
                 count[1] += n
-                if count[1] > EXPANDED_MAX:
+                if count[1] > parser.CurrentByteIndex + EXPANDED_MAX:
                     refuse(f"entities expand to more than {EXPANDED_MAX} characters")
 
             def start_counted(name, attrs):
