@@ -77,84 +77,14 @@ def _qualify(name: str) -> tuple[str, str]:
     return uri, local
 
 
-class _Refused(Exception):
-    """A DOCTYPE that load_tree will not parse (entities that read other files or explode)."""
-
-
-ENTITY_MAX_CHARS = 1024     # an internal entity's value, at most (Illustrator's are ~50)
-ENTITY_MAX_COUNT = 64       # entity declarations, at most
-EXPANDED_MAX = 1 << 22      # attribute and text characters beyond the file's own, at most
-
-
-def _guard_entities(parser, path: str) -> list[int]:
-    """Make `parser` refuse what could read outside the file or blow up in memory: external
-    entities (SYSTEM/PUBLIC, general or parameter), parameter entities, entity references the
-    file does not declare (an external DTD is never read: expat is not given a loader), and
-    internal entities that refer to other entities (the billion laughs) or are long; plain
-    internal entities (Illustrator's namespace names) are kept, and once a file declares one, the
-    characters its attributes and text expand to beyond the file's own are bounded. Returns [line, col] of the refusal
-    (filled when _Refused is raised from a handler)."""
-    where = [0, 0]
-    count = [0, 0]          # declarations, expanded characters
-
-    def refuse(msg: str):
-        where[:] = [parser.CurrentLineNumber, parser.CurrentColumnNumber + 1]
-        raise _Refused(msg)
-
-    def entity_decl(name, is_param, value, base, system_id, public_id, notation):
-        count[0] += 1
-        if system_id is not None or public_id is not None or notation is not None:
-            refuse(f"external entity {name!r} ({system_id or public_id}): entities that read "
-                   f"other files are not accepted")
-        if is_param:
-            refuse(f"parameter entity {name!r}: parameter entities are not accepted")
-        if "&" in value or "%" in value:
-            refuse(f"entity {name!r} refers to other entities (an entity-expansion bomb?): "
-                   f"not accepted")
-        if len(value) > ENTITY_MAX_CHARS or count[0] > ENTITY_MAX_COUNT:
-            refuse(f"entity {name!r}: at most {ENTITY_MAX_COUNT} entities of at most "
-                   f"{ENTITY_MAX_CHARS} characters are accepted")
-        if count[0] == 1:       # from now on, bound what the references expand to
-            start, chars = parser.StartElementHandler, parser.CharacterDataHandler
-
-            def counted(n: int) -> None:
-                count[1] += n
-                if count[1] > parser.CurrentByteIndex + EXPANDED_MAX:
-                    refuse(f"entities expand to more than {EXPANDED_MAX} characters")
-
-            def start_counted(name, attrs):
-                counted(sum(len(v) for v in attrs.values()))
-                start(name, attrs)
-
-            def chars_counted(data):
-                counted(len(data))
-                chars(data)
-
-            parser.StartElementHandler = start_counted
-            parser.CharacterDataHandler = chars_counted
-
-    def skipped(name, is_param):
-        refuse(f"entity {'%' if is_param else '&'}{name}; is not declared in the file "
-               f"(external DTDs are not read)")
-
-    def external(context, base, system_id, public_id):
-        refuse(f"external reference {system_id or public_id!r}: not read")
-
-    parser.EntityDeclHandler = entity_decl
-    parser.SkippedEntityHandler = skipped
-    parser.ExternalEntityRefHandler = external
-    parser.UnparsedEntityDeclHandler = (
-        lambda name, base, system_id, public_id, notation:
-        refuse(f"external entity {name!r} ({system_id}): not accepted"))
-    return where
-
-
 def load_tree(path: str) -> tuple[Node, dict[str, Node]]:
     """Parse the file into Nodes (every element numbered 1, 2, ... in document order) and the
     id table (the first element with an id wins)."""
     import gzip
     import zlib
     from xml.parsers import expat
+
+    from vplotter.inputs import xml_guard
 
     parser = expat.ParserCreate(namespace_separator=" ")
     stack: list[Node] = []
@@ -196,7 +126,7 @@ def load_tree(path: str) -> tuple[Node, dict[str, Node]]:
     parser.StartElementHandler = start
     parser.EndElementHandler = end
     parser.CharacterDataHandler = chars
-    refuse = _guard_entities(parser, path)
+    refuse = xml_guard.guard_entities(parser)
     try:
         with open(path, "rb") as f:
             if f.read(2) == b"\x1f\x8b":              # .svgz: gzip-compressed SVG
@@ -208,7 +138,7 @@ def load_tree(path: str) -> tuple[Node, dict[str, Node]]:
                 parser.ParseFile(f)
     except (gzip.BadGzipFile, EOFError, zlib.error) as e:
         raise InputError(f"{path}: error: not a valid gzip-compressed SVG (.svgz): {e}") from None
-    except _Refused as e:
+    except xml_guard.Refused as e:
         raise InputError(f"{path}:{refuse[0]}:{refuse[1]}: error: {e}") from None
     except expat.ExpatError as e:
         raise InputError(f"{path}:{e.lineno}:{e.offset + 1}: error: not well-formed XML: "
