@@ -54,6 +54,7 @@ class _Ctx:
     """Where an entity stands: its block's transform and what BYBLOCK/layer 0 resolve to."""
 
     m: np.ndarray                  # 4x4, row vectors: block coordinates -> mm (WCS x units)
+    tol: float                     # the chord tolerance in block coordinates (see _local_tol)
     layer: str | None = None       # the INSERT's layer (layer "0" entities inside take it)
     colour: str = "#000000"        # the INSERT's colour (BYBLOCK entities inside take it)
     top: int = 0                   # number of the model-space entity this comes from
@@ -109,9 +110,28 @@ def _first_line(e: BaseException) -> str:
     return (text[0] if text else type(e).__name__)[:200]
 
 
+def _aci(aci: int) -> str:
+    """ACI colour -> '#rrggbb'; 7 (white on a dark screen, black on light) is black on paper."""
+    from ezdxf import colors
+
+    return "#000000" if aci == 7 else "#%02x%02x%02x" % tuple(colors.aci2rgb(aci))
+
+
 def _m44(m) -> np.ndarray:
     """ezdxf Matrix44 (row vectors) -> numpy 4x4."""
     return np.array([list(m.get_row(i)) for i in range(4)], dtype=float)
+
+
+def _local_tol(tol: float, m: np.ndarray) -> float:
+    """The chord tolerance in block coordinates (and in any OCS in them, a rotation): tol over
+    the largest stretch of m from there to G-code mm (X and Y): the largest singular value of
+    its 3x2 part, from the 2x2 Gram matrix."""
+    a = m[:3, :2]
+    g = a.T @ a
+    half = (g[0, 0] + g[1, 1]) / 2
+    top = half + math.sqrt(max(((g[0, 0] - g[1, 1]) / 2) ** 2 + g[0, 1] ** 2, 0.0))
+    stretch = math.sqrt(max(top, 0.0))
+    return tol / stretch if stretch > 1e-300 else tol
 
 
 def _ocs(entity) -> np.ndarray:
@@ -133,7 +153,7 @@ def _arc(cx: float, cy: float, r: float, a0: float, sweep: float, tol: float,
     n = -(-n // multiple) * multiple
     if n > MAX_POINTS:
         raise OverflowError
-    t = a0 + sweep * np.linspace(0.0, 1.0, n + 1)
+    t = a0 + sweep / n * np.arange(n + 1.0)
     return np.column_stack([cx + r * np.cos(t), cy + r * np.sin(t)])
 
 
@@ -171,6 +191,7 @@ class _Reader:
         self.skipped = {"text": 0, "image": 0, "hidden": 0, "other": 0}
         self.other: dict[str, int] = {}
         self.missing_blocks: set[str] = set()
+        self.layer_colours: dict[str, str] = {}
         self.points = 0
         self.text = None             # dxf_text.TextWriter, made at the first text
 
@@ -178,7 +199,8 @@ class _Reader:
     def read(self, centre: bool = True) -> Drawing:
         msp = self.doc.modelspace()
         self.check_blocks(msp)
-        ctx = _Ctx(np.diag([self.unit_mm(), self.unit_mm(), self.unit_mm(), 1.0]))
+        m = np.diag([self.unit_mm(), self.unit_mm(), self.unit_mm(), 1.0])
+        ctx = _Ctx(m, _local_tol(self.tol, m))
         try:
             for k, e in enumerate(msp, 1):
                 self.entity(e, replace(ctx, top=k))
@@ -291,15 +313,18 @@ class _Reader:
         if aci == colors.BYBLOCK:
             return ctx.colour
         if aci == colors.BYLAYER or not 0 < aci < 256:
-            lay = self.doc.layers.get(layer)
-            if lay is None:
-                return "#000000"
-            if lay.dxf.hasattr("true_color"):
-                return "#%02x%02x%02x" % tuple(lay.rgb)
-            aci = abs(lay.dxf.get("color", 7)) or 7
-        if aci == 7:
+            if layer not in self.layer_colours:
+                self.layer_colours[layer] = self.layer_colour(layer)
+            return self.layer_colours[layer]
+        return _aci(aci)
+
+    def layer_colour(self, layer: str) -> str:
+        lay = self.doc.layers.get(layer)
+        if lay is None:
             return "#000000"
-        return "#%02x%02x%02x" % tuple(colors.aci2rgb(aci))
+        if lay.dxf.hasattr("true_color"):
+            return "#%02x%02x%02x" % tuple(lay.rgb)
+        return _aci(abs(lay.dxf.get("color", 7)) or 7)
 
     # -------------------------------------------------------------- entities
     def entity(self, e, ctx: _Ctx) -> None:
@@ -341,18 +366,13 @@ class _Reader:
         colour = self.colour_of(e, layer, ctx)
         refs = e.multi_insert() if e.mcount > 1 else [e]
         for ref in refs:
-            inner = replace(ctx, m=_m44(ref.matrix44()) @ ctx.m, layer=layer, colour=colour,
+            m = _m44(ref.matrix44()) @ ctx.m
+            inner = replace(ctx, m=m, tol=_local_tol(self.tol, m), layer=layer, colour=colour,
                             src=f"{ctx.src}INSERT {e.dxf.handle} > ")
             for child in block:
                 self.entity(child, inner)
             for attrib in ref.attribs:              # in the INSERT's own coordinates
                 self.entity(attrib, replace(ctx, layer=layer, colour=colour))
-
-    def local_tol(self, frame: np.ndarray, ctx: _Ctx) -> float:
-        """The chord tolerance in the entity's frame: tol over the largest stretch from that
-        frame to G-code mm (X and Y)."""
-        stretch = float(np.linalg.norm((frame[:3, :3] @ ctx.m[:3, :3])[:, :2], 2))
-        return self.tol / stretch if stretch > 1e-300 else self.tol
 
     def curve(self, e, t: str, layer: str, ctx: _Ctx) -> None:
         d = e.dxf
@@ -362,7 +382,7 @@ class _Reader:
             polys = [np.array([list(d.start), list(d.end)])]
         elif t in ("CIRCLE", "ARC"):
             frame = _ocs(e)
-            tol = self.local_tol(frame, ctx)
+            tol = ctx.tol
             c = d.center
             z = c[2]
             if t == "CIRCLE":           # a multiple of 4 chords: its extent is exact
@@ -374,9 +394,9 @@ class _Reader:
                 pts = _arc(c[0], c[1], d.radius, a0, sweep, tol)
             polys = [pts]
         elif t == "ELLIPSE":
-            polys = [self.ellipse(e, self.local_tol(frame, ctx))]
+            polys = [self.ellipse(e, ctx.tol)]
         elif t == "SPLINE":
-            tol = self.local_tol(frame, ctx)
+            tol = ctx.tol
             try:
                 pts = [tuple(v) for v in e.construction_tool().flattening(tol, segments=4)]
             except (ValueError, ZeroDivisionError, IndexError, ArithmeticError) as ex:
@@ -387,7 +407,7 @@ class _Reader:
             frame = _ocs(e)
             z = d.get("elevation", 0.0)
             xyb = np.array(list(e.get_points("xyb")), dtype=float).reshape(-1, 3)
-            polys = [_bulged(xyb[:, :2], xyb[:, 2], e.closed, self.local_tol(frame, ctx))]
+            polys = [_bulged(xyb[:, :2], xyb[:, 2], e.closed, ctx.tol)]
         else:
             polys = self.polyline(e, ctx)
             if polys is None:
@@ -432,7 +452,7 @@ class _Reader:
             return np.eye(4), [loc]
         frame = _ocs(e)
         bulge = np.array([v.dxf.get("bulge", 0.0) for v in verts], dtype=float)
-        pts = _bulged(loc[:, :2], bulge, e.is_closed, self.local_tol(frame, ctx))
+        pts = _bulged(loc[:, :2], bulge, e.is_closed, ctx.tol)
         z = float(e.dxf.get("elevation", (0, 0, 0))[2])
         return frame, [np.column_stack([pts, np.full(len(pts), z)])]
 
@@ -449,8 +469,9 @@ class _Reader:
             if len(p) == 0:
                 continue
             if p.shape[1] == 2:
-                p = np.column_stack([p, np.full(len(p), z)])
-            xy = p @ m[:3, :2] + m[3, :2]
+                xy = p @ m[:2, :2] + (z * m[2, :2] + m[3, :2])
+            else:
+                xy = p @ m[:3, :2] + m[3, :2]
             if not np.isfinite(xy).all():
                 raise InputError(f"{self.path}: error: {src}: coordinates are not finite")
             keep = np.ones(len(xy), dtype=bool)
