@@ -228,7 +228,7 @@ def test_expansion_bound(tmp_path, monkeypatch):
         for i in range(10):
             blk.add_blockref(f"L{k - 1}", (i, 0))
     msp.add_blockref("L7", (0, 0))
-    with pytest.raises(InputError, match="more than 1000000 entities"):
+    with pytest.raises(InputError, match=f"more than {dxf.MAX_ENTITIES} entities"):
         read(tmp_path, doc)
 
 

@@ -78,14 +78,15 @@ def add_file_options(p: argparse.ArgumentParser) -> None:
     o = p.add_argument_group("order and layers")
     o.add_argument("--order", choices=("keep", "greedy", "best"),
                    help="stroke order: keep the file's, greedy nearest neighbour, or best "
-                        "(default: best for SVG, keep for G-code)")
+                        "(default: best for SVG and DXF, keep for G-code)")
     o.add_argument("--join", type=_number("join", 0), default=None, metavar="MM",
                    help="draw on without lifting the pen when the next stroke starts within MM "
                         "of where the previous one ended; at most (and by default) the "
                         "flattening tolerance, 0.75 x tolerance_mm (0.0075 mm at 0.01), so a "
                         "join never draws farther from the file than a chord; 0: never")
     o.add_argument("--layer", action="append", metavar="NAME",
-                   help="draw only this SVG layer (label or id); repeatable")
+                   help="draw only this SVG layer (label or id) or DXF layer (name); "
+                        "repeatable")
     o.add_argument("--pause-between-layers", action="store_true",
                    help="lift the pen after each layer and wait for Enter (change the pen)")
     ph = p.add_argument_group("photos (PNG, JPEG, WebP, BMP, TIFF, GIF: darkness drawn as line "

@@ -33,8 +33,8 @@ import numpy as np
 from vplotter.errors import InputError
 from vplotter.inputs.strokes import Drawing, Stroke
 
-MAX_ENTITIES = 1_000_000    # entities drawn once blocks are expanded (MINSERT grids included)
-MAX_POINTS = 20_000_000     # points of all strokes together
+MAX_ENTITIES = 500_000      # entities drawn once blocks are expanded (MINSERT grids included)
+MAX_POINTS = 10_000_000     # points of all strokes together (160 MB of coordinates)
 MAX_DEPTH = 100             # blocks nested in blocks
 HIDDEN_LAYERS = {"defpoints"}   # CAD programs never plot this layer
 CURVES = {"LINE", "LWPOLYLINE", "POLYLINE", "ARC", "CIRCLE", "ELLIPSE", "SPLINE"}
