@@ -264,7 +264,7 @@ def test_layers_are_pens_with_colours(tmp_path):
     vis = {lay["label"]: lay["visible"] for lay in d.layers}
     assert vis == {"RED": True, "WHITE": True, "TRUE": True, "ICE": False, "DARK": False,
                    "Defpoints": False}
-    d, warnings = read(tmp_path, doc, layers=["WHITE"])
+    d, warnings = read(tmp_path, doc, layers=["white"])        # names are not case-sensitive
     assert [s.layer for s in d.strokes] == ["WHITE", "WHITE"]
     d, warnings = read(tmp_path, doc, layers=["ICE"])
     assert d.strokes == [] and "frozen or off" in warnings[0]
@@ -362,6 +362,7 @@ def test_text_in_block_with_attributes_and_missing_glyphs(tmp_path):
     blk.add_attdef("NAME", insert=(0, -5), height=2)
     ref = msp.add_blockref("TAG", (100, 0), dxfattribs={"xscale": 2, "yscale": 2})
     ref.add_attrib("NAME", "Zoë ☃", insert=(100, -10), dxfattribs={"height": 2})
+    ref.add_attrib("HIDE", "not shown", insert=(100, -20), dxfattribs={"flags": 1})
     d, warnings = read(tmp_path, doc)
     srcs = {s.src.split(" > ")[-1].split()[0] for s in d.strokes}
     assert srcs == {"TEXT", "ATTRIB"}
@@ -369,6 +370,18 @@ def test_text_in_block_with_attributes_and_missing_glyphs(tmp_path):
     x0, y0, x1, y1 = box_of(text)
     assert x0 >= 100 - 1e-9 and y1 == pytest.approx(4)             # scaled by the block
     assert len(warnings) == 1 and "'☃'" in warnings[0] and "'ë' as 'e'" in warnings[0]
+
+
+def test_point_bound_and_non_finite(tmp_path):
+    doc, msp = new()
+    msp.add_circle((0, 0), 1e15)                    # chords of 0.01 mm: far too many
+    with pytest.raises(InputError, match=f"more than {dxf.MAX_POINTS} points"):
+        read(tmp_path, doc)
+    doc, msp = new()
+    doc.blocks.new("B").add_line((0, 0), (10, 0))
+    msp.add_blockref("B", (0, 0), dxfattribs={"xscale": 1e308, "yscale": 1e308})
+    with pytest.raises(InputError, match="INSERT .* > LINE .*: coordinates are not finite"):
+        read(tmp_path, doc)
 
 
 # ------------------------------------------------------------------ bad files, CLI

@@ -126,12 +126,13 @@ def _local_tol(tol: float, m: np.ndarray) -> float:
     """The chord tolerance in block coordinates (and in any OCS in them, a rotation): tol over
     the largest stretch of m from there to G-code mm (X and Y): the largest singular value of
     its 3x2 part, from the 2x2 Gram matrix."""
-    a = m[:3, :2]
-    g = a.T @ a
-    half = (g[0, 0] + g[1, 1]) / 2
-    top = half + math.sqrt(max(((g[0, 0] - g[1, 1]) / 2) ** 2 + g[0, 1] ** 2, 0.0))
-    stretch = math.sqrt(max(top, 0.0))
-    return tol / stretch if stretch > 1e-300 else tol
+    with np.errstate(all="ignore"):     # a huge scale: no finite stretch, add() refuses it
+        a = m[:3, :2] / max(float(np.abs(m[:3, :2]).max()), 1e-300)
+        g = a.T @ a
+        half = (g[0, 0] + g[1, 1]) / 2
+        top = half + math.sqrt(max(((g[0, 0] - g[1, 1]) / 2) ** 2 + g[0, 1] ** 2, 0.0))
+        stretch = math.sqrt(max(top, 0.0)) * float(np.abs(m[:3, :2]).max())
+    return tol / stretch if 1e-300 < stretch < math.inf else tol
 
 
 def _ocs(entity) -> np.ndarray:
@@ -185,7 +186,10 @@ def _bulged(xy: np.ndarray, bulge: np.ndarray, closed: bool, tol: float) -> np.n
 
 class _Reader:
     def __init__(self, path: str, doc, tol_mm: float, wanted: list[str] | None, warn: Warn):
-        self.path, self.doc, self.tol, self.wanted, self.warn = path, doc, tol_mm, wanted, warn
+        self.path, self.doc, self.tol, self.warn = path, doc, tol_mm, warn
+        self.asked = list(wanted or [])             # layer names are not case-sensitive
+        self.wanted = {w.casefold() for w in self.asked}
+        self.current = ""                           # the entity being read, for messages
         self.strokes: list[Stroke] = []
         self.layers: dict[str, dict] = {}
         self.skipped = {"text": 0, "image": 0, "hidden": 0, "other": 0}
@@ -207,6 +211,11 @@ class _Reader:
         except OverflowError:
             raise InputError(f"{self.path}: error: more than {MAX_POINTS} points: the drawing "
                              f"is too large for the chord tolerance") from None
+        except InputError:
+            raise
+        except Exception as ex:     # noqa: BLE001 - ezdxf on an entity with broken values
+            raise InputError(f"{self.path}: error: {self.current}: cannot be drawn: "
+                             f"{_first_line(ex)}") from None
         self.check_layers()
         if self.text is not None:
             self.text.finish()
@@ -282,12 +291,13 @@ class _Reader:
     def check_layers(self) -> None:
         if not self.wanted:
             return
-        unknown = [w for w in self.wanted if w not in self.layers]
+        have = {name.casefold(): d for name, d in self.layers.items()}
+        unknown = [w for w in self.asked if w.casefold() not in have]
         if unknown:
-            have = ", ".join(repr(n) for n in self.layers) or "none"
-            raise InputError(f"{self.path}: error: no layer {unknown[0]!r} (layers: {have})")
-        for name in self.wanted:
-            if not self.layers[name]["visible"]:
+            names = ", ".join(repr(n) for n in self.layers) or "none"
+            raise InputError(f"{self.path}: error: no layer {unknown[0]!r} (layers: {names})")
+        for name in self.asked:
+            if not have[name.casefold()]["visible"]:
                 self.warn(f"{self.path}: warning: layer {name!r} is frozen or off: nothing of "
                           f"it is drawn")
 
@@ -331,14 +341,16 @@ class _Reader:
         t = e.dxftype()
         if t in QUIET:
             return
+        self.current = f"{ctx.src}{t} {e.dxf.get('handle', '?')}"
         layer, shown = self.layer_of(e, ctx)
-        if not shown or e.dxf.get("invisible", 0):
+        if not shown or e.dxf.get("invisible", 0) or (t == "ATTRIB" and
+                                                       e.dxf.get("flags", 0) & 1):
             self.skipped["hidden"] += 1
             return
         if t == "INSERT":
             self.insert(e, layer, ctx)
             return
-        if self.wanted and layer not in self.wanted:
+        if self.wanted and layer.casefold() not in self.wanted:
             return
         if t in CURVES:
             self.curve(e, t, layer, ctx)
@@ -372,7 +384,7 @@ class _Reader:
             for child in block:
                 self.entity(child, inner)
             for attrib in ref.attribs:              # in the INSERT's own coordinates
-                self.entity(attrib, replace(ctx, layer=layer, colour=colour))
+                self.entity(attrib, replace(ctx, colour=colour))
 
     def curve(self, e, t: str, layer: str, ctx: _Ctx) -> None:
         d = e.dxf
@@ -468,10 +480,9 @@ class _Reader:
             p = np.asarray(p, dtype=float)
             if len(p) == 0:
                 continue
-            if p.shape[1] == 2:
-                xy = p @ m[:2, :2] + (z * m[2, :2] + m[3, :2])
-            else:
-                xy = p @ m[:3, :2] + m[3, :2]
+            with np.errstate(all="ignore"):     # overflow: refused just below
+                xy = (p @ m[:2, :2] + (z * m[2, :2] + m[3, :2]) if p.shape[1] == 2
+                      else p @ m[:3, :2] + m[3, :2])
             if not np.isfinite(xy).all():
                 raise InputError(f"{self.path}: error: {src}: coordinates are not finite")
             keep = np.ones(len(xy), dtype=bool)
