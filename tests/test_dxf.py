@@ -19,7 +19,7 @@ ezdxf = pytest.importorskip("ezdxf")
 
 from vplotter.cli import main  # noqa: E402
 from vplotter.errors import InputError  # noqa: E402
-from vplotter.inputs import dxf, svg  # noqa: E402
+from vplotter.inputs import dxf, dxf_text, svg  # noqa: E402
 from vplotter.inputs import text as hershey  # noqa: E402
 
 TOL = 0.01
@@ -297,7 +297,8 @@ def test_text_inside_its_box(tmp_path):
 
     doc, msp = new()
     h = 5.0
-    size = h / hershey.CAP_HEIGHT
+    size = h * dxf_text.SIZE_PER_HEIGHT             # the height is the font size
+    cap = size * hershey.CAP_HEIGHT
     adv = hershey.layout("Hello", size).advance
     fm = hershey.metrics()
     msp.add_text("Hello", height=h, dxfattribs={"insert": (10, 20)})
@@ -305,7 +306,7 @@ def test_text_inside_its_box(tmp_path):
     x0, y0, x1, y1 = box_of(d.strokes)
     assert x0 >= 10 - 1e-9 and x1 <= 10 + adv + 1e-9 and x1 > 10 + 0.8 * adv
     assert y0 >= 20 + fm.descent * size - 1e-9 and y1 <= 20 + fm.ascent * size + 1e-9
-    assert y1 == pytest.approx(20 + h)              # the capital H is the height tall
+    assert y1 == pytest.approx(20 + cap)            # the capital H
     # rotated 90 degrees, width factor 2, centred on the alignment point, top-aligned
     doc, msp = new()
     t = msp.add_text("Hello", height=h, rotation=90, dxfattribs={"width": 2})
@@ -314,20 +315,61 @@ def test_text_inside_its_box(tmp_path):
     x0, y0, x1, y1 = box_of(d.strokes)
     assert y0 == pytest.approx(-adv, abs=0.3 * adv) and y1 == pytest.approx(adv, abs=0.3 * adv)
     assert -(y0 + y1) / 2 == pytest.approx(0, abs=0.1 * adv)
-    assert x0 == pytest.approx(0) and x1 <= h - fm.descent * size + 1e-9   # top on the point
+    assert x0 == pytest.approx(0) and x1 <= cap - fm.descent * size + 1e-9  # top on the point
     # fit between two points: as long as they are apart
     doc, msp = new()
     t = msp.add_text("Hello", height=h)
     t.set_placement((0, 0), (100, 0), align=TextEntityAlignment.FIT)
     d, _ = read(tmp_path, doc)
     x0, y0, x1, y1 = box_of(d.strokes)
-    assert 90 < x1 - x0 <= 100 + 1e-9 and y1 == pytest.approx(h)
+    assert 90 < x1 - x0 <= 100 + 1e-9 and y1 == pytest.approx(cap)
+
+
+def test_every_text_in_its_box(tmp_path):
+    """Many TEXTs (heights, rotations, the left/center/right x baseline/bottom/middle/top
+    alignments, descenders): each draws, and each lies in its font size x advance box, in its
+    own frame, shifted as its alignment says."""
+    from ezdxf.enums import TextEntityAlignment as A
+
+    rng = np.random.default_rng(5)
+    doc, msp = new()
+    want = {}
+    fm = hershey.metrics()
+    for k, (h, v) in enumerate(zip("LCR" * 4, ["BASELINE"] * 3 + ["BOTTOM"] * 3 + ["MIDDLE"] * 3
+                                   + ["TOP"] * 3)):
+        content = ["Ag", "typography", "HELLO 42", "jQ|y"][k % 4]
+        height, rot = float(rng.uniform(1, 20)), float(rng.uniform(0, 360))
+        p = rng.uniform(-500, 500, 2)
+        name = {"L": "LEFT", "C": "CENTER", "R": "RIGHT"}[h]
+        align = getattr(A, "LEFT" if (name, v) == ("LEFT", "BASELINE") else f"{v}_{name}"
+                        if v != "BASELINE" else name)
+        t = msp.add_text(content, height=height, rotation=rot)
+        t.set_placement(tuple(p), align=align)
+        size = height * dxf_text.SIZE_PER_HEIGHT
+        adv = hershey.layout(content, size).advance
+        cap = size * hershey.CAP_HEIGHT
+        dx = {"L": 0, "C": -adv / 2, "R": -adv}[h]
+        dy = {"BASELINE": 0, "BOTTOM": -fm.descent * size, "MIDDLE": -cap / 2, "TOP": -cap}[v]
+        want[t.dxf.handle] = (p, rot, dx, dy, adv, size)
+    d, _ = read(tmp_path, doc)
+    by = {}
+    for s in d.strokes:
+        by.setdefault(s.src.split()[-1], []).append(s.pts)
+    assert set(by) == set(want)
+    for handle, (p, rot, dx, dy, adv, size) in want.items():
+        a = math.radians(rot)
+        back = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+        q = (np.concatenate(by[handle]) - p) @ back          # into the text's frame
+        assert q[:, 0].min() >= dx - 1e-6 and q[:, 0].max() <= dx + adv + 1e-6
+        assert q[:, 1].min() >= dy + fm.descent * size - 1e-6
+        assert q[:, 1].max() <= dy + fm.ascent * size + 1e-6
 
 
 def test_mtext_lines_and_attachment(tmp_path):
     doc, msp = new()
     h = 4.0
-    size = h / hershey.CAP_HEIGHT
+    size = h * dxf_text.SIZE_PER_HEIGHT
+    cap = size * hershey.CAP_HEIGHT
     m = msp.add_mtext("FIRST LINE\\PSecond", dxfattribs={"char_height": h, "insert": (50, 50),
                                                          "attachment_point": 5})
     assert m.plain_text() == "FIRST LINE\nSecond"
@@ -335,7 +377,7 @@ def test_mtext_lines_and_attachment(tmp_path):
     x0, y0, x1, y1 = box_of(d.strokes)
     adv = hershey.layout("FIRST LINE", size).advance
     assert (x0 + x1) / 2 == pytest.approx(50, abs=0.05 * adv)       # middle centre
-    total = h + 5 / 3 * h
+    total = cap + 5 / 3 * cap
     assert y1 == pytest.approx(50 + total / 2)                       # F's top
     assert y0 >= 50 - total / 2 + hershey.metrics().descent * size - 1e-9
     # top left, rotated 90: the text runs up from the insertion point, lines to its right
@@ -343,7 +385,7 @@ def test_mtext_lines_and_attachment(tmp_path):
     msp.add_mtext("ab\\Pcd", dxfattribs={"char_height": h, "insert": (0, 0), "rotation": 90})
     d, _ = read(tmp_path, doc)
     x0, y0, x1, y1 = box_of(d.strokes)
-    assert x0 > 0 and y0 >= -1e-9 and x1 <= h + 5 / 3 * h - hershey.metrics().descent * size
+    assert x0 > 0 and y0 >= -1e-9 and x1 <= cap * 8 / 3 - hershey.metrics().descent * size
 
 
 def test_mtext_wraps_at_its_width(tmp_path):
@@ -352,7 +394,7 @@ def test_mtext_wraps_at_its_width(tmp_path):
     msp.add_mtext(words, dxfattribs={"char_height": 2.0, "insert": (0, 0), "width": 30})
     d, _ = read(tmp_path, doc)
     x0, y0, x1, y1 = box_of(d.strokes)
-    assert x1 - x0 <= 30 and y1 - y0 > 5 / 3 * 2.0     # wrapped (unwrapped: about 60 mm)
+    assert x1 - x0 <= 30 and y1 - y0 > 2.0            # wrapped (unwrapped: about 40 mm)
 
 
 def test_text_in_block_with_attributes_and_missing_glyphs(tmp_path):
@@ -368,7 +410,8 @@ def test_text_in_block_with_attributes_and_missing_glyphs(tmp_path):
     assert srcs == {"TEXT", "ATTRIB"}
     text = [s for s in d.strokes if s.src.endswith(tuple("0123456789ABCDEF")) and "TEXT" in s.src]
     x0, y0, x1, y1 = box_of(text)
-    assert x0 >= 100 - 1e-9 and y1 == pytest.approx(4)             # scaled by the block
+    cap = 2 * dxf_text.SIZE_PER_HEIGHT * hershey.CAP_HEIGHT
+    assert x0 >= 100 - 1e-9 and y1 == pytest.approx(2 * cap)       # scaled by the block
     assert len(warnings) == 1 and "'☃'" in warnings[0] and "'ë' as 'e'" in warnings[0]
 
 

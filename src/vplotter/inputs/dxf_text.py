@@ -1,8 +1,12 @@
 """DXF TEXT, ATTRIB and MTEXT -> polylines in the entity's frame, in single-stroke Hershey fonts
 (`text.py`).
 
-A DXF text height is the height of the capitals (as in CAD programs), so the Hershey font size
-(the em) is height / text.CAP_HEIGHT: an 'H' of a 5 mm text is 5 mm tall.
+Size: a DXF text height is taken as the font size (the em, as an SVG's font-size is): the
+text of a 5 mm TEXT lies within the 5 mm body of the font (capitals
+5 x text.CAP_HEIGHT = 3.3 mm tall, descenders below the baseline included), and is as wide as
+`text.layout(content, 5).advance`. CAD programs draw the capitals the full height (1.52 times
+larger): SIZE_PER_HEIGHT = 1 / text.CAP_HEIGHT would draw that. Alignment (top, middle) and
+MTEXT's line pitch follow the capitals actually drawn.
 
 - TEXT/ATTRIB: insertion point, height, rotation, width factor, oblique angle, backward and
   upside-down flags, horizontal alignment (left, center, right, aligned, middle, fit: the last
@@ -10,8 +14,8 @@ A DXF text height is the height of the capitals (as in CAD programs), so the Her
   middle, top) about the alignment point; in the entity's OCS.
 - MTEXT: the plain text (formatting codes dropped; \\P breaks lines), char height, insertion
   point, rotation or text direction, extrusion, attachment point (top/middle/bottom x
-  left/center/right), the line spacing factor (baselines 5/3 x height apart, as CAD programs
-  space them) and the reference width (lines wrapped at spaces to fit it).
+  left/center/right), the line spacing factor (baselines 5/3 x the capitals' height apart, as
+  CAD programs space them) and the reference width (lines wrapped at spaces to fit it).
 - Fonts: the text style's font file names the Hershey font (txt, simplex, romans -> rowmans;
   romand, isoct -> rowmand; romant, romanc, complex -> rowmant; italic -> timesi; script ->
   scripts; gothic -> gothiceng; a TrueType family name as CSS names it, e.g. arial ->
@@ -27,7 +31,8 @@ import numpy as np
 
 from vplotter.inputs import text as hershey
 
-LINE_PITCH = 5.0 / 3.0      # MTEXT baseline distance / char height at line spacing factor 1
+SIZE_PER_HEIGHT = 1.0       # Hershey font size (em) per DXF text height (see above)
+LINE_PITCH = 5.0 / 3.0      # MTEXT baseline distance / capital height at line spacing factor 1
 DEFAULT_HEIGHT = 2.5        # a TEXT of height 0 whose style has no fixed height
 SHX = {"txt": "rowmans", "simplex": "rowmans", "romans": "rowmans", "monotxt": "rowmans",
        "isocp": "rowmans", "isocpeur": "rowmans", "iso": "rowmans", "romand": "rowmand",
@@ -87,7 +92,8 @@ class TextWriter:
             h = float(style.dxf.get("height", 0.0)) if style is not None else 0.0
             h = h if h > 0 else DEFAULT_HEIGHT
         font = self.font(e)
-        size = h / hershey.CAP_HEIGHT
+        size = h * SIZE_PER_HEIGHT
+        cap = size * hershey.CAP_HEIGHT
         shape = self.layout(content, size, font)
         wf = float(d.get("width", 1.0)) or 1.0
         shear = math.tan(math.radians(float(d.get("oblique", 0.0))))
@@ -97,7 +103,7 @@ class TextWriter:
         rot = math.radians(float(d.get("rotation", 0.0)))
         a = np.array([[wf, 0.0], [shear, 1.0]])          # row vectors: (x, y) @ a
         width = shape.advance * wf
-        he = h
+        he, k = cap, 1.0
         anchor = p2
         if halign in (3, 5) and width > 0:               # aligned, fit: from p1 to p2
             span = p2[:2] - p1[:2]
@@ -106,13 +112,14 @@ class TextWriter:
                 rot = math.atan2(span[1], span[0])
                 k = length / width
                 a = a @ (np.diag([k, k]) if halign == 3 else np.diag([k, 1.0]))
-                he = h * k if halign == 3 else h
+                k = k if halign == 3 else 1.0
+                he = cap * k
             width = length
             anchor = p1
         elif halign == 0 and valign == 0:
             anchor = p1
         dx = {0: 0.0, 1: -width / 2, 2: -width, 3: 0.0, 4: -width / 2, 5: 0.0}.get(halign, 0.0)
-        descent = hershey.metrics(font).descent * size * he / h
+        descent = hershey.metrics(font).descent * size * k
         dy = {0: 0.0, 1: -descent, 2: -he / 2, 3: -he}.get(valign, 0.0)
         if halign == 4:
             dy = -he / 2
@@ -132,14 +139,15 @@ class TextWriter:
         d = e.dxf
         h = float(d.get("char_height", DEFAULT_HEIGHT)) or DEFAULT_HEIGHT
         font = self.font(e)
-        size = h / hershey.CAP_HEIGHT
+        size = h * SIZE_PER_HEIGHT
+        cap = size * hershey.CAP_HEIGHT
         ap = int(d.get("attachment_point", 1))
         ap = ap if 1 <= ap <= 9 else 1
         anchor = ("start", "middle", "end")[(ap - 1) % 3]
         lines = self.wrap(e.plain_text(split=False), size, font, float(d.get("width", 0.0)))
-        pitch = LINE_PITCH * h * float(d.get("line_spacing_factor", 1.0) or 1.0)
-        total = h + (len(lines) - 1) * pitch
-        first = {0: -h, 1: total / 2 - h, 2: total - h}[(ap - 1) // 3]
+        pitch = LINE_PITCH * cap * float(d.get("line_spacing_factor", 1.0) or 1.0)
+        total = cap + (len(lines) - 1) * pitch
+        first = {0: -cap, 1: total / 2 - cap, 2: total - cap}[(ap - 1) // 3]
         polys: list[np.ndarray] = []
         for k, line in enumerate(lines):
             shape = self.layout(line, size, font, anchor)
