@@ -23,7 +23,6 @@ from vplotter.inputs.image import STYLES as PHOTO_STYLES
 
 SVG_SUFFIXES = (".svg", ".svgz")
 TEXT_SUFFIXES = (".txt",)       # plain text, drawn in a Hershey font (inputs/text.py)
-DXF_SUFFIXES = (".dxf",)
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".webp", ".bmp", ".tif", ".tiff", ".gif")
 IMAGE_MAGIC = (b"\x89PNG\r\n\x1a\n", b"\xff\xd8\xff", b"GIF87a", b"GIF89a", b"II*\x00",
                b"MM\x00*")
@@ -85,8 +84,7 @@ def add_file_options(p: argparse.ArgumentParser) -> None:
                         "flattening tolerance, 0.75 x tolerance_mm (0.0075 mm at 0.01), so a "
                         "join never draws farther from the file than a chord; 0: never")
     o.add_argument("--layer", action="append", metavar="NAME",
-                   help="draw only this SVG layer (label or id) or DXF layer (name); "
-                        "repeatable")
+                   help="draw only this SVG layer (label or id) or DXF layer; repeatable")
     o.add_argument("--pause-between-layers", action="store_true",
                    help="lift the pen after each layer and wait for Enter (change the pen)")
     ph = p.add_argument_group("photos (PNG, JPEG, WebP, BMP, TIFF, GIF: darkness drawn as line "
@@ -163,19 +161,19 @@ def file_kind(path: str) -> str:
         return "svg"
     if low.endswith(TEXT_SUFFIXES):        # unless it holds SVG
         return "svg" if _svg_markup(path) else "text"
-    if low.endswith(DXF_SUFFIXES):
+    if low.endswith(".dxf"):
         return "dxf"
     if low.endswith(IMAGE_SUFFIXES):
         return "image"
     try:
         with open(path, "rb") as f:
-            head = f.read(16)
+            head = f.read(32)
     except OSError:
         return "gcode"      # the reader reports it
     if head.startswith(IMAGE_MAGIC) or (head[:4] == b"RIFF" and head[8:12] == b"WEBP"):
         return "image"
-    if is_dxf(path):
-        return "dxf"
+    if head.startswith(b"AutoCAD Binary DXF") or head.split()[:2] == [b"0", b"SECTION"]:
+        return "dxf"        # group code 0, SECTION: a DXF file; or a binary DXF's sentinel
     return "svg" if is_svg(path) else "gcode"
 
 
@@ -186,20 +184,6 @@ def _svg_markup(path: str) -> bool:
     except OSError:
         return False
     return head.startswith((b"<?xml", b"<svg", b"<!--", b"<!DOCTYPE"))
-
-
-def is_dxf(path: str) -> bool:
-    """By content: a text DXF starts with group code 0 and SECTION, a binary one with its
-    sentinel."""
-    import re
-
-    try:
-        with open(path, "rb") as f:
-            head = f.read(64)
-    except OSError:
-        return False
-    return (head.startswith(b"AutoCAD Binary DXF") or
-            re.match(rb"(\xef\xbb\xbf)?\s*0\s+SECTION\s", head) is not None)
 
 
 def is_svg(path: str) -> bool:

@@ -28,6 +28,7 @@ from typing import Callable
 
 from vplotter.errors import InputError
 from vplotter.inputs import svg_paint
+from vplotter.inputs import xml_guard
 from vplotter.inputs.strokes import Drawing, Stroke
 
 SVG_NS = "http://www.w3.org/2000/svg"
@@ -84,8 +85,6 @@ def load_tree(path: str) -> tuple[Node, dict[str, Node]]:
     import zlib
     from xml.parsers import expat
 
-    from vplotter.inputs import xml_guard
-
     parser = expat.ParserCreate(namespace_separator=" ")
     stack: list[Node] = []
     ids: dict[str, Node] = {}
@@ -126,7 +125,7 @@ def load_tree(path: str) -> tuple[Node, dict[str, Node]]:
     parser.StartElementHandler = start
     parser.EndElementHandler = end
     parser.CharacterDataHandler = chars
-    refuse = xml_guard.guard_entities(parser)
+    xml_guard.guard_entities(parser, path)      # refuses external and exploding entities
     try:
         with open(path, "rb") as f:
             if f.read(2) == b"\x1f\x8b":              # .svgz: gzip-compressed SVG
@@ -138,8 +137,6 @@ def load_tree(path: str) -> tuple[Node, dict[str, Node]]:
                 parser.ParseFile(f)
     except (gzip.BadGzipFile, EOFError, zlib.error) as e:
         raise InputError(f"{path}: error: not a valid gzip-compressed SVG (.svgz): {e}") from None
-    except xml_guard.Refused as e:
-        raise InputError(f"{path}:{refuse[0]}:{refuse[1]}: error: {e}") from None
     except expat.ExpatError as e:
         raise InputError(f"{path}:{e.lineno}:{e.offset + 1}: error: not well-formed XML: "
                          f"{expat.ErrorString(e.code)}") from None

@@ -9,30 +9,26 @@ Pi's libexpat may be older than the one that has it).
 
 from __future__ import annotations
 
-
-class Refused(Exception):
-    """A DOCTYPE that load_tree will not parse (entities that read other files or explode)."""
-
+from vplotter.errors import InputError
 
 ENTITY_MAX_CHARS = 1024     # an internal entity's value, at most (Illustrator's are ~50)
 ENTITY_MAX_COUNT = 64       # entity declarations, at most
 EXPANDED_MAX = 1 << 22      # attribute and text characters beyond the file's own, at most
 
 
-def guard_entities(parser) -> list[int]:
+def guard_entities(parser, path: str) -> None:
     """Make `parser` refuse what could read outside the file or blow up in memory: external
     entities (SYSTEM/PUBLIC, general or parameter), parameter entities, entity references the
     file does not declare (an external DTD is never read: expat is not given a loader), and
     internal entities that refer to other entities (the billion laughs) or are long; plain
     internal entities (Illustrator's namespace names) are kept, and once a file declares one,
-    what its attributes and text expand to beyond the file's own bytes is bounded. Returns
-    [line, col] of the refusal (filled when Refused is raised from a handler)."""
-    where = [0, 0]
+    what its attributes and text expand to beyond the file's own bytes is bounded. A refusal
+    is an InputError at the place in the file (raised from a handler, it leaves the parse)."""
     count = [0, 0]          # declarations, expanded characters
 
     def refuse(msg: str):
-        where[:] = [parser.CurrentLineNumber, parser.CurrentColumnNumber + 1]
-        raise Refused(msg)
+        raise InputError(f"{path}:{parser.CurrentLineNumber}:{parser.CurrentColumnNumber + 1}: "
+                         f"error: {msg}")
 
     def entity_decl(name, is_param, value, base, system_id, public_id, notation):
         count[0] += 1
@@ -79,4 +75,3 @@ def guard_entities(parser) -> list[int]:
     parser.UnparsedEntityDeclHandler = (
         lambda name, base, system_id, public_id, notation:
         refuse(f"external entity {name!r} ({system_id}): not accepted"))
-    return where
