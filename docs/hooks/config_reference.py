@@ -10,7 +10,8 @@ from __future__ import annotations
 
 PLACEHOLDER = "<!-- config-reference -->"
 TYPES = {"float": "number", "int": "whole number", "str": "choice", "text": "text",
-         "pins": "4 BCM pins", "bool": "true/false", "range": "[low, high]"}
+         "pins": "4 BCM pins", "bool": "true/false", "range": "[low, high]",
+         "url": "http(s) URL"}
 
 
 def _num(v) -> str:
@@ -37,7 +38,7 @@ def _range(kind: str, lo, hi) -> str:
     base = kind.rstrip("+")
     if base == "str":
         return ", ".join(f"`{c}`" for c in lo)
-    if base in ("bool", "text"):
+    if base in ("bool", "text", "url"):
         return ""
     if base == "pins":
         return f"each {lo}..{hi}"

@@ -47,6 +47,11 @@ def _value(where: str, kind: str, raw: Any, lo: Any, hi: Any) -> Any:
             choices = " | ".join(lo)
             raise ConfigError(f"{where} must be one of {choices} (got {_fmt(raw)})")
         return raw
+    if base == "url":       # where a notification goes: http(s), one word
+        if (not isinstance(raw, str) or not raw.lower().startswith(("http://", "https://"))
+                or any(c.isspace() for c in raw) or len(raw) < 9):
+            raise ConfigError(f"{where} must be an http:// or https:// URL (got {_fmt(raw)})")
+        return raw
     if base == "text":      # one line of text sent to a controller as it is
         if not isinstance(raw, str) or not raw.strip() or any(c in raw for c in "\r\n?!~\x18"):
             raise ConfigError(f"{where} must be one line of text without ? ! ~ (got {_fmt(raw)})")

@@ -31,6 +31,9 @@ SECTIONS: dict[str, str] = {
             "and `down_us` (servo pulse for pen down with this pen). Colours in a file are "
             "matched to the nearest pen you own; without pen tables each colour is a pen of its "
             "own.",
+    "notify": "Where to send a JSON POST when a draw ends, pauses, fails or waits for a pen "
+              "change (ntfy and other webhook services take it; a failing one is logged and "
+              "the plot goes on).",
 }
 
 DESCRIPTIONS: dict[str, str] = {
@@ -160,4 +163,9 @@ DESCRIPTIONS: dict[str, str] = {
     "pens.change_x_mm": "G-code X where the gondola waits while you change the pen (with "
                         "`change_y_mm`; default: where the plot started).",
     "pens.change_y_mm": "G-code Y where the gondola waits while you change the pen.",
+    # [notify]
+    "notify.url": "http:// or https:// address that gets the POST (e.g. an ntfy topic); "
+                  "unset: no notifications.",
+    "notify.timeout_s": "Give up on a notification after this many seconds (logged; the plot "
+                        "never waits for it).",
 }

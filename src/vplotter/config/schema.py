@@ -7,8 +7,8 @@ error (it is usually a typo). What each key means is in `keys.py` beside this fi
 from __future__ import annotations
 
 from vplotter.config.sections import (DRIVERS, DRIVES, KINDS, PEN_KINDS, UNSET, Cords, Gcode,
-                                      Gondola, Gpio, Machine, Motion, Motors, Origin, Page, Pen,
-                                      Pens, Polar, Serial)
+                                      Gondola, Gpio, Machine, Motion, Motors, Notify, Origin, Page,
+                                      Pen, Pens, Polar, Serial)
 
 SCHEMA: dict[str, dict[str, tuple]] = {
     "machine": {"kind": ("str", "vplotter", KINDS, None),
@@ -107,6 +107,9 @@ SCHEMA: dict[str, dict[str, tuple]] = {
     # [pens]: the change point, and one table [pens.NAME] per pen the person owns (PEN_KEYS)
     "pens": {"change_x_mm": ("float", UNSET, -1e5, 1e5),
              "change_y_mm": ("float", UNSET, -1e5, 1e5)},
+    # [notify]: a JSON POST when a draw ends, pauses, fails or waits for a pen change
+    "notify": {"url": ("url", UNSET, None, None),
+               "timeout_s": ("float+", 5.0, 0.0, 60.0)},
 }
 PEN_KEYS: dict[str, tuple] = {
     "colour": ("text", None, None, None),
@@ -114,14 +117,14 @@ PEN_KEYS: dict[str, tuple] = {
     "speed_mm_s": ("float+", UNSET, 0.0, 1e4),
     "down_us": ("int+", UNSET, 0, 2600),
 }
-OPTIONAL_SECTIONS = {"gpio", "motion", "serial", "gondola", "cords", "gcode", "pens"}
+OPTIONAL_SECTIONS = {"gpio", "motion", "serial", "gondola", "cords", "gcode", "pens", "notify"}
 # sections that belong to one machine kind; [page] is optional for the polar machine (its
 # default is the square around the table's reach)
 SECTION_WHEN = {"origin": "vplotter", "polar": "polar", "gondola": "vplotter", "cords": "vplotter"}
 SECTION_CLASSES = {"machine": Machine, "origin": Origin, "polar": Polar, "page": Page,
                    "motors": Motors, "pen": Pen, "motion": Motion, "gpio": Gpio,
                    "serial": Serial, "gondola": Gondola, "cords": Cords, "gcode": Gcode,
-                   "pens": Pens}
+                   "pens": Pens, "notify": Notify}
 PEN_CODES = {"output": (1, 2), "switch": (1, 2)}    # up_us, down_us of the pen rows
 # values of the V-plotter's coil keys where they do not apply (the fields have no defaults)
 NOT_USED = {"drive": "half", "steps_per_rev": 0, "spool_circumference_mm": 0.0, "left_pins": (),

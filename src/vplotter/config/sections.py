@@ -206,6 +206,14 @@ class Pens:
 
 
 @dataclass(frozen=True)
+class Notify:
+    """[notify]: where a draw's ends, pauses, failures and pen-change waits are POSTed."""
+
+    url: str | None = None           # None: no notifications
+    timeout_s: float = 5.0
+
+
+@dataclass(frozen=True)
 class Config:
     machine: Machine
     origin: Origin
@@ -221,6 +229,7 @@ class Config:
     path: str = "config.toml"
     polar: Polar | None = None
     pens: Pens = Pens()
+    notify: Notify = Notify()
 
 
 # section -> key -> (kind, default or None if required, low, high[, when]); bounds are inclusive
