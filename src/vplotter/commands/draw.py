@@ -73,7 +73,7 @@ def cmd_draw(args, argv=None) -> int:
     from vplotter.errors import Interrupted
     from vplotter.prepare import options_key
 
-    from vplotter.machine import live
+    from vplotter.machine import live, notify
 
     cfg = load_config(args)
     if args.detach and args.dry_run:
@@ -104,7 +104,8 @@ def cmd_draw(args, argv=None) -> int:
                                     lambda: s.stop_pending, where=prep.where, park=prep.start_xy)
         if summary is not None and not s.dry_run and not args.detach:
             # published before the summary is printed: whoever sees the summary finds it
-            s.live = live.Publisher(command_line(argv), os.path.abspath(args.file), summary.time_s)
+            s.live = live.Publisher(command_line(argv), os.path.abspath(args.file), summary.time_s,
+                                     on_state=notify.hook(cfg.notify))
             s.live.update(0.0, 0, force=True)
         if summary is not None:
             _ordered(prep)

@@ -58,15 +58,22 @@ def _busy(holder):
 def _print_json(cfg, pos, holder, drawing) -> None:
     import json
 
+    print(json.dumps(status_object(cfg, pos, holder, drawing, snapshot=False)))
+
+
+def status_object(cfg, pos=None, holder=None, drawing=None, snapshot: bool = True) -> dict:
+    """What `status --json` prints (and the web page's GET /api/status answers): read now
+    when snapshot is true, else from the given position, lock holder and running draw."""
     from vplotter.machine import job, state
     from vplotter.commands.machine import _pen_xy
 
+    if snapshot:
+        pos, holder, drawing = _snapshot(cfg)
     if pos is None:
-        print(json.dumps({"calibrated": False, "busy": _busy(holder), "drawing": drawing}))
-        return
+        return {"calibrated": False, "busy": _busy(holder), "drawing": drawing}
     xy = _pen_xy(cfg, pos)
     running = holder is not None
-    print(json.dumps({
+    return {
         "calibrated": True, "x_mm": round(float(xy[0]), 4), "y_mm": round(float(xy[1]), 4),
         "left_mm": pos.left_mm, "right_mm": pos.right_mm,
         "left_steps": pos.left_steps, "right_steps": pos.right_steps, "pen": pos.pen,
@@ -77,7 +84,7 @@ def _print_json(cfg, pos, holder, drawing) -> None:
         "resume": None if running else pos.extra.get("resume") or None, "state_file": str(state.state_path()),
         "pen_in": pos.extra.get("pen_in"),      # the pen put in last: {"pen", "index", "count"}
         "pen_change": None if running else pos.extra.get("pen_change"),   # stopped waiting
-        "busy": _busy(holder), "drawing": drawing}))
+        "busy": _busy(holder), "drawing": drawing}
 
 
 def _print_text(cfg, pos, holder, drawing) -> None:

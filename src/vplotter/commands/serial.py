@@ -15,7 +15,7 @@ def draw(args, argv, cfg, pos, begin) -> int:
     import numpy as np
 
     from vplotter import pipeline
-    from vplotter.machine import live
+    from vplotter.machine import live, notify
     from vplotter.machine.serial_job import SerialSession
     from vplotter.inputs import gcode
     from vplotter.motion.linestream import LineScheduler
@@ -42,7 +42,8 @@ def draw(args, argv, cfg, pos, begin) -> int:
         summary = pipeline.validate(cfg, records, pos.counts, pos.ref_mm, args.file, begin,
                                     lambda: s.stop_pending, Counted)
         if summary is not None and not s.dry_run:     # for `vplotter status`
-            s.live = live.Publisher(command_line(argv), os.path.abspath(args.file), summary.time_s)
+            s.live = live.Publisher(command_line(argv), os.path.abspath(args.file), summary.time_s,
+                                     on_state=notify.hook(cfg.notify))
             s.live.update(0.0, 0, force=True)
         if summary is not None:
             say(f"{args.file}: {summary.text()}")

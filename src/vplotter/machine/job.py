@@ -170,8 +170,16 @@ class Session:
             if self._moved and self.saves_state:
                 # after a backend failure nobody knows what the motors last did
                 self._save(clean=not isinstance(exc, BackendError))
+            self.end_live(exc)
             self._cleanup()
         return False
+
+    def end_live(self, exc) -> None:
+        """The live status (and [notify]) says how the draw ended: ended, stopped, failed."""
+        if self.live is not None:
+            self.live.close("ended" if exc is None else
+                            "stopped" if isinstance(exc, Interrupted) else "failed")
+            self.live = None
 
     def hand_over_pins(self):
         """`draw --detach`: before anything moved, give up the pins, the trace and the signal

@@ -15,6 +15,10 @@ the pen to put in (null at a plain pause), the index-th of count, since when (ep
 and the one line a person reads ("put in the red pen (2 of 3)"). Whoever wants to tell
 someone that the plotter waits (a notification) watches this key; `vplotter continue` (or
 request_continue) lets the draw go on.
+
+Every change of state goes to the Publisher's on_state hook (machine/notify.py): "waiting" and
+"drawing" as they are written, and at the end "ended", "stopped" (paused by a signal:
+resumable) or "failed", which only the hook sees (the file is removed then).
 """
 
 from __future__ import annotations
@@ -83,8 +87,10 @@ def log_path():
 class Publisher:
     """Writes live.json for one draw, at most every EVERY_S seconds (and always on force)."""
 
-    def __init__(self, command: str, file: str, total_s: float, clock=time.time):
+    def __init__(self, command: str, file: str, total_s: float, clock=time.time,
+                 on_state=None):
         self.clock = clock
+        self.on_state = on_state     # on_state(state, info): every change of state
         self.info = {"pid": os.getpid(), "command": command, "file": file,
                      "started": clock(), "updated": 0.0, "line": 0, "done_s": 0.0,
                      "total_s": float(total_s), "shifts": 0, "lost_s": 0.0, "state": "drawing",
@@ -103,9 +109,18 @@ class Publisher:
                      "count": int(pause.count), "since": self.clock(),
                      "prompt": pen_prompt(pause)}
         self.info["waiting"] = pause
-        self.info["state"] = "drawing" if pause is None else "waiting"
+        before, self.info["state"] = self.info["state"], "drawing" if pause is None else "waiting"
         self.update(self.info["done_s"], self.info["line"], self.info["shifts"],
                     self.info["lost_s"], force=True)
+        if self.info["state"] != before:
+            self._changed()
+
+    def _changed(self) -> None:
+        if self.on_state is not None:
+            try:
+                self.on_state(self.info["state"], dict(self.info))
+            except Exception:  # noqa: BLE001 - a hook never stops a plot
+                pass
 
     def update(self, done_s: float, line: int, shifts: int = 0, lost_s: float = 0.0,
                force: bool = False) -> None:
@@ -117,7 +132,12 @@ class Publisher:
             self.info["updated"] = now
             _write(self.info)
 
-    def close(self) -> None:
+    def close(self, state: str | None = None) -> None:
+        """The draw is over; state (ended, stopped or failed) goes to the on_state hook, and
+        live.json goes."""
+        if state is not None and state != self.info["state"]:
+            self.info["state"] = state
+            self._changed()
         try:
             with open(live_path(), encoding="utf-8") as f:
                 mine = json.load(f).get("pid") == self.info["pid"]

@@ -64,6 +64,7 @@ class SerialSession(Session):
                     s = self._streamer
                     self._cover(s.current, s.sent - 1)     # where it may be, for the journal
                 self._save(clean=self._clean)
+            self.end_live(exc)
             self._cleanup()
         return False
 
