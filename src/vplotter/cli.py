@@ -12,7 +12,7 @@ import argparse
 import sys
 from typing import Callable
 
-from vplotter.commands import draw, files, live, machine, pictures, serial
+from vplotter.commands import draw, files, live, machine, pictures, serial, serve
 from vplotter.commands import text as text_cmd
 from vplotter.commands.common import eprint
 from vplotter.errors import BusyError, VplotterError
@@ -48,6 +48,8 @@ COMMANDS: dict[str, tuple[Callable, Callable, str]] = {
                 "picture (PNG/SVG) of the planned drawing: order, travel, page, anchors"),
     "simulate": (pictures.cmd_simulate, pictures.add_simulate,
                  "picture (PNG/SVG) of what a GPIO trace draws"),
+    "serve": (serve.cmd_serve, serve.add_serve,
+              "the page on the Pi: upload, preview, draw, watch and stop from a phone"),
 }
 
 
