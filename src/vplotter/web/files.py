@@ -56,9 +56,12 @@ class Folder:
 
     def file(self, raw: str) -> Path:
         """The stored file named raw (after safe_name), or FileError 404."""
-        name = safe_name(raw)
+        try:
+            name = safe_name(raw)
+        except FileError:
+            name = ""
         p = self.path / name
-        if name != raw or not p.is_file() or p.parent != self.path:
+        if not name or name != raw or not p.is_file() or p.parent != self.path:
             raise FileError(404, f"no such file: {str(raw)[:60]}")
         return p
 

@@ -1,0 +1,458 @@
+"""`vplotter serve`: the API with a real server on a loopback port (a subprocess, as a person
+runs it), the security rules, the upload folder, [notify], and a clean Ctrl+C.
+
+Draws run in real time on gpiozero's MockFactory (as in test_live.py), with a short pen settle
+time so that a few millimetres take a couple of seconds; the tests wait on sockets and
+processes with timeouts, never on sleeps."""
+
+from __future__ import annotations
+
+import http.client
+import http.server
+import json
+import os
+import re
+import signal
+import subprocess
+import sys
+import threading
+import time
+import urllib.request
+from pathlib import Path
+
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from vplotter.cli import main
+from vplotter.machine import live, lock, notify
+
+DRAWING = """G21 G90
+G01 Z-1 F600
+G01 X4 Y0
+G01 X4 Y4
+G00 Z5
+M2
+"""
+BAD = "G21 G90\nG01 X1 Q5\n"
+
+
+def web_config(src: Path, dst: Path, notify_url: str | None = None) -> Path:
+    text = src.read_text()
+    text = text.replace('backend = "lgpio"', 'backend = "gpiozero"')
+    text = re.sub(r"(?m)^settle_s = .*$", "settle_s = 0.05", text)
+    if notify_url:
+        text += f'\n[notify]\nurl = "{notify_url}"\ntimeout_s = 5\n'
+    dst.write_text(text)
+    return dst
+
+
+class Server:
+    """`vplotter serve` in a subprocess; url from its first line."""
+
+    def __init__(self, config: Path, uploads: Path, *extra: str):
+        self.config, self.uploads = config, uploads
+        env = dict(os.environ, GPIOZERO_PIN_FACTORY="mock")
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "vplotter", "--config", str(config), "serve", "--port", "0",
+             "--uploads", str(uploads), *extra],
+            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        line = self.proc.stdout.readline()
+        self.log: list[str] = []
+        threading.Thread(target=self._drain, daemon=True).start()
+        m = re.match(r"vplotter serve: (http://([^/]+)/(\?token=(\S+))?)", line)
+        assert m, line + self.proc.stderr.read()
+        self.url, self.hostport, self.token = m.group(1), m.group(2), m.group(4)
+        self.port = int(self.hostport.rsplit(":", 1)[1])
+
+    def _drain(self) -> None:
+        for line in self.proc.stdout:           # the request log: a full pipe would block it
+            self.log.append(line)
+
+    def request(self, method: str, path: str, body=None, headers=None, host="127.0.0.1",
+                raw: bytes | None = None):
+        """(status, parsed JSON or bytes, headers)."""
+        h = {"X-Vplotter": "1"} if method != "GET" else {}
+        h.update(headers or {})
+        data = raw
+        if body is not None:
+            data = json.dumps(body).encode()
+            h.setdefault("Content-Type", "application/json")
+        conn = http.client.HTTPConnection(host, self.port, timeout=120)
+        try:
+            conn.request(method, path, body=data, headers=h)
+            r = conn.getresponse()
+            payload = r.read()
+            kind = r.getheader("content-type", "")
+            return (r.status, json.loads(payload) if "json" in kind else payload,
+                    dict(r.getheaders()))
+        finally:
+            conn.close()
+
+    def upload(self, name: str, content: bytes, headers=None):
+        boundary = "vplotter-test-boundary"
+        head = (f'--{boundary}\r\nContent-Disposition: form-data; name="file"; '
+                f'filename="{name}"\r\nContent-Type: application/octet-stream\r\n\r\n').encode()
+        raw = head + content + f"\r\n--{boundary}--\r\n".encode()
+        h = {"Content-Type": f"multipart/form-data; boundary={boundary}", **(headers or {})}
+        return self.request("POST", "/api/files", raw=raw, headers=h)
+
+    def status(self) -> dict:
+        code, st, _ = self.request("GET", "/api/status")
+        assert code == 200
+        return st
+
+    def wait_status(self, ok, timeout_s: float = 60.0) -> dict:
+        """The first status (from the event stream: no polling) that satisfies ok."""
+        deadline = time.monotonic() + timeout_s
+        for _, st in events(self, None, timeout_s):
+            if ok(st):
+                return st
+            assert time.monotonic() < deadline, st
+        raise AssertionError("the event stream ended")
+
+    def stop(self) -> tuple[int, str, str]:
+        self.proc.send_signal(signal.SIGINT)
+        code = self.proc.wait(timeout=20)
+        err = self.proc.stderr.read()
+        return code, "".join(self.log), err
+
+
+@pytest.fixture
+def serve(tmp_path, config_path):
+    made: list[Server] = []
+
+    def start(*extra, notify_url=None):
+        cfg = web_config(config_path, tmp_path / "web.toml", notify_url)
+        s = Server(cfg, tmp_path / "uploads", *extra)
+        made.append(s)
+        return s
+
+    yield start
+    for s in made:
+        if s.proc.poll() is None:
+            s.stop()
+
+
+class Hook:
+    """A local webhook receiver: the JSON bodies POSTed to it."""
+
+    def __init__(self):
+        got = self.got = []
+        cond = self.cond = threading.Condition()
+
+        class Handler(http.server.BaseHTTPRequestHandler):
+            def do_POST(self):
+                body = self.rfile.read(int(self.headers["Content-Length"]))
+                with cond:
+                    got.append((json.loads(body), self.headers.get("Title")))
+                    cond.notify_all()
+                self.send_response(200)
+                self.end_headers()
+
+            def log_message(self, *a):
+                pass
+
+        self.server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), Handler)
+        self.url = f"http://127.0.0.1:{self.server.server_address[1]}/topic"
+        threading.Thread(target=self.server.serve_forever, daemon=True).start()
+
+    def wait(self, event: str, timeout_s: float = 30.0) -> dict:
+        with self.cond:
+            assert self.cond.wait_for(lambda: any(b["event"] == event for b, _ in self.got),
+                                      timeout_s), self.got
+            return next(b for b, _ in self.got if b["event"] == event)
+
+    def close(self):
+        self.server.shutdown()
+        self.server.server_close()
+
+
+def cli_status(config: Path, capsys) -> dict:
+    capsys.readouterr()
+    assert main(["--config", str(config), "status", "--json"]) == 0
+    return json.loads(capsys.readouterr().out)
+
+
+def events(server: Server, n: int | None, timeout_s: float = 30.0):
+    """The server-sent events (the first n, or all), each with its arrival time."""
+    conn = http.client.HTTPConnection("127.0.0.1", server.port, timeout=timeout_s)
+    conn.request("GET", "/api/events")
+    r = conn.getresponse()
+    assert r.status == 200 and r.getheader("content-type").startswith("text/event-stream")
+    got = 0
+    try:
+        while n is None or got < n:
+            line = r.fp.readline().decode()
+            if not line:
+                return
+            if line.startswith("data: "):
+                got += 1
+                yield time.monotonic(), json.loads(line[6:])
+    finally:
+        conn.close()
+
+
+# ---------------------------------------------------------------- the walk
+def test_api_walk_upload_draw_watch_stop_resume_with_the_cli_agreeing(serve, tmp_path, capsys):
+    hook = Hook()
+    try:
+        _walk(serve(notify_url=hook.url), tmp_path, capsys, hook)
+    finally:
+        hook.close()
+
+
+def _walk(server, tmp_path, capsys, hook):
+    cfg = server.config
+    assert main(["--config", str(cfg), "calibrate", "--at", "0", "0"]) == 0
+    assert server.hostport.startswith("127.0.0.1:")
+    assert _listening(server.port) == ["127.0.0.1"]            # loopback only
+    # upload: the estimate is the CLI's
+    code, up, _ = server.upload("walk.ngc", DRAWING.encode())
+    assert code == 201 and up["name"] == "walk.ngc"
+    stored = server.uploads / "walk.ngc"
+    capsys.readouterr()
+    assert main(["--config", str(cfg), "estimate", str(stored)]) == 0
+    cli_s = float(re.search(r"\(([\d.]+) s\)", capsys.readouterr().out).group(1))
+    assert up["estimate_s"] == cli_s
+    code, files, _ = server.request("GET", "/api/files")
+    assert files == [{"name": "walk.ngc", "size": len(DRAWING), "estimate_s": cli_s}]
+    code, png, h = server.request("GET", "/api/files/walk.ngc/preview.png")
+    assert code == 200 and h["content-type"] == "image/png" and png[:8] == b"\x89PNG\r\n\x1a\n"
+    # draw: its own process, seen by the CLI's status
+    code, started, _ = server.request("POST", "/api/draw", {"file": "walk.ngc", "resume": False})
+    assert code == 202 and started["pid"] > 0
+    pid = started["pid"]
+    st = server.wait_status(lambda s: (s["drawing"] or {}).get("percent", 0) > 0)
+    assert st["busy"]["pid"] == pid and st["drawing"]["state"] == "drawing"
+    first = st["drawing"]["percent"]
+    # the live percent grows; events come at least every 2 s while drawing
+    server.wait_status(lambda s: s["drawing"] is None or s["drawing"]["percent"] > first)
+    got = list(events(server, 2))
+    assert all(e["busy"]["pid"] == pid for _, e in got)
+    assert max(b - a for (a, _), (b, _) in zip(got, got[1:])) < 2.0
+    cli = cli_status(cfg, capsys)
+    assert cli["busy"]["pid"] == pid and cli["last_stop"] == "running"
+    # busy: 409 with the CLI's busy line
+    for method, path, body in (("POST", "/api/draw", {"file": "walk.ngc"}),
+                               ("POST", "/api/pen", {"state": "up"}),
+                               ("POST", "/api/jog", {"dx": 1, "dy": 0})):
+        code, refused, _ = server.request(method, path, body)
+        assert code == 409, refused
+        assert refused["error"].startswith(f"plotter busy: pid {pid} (vplotter draw ")
+    capsys.readouterr()
+    assert main(["--config", str(cfg), "pen", "up", "--backend", "fake"]) == 3
+    assert capsys.readouterr().err.startswith(f"plotter busy: pid {pid} (vplotter draw ")
+    # stop: answered once the draw has paused, resumable, as `vplotter stop` leaves it
+    code, stopped, _ = server.request("POST", "/api/stop")
+    assert code == 200 and stopped["stopped"] and "stopped pid" in stopped["message"]
+    assert not lock.alive(pid) or lock.holder() is None
+    st = server.status()
+    cli = cli_status(cfg, capsys)
+    assert st["busy"] is None and st["last_stop"] == "clean" and st["resume"]["line"] > 0
+    assert cli["resume"] == st["resume"] and cli["last_stop"] == "clean"
+    note = hook.wait("stopped")
+    assert note["file"] == str(stored) and note["line"] == st["resume"]["line"]
+    # resume to the end
+    code, resumed, _ = server.request("POST", "/api/draw", {"resume": True})
+    assert code == 202, resumed
+    assert resumed["pid"] != pid
+    server.wait_status(lambda s: s["busy"] is None)
+    cli = cli_status(cfg, capsys)
+    assert cli["resume"] is None and cli["last_stop"] == "clean" and cli["busy"] is None
+    assert hook.wait("ended")["percent"] == 100.0
+    assert "finished at" in live.log_path().read_text()
+    # Ctrl+C: a clean end, one log line per request
+    code, out, err = server.stop()
+    assert code == 0 and "vplotter serve: stopped" in err and "Traceback" not in err
+    logged = [ln for ln in out.splitlines() if re.match(r"\d\d:\d\d:\d\d 127\.0\.0\.1 ", ln)]
+    assert any(" POST /api/draw 202 " in ln for ln in logged)
+    assert any(" GET /api/files/walk.ngc/preview.png 200 " in ln for ln in logged)
+
+
+def _listening(port: int) -> list[str]:
+    """The addresses listening on TCP port (from /proc/net/tcp and tcp6)."""
+    import ipaddress
+
+    found = []
+    for name in ("tcp", "tcp6"):
+        try:
+            rows = Path(f"/proc/net/{name}").read_text().splitlines()[1:]
+        except OSError:
+            continue
+        for row in rows:
+            local, st = row.split()[1], row.split()[3]
+            addr, p = local.split(":")
+            if int(p, 16) != port or st != "0A":
+                continue
+            raw = bytes.fromhex(addr)
+            if len(raw) == 4:
+                found.append(str(ipaddress.IPv4Address(raw[::-1])))
+            else:
+                words = b"".join(raw[i:i + 4][::-1] for i in range(0, 16, 4))
+                found.append(str(ipaddress.IPv6Address(words)))
+    return found
+
+
+# ---------------------------------------------------------------- security
+def test_loopback_server_refuses_cross_site_requests_and_foreign_hosts(serve):
+    server = serve()
+    code, _, _ = server.request("GET", "/api/status")
+    assert code == 200
+    code, page, h = server.request("GET", "/")
+    assert code == 200 and b'data-action="upload"' in page
+    # a cross-site form can send neither the header nor a matching Origin
+    code, err, _ = server.request("POST", "/api/pen", {"state": "up"}, headers={"X-Vplotter": "0"})
+    assert code == 403 and "X-Vplotter" in err["error"]
+    code, err, _ = server.request("POST", "/api/stop", headers={"Origin": "http://evil.example"})
+    assert code == 403 and "cross-site" in err["error"]
+    # a DNS-rebinding page reaches the loopback with its own host name
+    code, _, _ = server.request("GET", "/api/status", headers={"Host": "evil.example:80"})
+    assert code == 403
+
+
+def test_without_token_on_the_network_one_is_made_and_required(serve):
+    server = serve("--host", "0.0.0.0")
+    assert server.token and len(server.token) >= 16
+    code, err, _ = server.request("GET", "/api/status")
+    assert code == 401 and "token" in err["error"]
+    code, _, _ = server.request("GET", "/")
+    assert code == 401
+    bearer = {"Authorization": f"Bearer {server.token}"}
+    code, _, _ = server.request("GET", "/api/status", headers=bearer)
+    assert code == 200
+    code, _, _ = server.request("GET", "/api/status", headers={"Authorization": "Bearer nope"})
+    assert code == 401
+    # /?token= sets the cookie and goes to the bare page
+    code, _, h = server.request("GET", f"/?token={server.token}")
+    assert code == 303 and h["location"] == "/"
+    cookie = h["set-cookie"].split(";")[0]
+    assert "SameSite=Strict" in h["set-cookie"]
+    code, _, _ = server.request("GET", "/api/files", headers={"Cookie": cookie})
+    assert code == 200
+    # the cookie alone changes nothing: a cross-site form would carry it
+    code, err, _ = server.request("POST", "/api/jog", {"dx": 0, "dy": 0},
+                                  headers={"Cookie": cookie})
+    assert code == 401 and "Authorization" in err["error"]
+    code, err, _ = server.request("POST", "/api/jog", {"dx": 0, "dy": 0}, headers=bearer)
+    assert code == 400          # past the guard: the values are refused
+    code, out, err = server.stop()
+    assert code == 0 and server.token not in out.split("\n", 1)[1]     # never logged
+
+
+def test_upload_names_never_leave_the_folder(serve, tmp_path):
+    server = serve()
+    before = set(tmp_path.rglob("*"))
+    for name, kept in (("../../evil.ngc", "evil.ngc"), ("/etc/evil2.ngc", "evil2.ngc"),
+                       ("..\\..\\evil3.ngc", "evil3.ngc"), ("ev\x00il4.ngc", "evil4.ngc"),
+                       (".hidden.ngc", "hidden.ngc"), ("--help.ngc", "help.ngc"),
+                       ("a b;rm -rf ~.ngc", "a_b_rm_-rf_.ngc")):
+        code, up, _ = server.upload(name, DRAWING.encode())
+        assert code == 201 and up["name"] == kept, (name, up)
+    new = {p for p in set(tmp_path.rglob("*")) - before
+           if server.uploads not in p.parents and p != server.uploads}
+    assert {p.name for p in new} <= {"state", "vplotter"}      # nothing outside the folder
+    for bad in ("..%2Fweb.toml", "%2E%2E", ".meta", "nope.ngc"):
+        code, _, _ = server.request("DELETE", f"/api/files/{bad}")
+        assert code == 404
+    assert (tmp_path / "web.toml").exists()
+    code, _, _ = server.request("DELETE", "/api/files/evil.ngc")
+    assert code == 200 and not (server.uploads / "evil.ngc").exists()
+
+
+def test_a_bad_file_is_400_in_one_line_and_a_huge_one_413_leaving_nothing(serve):
+    server = serve()
+    code, err, _ = server.upload("bad.ngc", BAD.encode())
+    assert code == 400 and err["error"].startswith("bad.ngc:2:") and "\n" not in err["error"]
+    assert "error:" in err["error"]
+    big = b"G01 X1 Y1\n" * (6 * 1024 * 1024)                # 60 MB
+    code, err, _ = server.upload("big.ngc", big)
+    assert code == 413 and "50 MB" in err["error"]
+    code, err, _ = _chunked_upload(server, "big2.ngc", big)
+    assert code == 413
+    assert sorted(p.name for p in server.uploads.iterdir()) == [".meta"]
+    assert list((server.uploads / ".meta").iterdir()) == []
+    code, files, _ = server.request("GET", "/api/files")
+    assert files == []
+
+
+def _chunked_upload(server, name, content):
+    """An upload without Content-Length (chunked): the limit is counted while it streams."""
+    boundary = "b0undary"
+    head = (f'--{boundary}\r\nContent-Disposition: form-data; name="file"; '
+            f'filename="{name}"\r\n\r\n').encode()
+
+    def body():
+        yield head
+        for i in range(0, len(content), 1 << 20):
+            yield content[i:i + (1 << 20)]
+        yield f"\r\n--{boundary}--\r\n".encode()
+
+    conn = http.client.HTTPConnection("127.0.0.1", server.port, timeout=60)
+    try:
+        conn.request("POST", "/api/files", body=body(), encode_chunked=True,
+                     headers={"Content-Type": f"multipart/form-data; boundary={boundary}",
+                              "X-Vplotter": "1", "Transfer-Encoding": "chunked"})
+        r = conn.getresponse()
+        return r.status, json.loads(r.read()), None
+    except (BrokenPipeError, ConnectionResetError):
+        pytest.fail("the server closed the connection instead of answering 413")
+    finally:
+        conn.close()
+
+
+# ---------------------------------------------------------------- units
+@settings(max_examples=60)
+@given(st.text(max_size=300))
+def test_safe_names_are_base_names_inside_the_folder(raw):
+    from vplotter.web.files import FileError, safe_name
+
+    try:
+        name = safe_name(raw)
+    except FileError:
+        return
+    assert name and len(name) <= 100 and not name.startswith((".", "-"))
+    assert re.fullmatch(r"[A-Za-z0-9._-]+", name) and name not in (".", "..")
+
+
+def test_notify_posts_state_changes_and_a_failing_hook_is_logged(tmp_path):
+    from vplotter.config.sections import Notify
+
+    hook = Hook()
+    logged: list[str] = []
+    try:
+        on_state = notify.hook(Notify(url=hook.url, timeout_s=5.0), log=logged.append)
+        pub = live.Publisher("vplotter draw a.ngc", "/x/a.ngc", 100.0, on_state=on_state)
+        pub.update(40.0, 12, force=True)
+        pub.set_state("waiting", pen="red")
+        body = hook.wait("waiting")
+        assert body["pen"] == "red" and body["percent"] == 40.0 and "waiting for pen red" in \
+            body["message"]
+        assert live.read({"pid": os.getpid()})["state"] == "waiting"
+        pub.set_state("drawing")                          # not a notification
+        pub.close("failed")
+        assert hook.wait("failed")["line"] == 12
+        assert [b["event"] for b, _ in hook.got] == ["waiting", "failed"]
+        assert hook.got[0][1] == "vplotter: a.ngc waiting"
+        assert not live.live_path().exists()
+    finally:
+        hook.close()
+    dead = notify.hook(Notify(url=hook.url, timeout_s=2.0), log=logged.append)
+    dead("ended", {"file": "/x/a.ngc", "line": 3, "total_s": 1.0, "done_s": 1.0}).join(10)
+    assert len(logged) == 1 and logged[0].startswith(f"vplotter: warning: notify {hook.url}")
+    assert "(the plot goes on)" in logged[0]
+    assert notify.hook(Notify()) is None
+    assert dead("drawing", {}) is None
+
+
+def test_notify_config_section(config_path, tmp_path, capsys):
+    base = config_path.read_text()
+    good = tmp_path / "good.toml"
+    good.write_text(base + '\n[notify]\nurl = "https://ntfy.sh/my-plotter?x=1"\n')
+    from vplotter import config
+
+    assert config.load(good).notify.url == "https://ntfy.sh/my-plotter?x=1"
+    assert config.load(config_path).notify.url is None
+    bad = tmp_path / "bad.toml"
+    bad.write_text(base + '\n[notify]\nurl = "file:///etc/passwd"\n')
+    assert main(["--config", str(bad), "status"]) == 2
+    assert "[notify] url must be an http:// or https:// URL" in capsys.readouterr().err
