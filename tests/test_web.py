@@ -456,3 +456,14 @@ def test_notify_config_section(config_path, tmp_path, capsys):
     bad.write_text(base + '\n[notify]\nurl = "file:///etc/passwd"\n')
     assert main(["--config", str(bad), "status"]) == 2
     assert "[notify] url must be an http:// or https:// URL" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--port", "70000"], "--port must be 0..65535"),
+    (["--token", "short"], "--token must be 8 or more"),
+    (["--host", "256.1.1.1", "--port", "0"], "cannot listen on 256.1.1.1:0"),
+])
+def test_serve_refuses_bad_options_in_one_line(argv, message, config_path, capsys):
+    assert main(["--config", str(config_path), "serve", *argv]) == 2
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1
