@@ -467,3 +467,22 @@ def test_serve_refuses_bad_options_in_one_line(argv, message, config_path, capsy
     assert main(["--config", str(config_path), "serve", *argv]) == 2
     err = capsys.readouterr().err
     assert message in err and len(err.strip().splitlines()) == 1
+
+
+def test_upload_folder_keeps_a_limited_count_and_cleans_what_a_crash_left(tmp_path, monkeypatch):
+    from vplotter.web import files
+
+    folder = files.Folder(tmp_path / "up")
+    monkeypatch.setattr(files, "MAX_FILES", 2)
+    for name in ("a.ngc", "b.ngc"):
+        tmp = folder.incoming(name)
+        tmp.write_text(DRAWING)
+        assert folder.keep(tmp, 12.34) == name
+    with pytest.raises(files.FileError) as e:
+        folder.incoming("c.ngc")
+    assert e.value.status == 409 and "delete some" in str(e.value)
+    again = folder.incoming("a.ngc")                  # replacing one is allowed
+    assert folder.listing() == [{"name": "a.ngc", "size": len(DRAWING), "estimate_s": 12.3},
+                                {"name": "b.ngc", "size": len(DRAWING), "estimate_s": 12.3}]
+    files.Folder(tmp_path / "up")                     # a new server: the half upload goes
+    assert not again.parent.exists()

@@ -88,7 +88,9 @@ class Guard:
             return await self.app(scope, receive, send)
         t0 = time.perf_counter()
         client = (scope.get("client") or ("-", 0))[0]
-        method, path = scope["method"], scope["path"]
+        method = scope["method"]
+        # what the log shows of the path: printable, short (a %0A in a URL makes no log line)
+        path = "".join(c if c.isprintable() else "?" for c in scope["path"][:200])
         done = {"status": 0}
         cookie: list[str] = []
 
