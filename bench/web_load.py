@@ -171,10 +171,10 @@ def main() -> None:
     load.close()
     server.terminate()
     server.wait(timeout=10)
-    lat = sorted(load.latencies)
+    lat = sorted(load.latencies) or [float("nan")]
     print(f"web load:    {loaded}")
     print(f"server: {100 * (c1 - c0) / (t1 - t0):.1f} % of one core over the {t1 - t0:.1f} s "
-          f"draw; RSS {rss:.1f} MB (peak {peak:.1f} MB); {len(lat)} status requests "
+          f"draw; RSS {rss:.1f} MB (peak {peak:.1f} MB); {len(load.latencies)} status requests "
           f"(median {1e3 * lat[len(lat) // 2]:.1f} ms, p99 {1e3 * lat[int(len(lat) * 0.99)]:.1f} ms, "
           f"{load.errors} errors), {load.events} events on {args.streams} streams")
 

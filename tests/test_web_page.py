@@ -62,7 +62,7 @@ def test_page_uploads_draws_shows_progress_and_stops(serve, browser, tmp_path): 
     browser.find_element(By.CSS_SELECTOR, '[data-action="upload"]').send_keys(str(drawing))
     draw = wait_for(browser, lambda d: d.find_elements(
         By.CSS_SELECTOR, '[data-action="draw"][data-file="page.ngc"]'))[0]
-    assert "plot time" in field("message").text
+    wait_for(browser, lambda d: "plot time" in field("message").text)
     draw.click()
     wait_for(browser, lambda d: field("state").text == "drawing")
     first = wait_for(browser, lambda d: float(field("percent").text) > 0 and
@@ -70,8 +70,8 @@ def test_page_uploads_draws_shows_progress_and_stops(serve, browser, tmp_path): 
     wait_for(browser, lambda d: field("state").text != "drawing" or
              float(field("percent").text) > first)
     browser.find_element(By.CSS_SELECTOR, '[data-action="stop"]').click()
+    wait_for(browser, lambda d: "stopped pid" in field("message").text)     # the answer
     wait_for(browser, lambda d: field("state").text == "paused")
-    assert "stopped pid" in field("message").text
     assert server.status()["resume"]["line"] > 0
     assert browser.find_element(By.CSS_SELECTOR, '[data-action="resume"]').is_enabled()
     errors = [e for e in browser.get_log("browser") if e["level"] == "SEVERE"]
