@@ -28,8 +28,8 @@ from vplotter.machine import live, lock, notify
 
 DRAWING = """G21 G90
 G01 Z-1 F600
-G01 X4 Y0
-G01 X4 Y4
+G01 X5 Y0
+G01 X5 Y5
 G00 Z5
 M2
 """
@@ -216,20 +216,20 @@ def _walk(server, tmp_path, capsys, hook):
     assert up["estimate_s"] == cli_s
     code, files, _ = server.request("GET", "/api/files")
     assert files == [{"name": "walk.ngc", "size": len(DRAWING), "estimate_s": cli_s}]
-    code, png, h = server.request("GET", "/api/files/walk.ngc/preview.png")
-    assert code == 200 and h["content-type"] == "image/png" and png[:8] == b"\x89PNG\r\n\x1a\n"
     # draw: its own process, seen by the CLI's status
     code, started, _ = server.request("POST", "/api/draw", {"file": "walk.ngc", "resume": False})
     assert code == 202 and started["pid"] > 0
     pid = started["pid"]
-    st = server.wait_status(lambda s: (s["drawing"] or {}).get("percent", 0) > 0)
-    assert st["busy"]["pid"] == pid and st["drawing"]["state"] == "drawing"
-    first = st["drawing"]["percent"]
     # the live percent grows; events come at least every 2 s while drawing
-    server.wait_status(lambda s: s["drawing"] is None or s["drawing"]["percent"] > first)
-    got = list(events(server, 2))
-    assert all(e["busy"]["pid"] == pid for _, e in got)
-    assert max(b - a for (a, _), (b, _) in zip(got, got[1:])) < 2.0
+    seen = []
+    for t, st in events(server, None, 60):
+        if (st["drawing"] or {}).get("percent", 0) > 0:
+            seen.append((t, st))
+            if st["drawing"]["percent"] > seen[0][1]["drawing"]["percent"] and len(seen) >= 3:
+                break
+    assert all(st["busy"]["pid"] == pid and st["drawing"]["state"] == "drawing"
+               for _, st in seen)
+    assert max(b - a for (a, _), (b, _) in zip(seen, seen[1:])) < 2.0
     cli = cli_status(cfg, capsys)
     assert cli["busy"]["pid"] == pid and cli["last_stop"] == "running"
     # busy: 409 with the CLI's busy line
@@ -266,7 +266,7 @@ def _walk(server, tmp_path, capsys, hook):
     assert code == 0 and "vplotter serve: stopped" in err and "Traceback" not in err
     logged = [ln for ln in out.splitlines() if re.match(r"\d\d:\d\d:\d\d 127\.0\.0\.1 ", ln)]
     assert any(" POST /api/draw 202 " in ln for ln in logged)
-    assert any(" GET /api/files/walk.ngc/preview.png 200 " in ln for ln in logged)
+    assert any(" POST /api/stop 200 " in ln for ln in logged)
 
 
 def _listening(port: int) -> list[str]:
@@ -359,8 +359,13 @@ def test_upload_names_never_leave_the_folder(serve, tmp_path):
     assert code == 200 and not (server.uploads / "evil.ngc").exists()
 
 
-def test_a_bad_file_is_400_in_one_line_and_a_huge_one_413_leaving_nothing(serve):
+def test_preview_png_a_bad_file_is_400_in_one_line_and_a_huge_one_413_leaving_nothing(serve):
     server = serve()
+    code, _, _ = server.upload("good.ngc", DRAWING.encode())
+    code, png, h = server.request("GET", "/api/files/good.ngc/preview.png")
+    assert code == 200 and h["content-type"] == "image/png" and png[:8] == b"\x89PNG\r\n\x1a\n"
+    code, _, _ = server.request("DELETE", "/api/files/good.ngc")
+    assert code == 200
     code, err, _ = server.upload("bad.ngc", BAD.encode())
     assert code == 400 and err["error"].startswith("bad.ngc:2:") and "\n" not in err["error"]
     assert "error:" in err["error"]
