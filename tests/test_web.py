@@ -24,6 +24,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from vplotter.cli import main
+from vplotter.inputs.gcode import Pause
 from vplotter.machine import live, lock, notify
 
 DRAWING = """G21 G90
@@ -300,6 +301,9 @@ def test_loopback_server_refuses_cross_site_requests_and_foreign_hosts(serve):
     assert code == 200
     code, page, h = server.request("GET", "/")
     assert code == 200 and b'data-action="upload"' in page
+    code, err, _ = server.request("POST", "/api/continue")
+    assert code == 409 and err["error"] == "error: nothing to continue: no vplotter is " \
+                                           "driving the plotter"
     # a cross-site form can send neither the header nor a matching Origin
     code, err, _ = server.request("POST", "/api/pen", {"state": "up"}, headers={"X-Vplotter": "0"})
     assert code == 403 and "X-Vplotter" in err["error"]
@@ -428,12 +432,13 @@ def test_notify_posts_state_changes_and_a_failing_hook_is_logged(tmp_path):
         on_state = notify.hook(Notify(url=hook.url, timeout_s=5.0), log=logged.append)
         pub = live.Publisher("vplotter draw a.ngc", "/x/a.ngc", 100.0, on_state=on_state)
         pub.update(40.0, 12, force=True)
-        pub.set_state("waiting", pen="red")
+        pub.waiting(Pause(12, 1, "", pen="red", index=2, count=3))
         body = hook.wait("waiting")
-        assert body["pen"] == "red" and body["percent"] == 40.0 and "waiting for pen red" in \
-            body["message"]
+        assert body["pen"] == "red" and body["percent"] == 40.0
+        assert body["message"] == "a.ngc: waiting: put in the red pen (2 of 3) at line 12, " \
+                                  "40.0 % of the plot time"
         assert live.read({"pid": os.getpid()})["state"] == "waiting"
-        pub.set_state("drawing")                          # not a notification
+        pub.waiting(None)                                 # drawing again: not a notification
         pub.close("failed")
         assert hook.wait("failed")["line"] == 12
         assert [b["event"] for b, _ in hook.got] == ["waiting", "failed"]

@@ -82,6 +82,9 @@ class Machine:
     def stop(self) -> tuple[int, str, str]:
         return self._run(["stop"])
 
+    def continue_(self) -> tuple[int, str, str]:
+        return self._run(["continue"])
+
     def pen(self, state: str) -> tuple[int, str, str]:
         return self._run(["pen", state])
 

@@ -196,6 +196,13 @@ def routes(state: State):
             code, out, err = await asyncio.to_thread(state.machine.stop)
         return answer(code, out, err, {"stopped": "stopped pid" in out})
 
+    async def go_on(request):
+        async with state.acting:
+            code, out, err = await asyncio.to_thread(state.machine.continue_)
+        if code == 2:                       # nothing waits: the state says otherwise
+            return error(409, first_line(err).removeprefix("vplotter: "))
+        return answer(code, out, err, {"continued": True})
+
     async def pen(request):
         try:
             data = await body_json(request)
@@ -253,6 +260,7 @@ def routes(state: State):
         Route("/api/files/{name}/preview.png", preview, methods=["GET"]),
         Route("/api/draw", draw, methods=["POST"]),
         Route("/api/stop", stop, methods=["POST"]),
+        Route("/api/continue", go_on, methods=["POST"]),
         Route("/api/pen", pen, methods=["POST"]),
         Route("/api/jog", jog, methods=["POST"]),
         Route("/api/events", events, methods=["GET"]),

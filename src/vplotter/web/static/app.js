@@ -59,7 +59,9 @@ function show(st) {
   const pct = d ? d.percent : 0;
   field("percent").textContent = pct.toFixed(1);
   field("bar").value = pct;
-  field("file").textContent = d ? d.file.split("/").pop()
+  const waiting = d && d.waiting;
+  field("file").textContent = waiting ? `${d.file.split("/").pop()}: ${waiting.prompt}`
+    : d ? d.file.split("/").pop()
     : st.resume ? `${st.resume.file.split("/").pop()} stopped at line ${st.resume.line}` : "";
   field("line").textContent = d ? d.line : "–";
   field("elapsed").textContent = d ? clock(d.elapsed_s) : "–";
@@ -74,6 +76,7 @@ function show(st) {
     .forEach((b) => { b.disabled = busy; });
   $('[data-action="stop"]').disabled = !busy;
   $('[data-action="resume"]').disabled = busy || !st.resume;
+  $('[data-action="continue"]').disabled = !waiting;
 }
 
 async function refreshFiles() {
@@ -112,6 +115,9 @@ async function act(button) {
     } else if (a === "resume") {
       const r = await call("POST", "/api/draw", { resume: true });
       say(`resumed (pid ${r.pid})`);
+    } else if (a === "continue") {
+      const r = await call("POST", "/api/continue");
+      say(r.message);
     } else if (a === "stop") {
       say("stopping…");
       const r = await call("POST", "/api/stop");
