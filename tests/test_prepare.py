@@ -75,7 +75,7 @@ def test_info_json_for_gcode_matches_estimate(capsys, config_path):
     assert code == 0
     info = json.loads(out)
     assert set(info) == {"width_mm", "height_mm", "extent", "strokes", "drawn_mm", "travel_mm",
-                         "time_s", "layers", "skipped", "notes"}
+                         "time_s", "layers", "skipped", "notes", "pens"}
     assert info["layers"] == [] and info["skipped"] == {"text": 0, "image": 0, "hidden": 0}
     assert info["notes"] == []
     x0, y0, x1, y1 = info["extent"]

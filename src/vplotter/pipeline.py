@@ -38,6 +38,25 @@ class Summary:
     pen_downs: int = 0
     motors: tuple[str, str] = ("left", "right")
     plan: list | None = None     # the validated plan, for `replay` (None: plan again)
+    pens: list = field(default_factory=list)    # [pen, start s, fresh pens, index, count]
+
+    def pen_mark(self, pause: Pause, t_s: float) -> None:
+        """A pause came at t_s: a pen change starts the next pen's time, a pause for a fresh
+        pen of the same kind (--refill-every) is counted with it."""
+        if pause.pen is None:
+            return
+        if self.pens and self.pens[-1][0] == pause.pen:
+            self.pens[-1][2] += 1
+        elif not self.pens and pause.count == 1:      # the one pen, in from the start
+            self.pens.append([pause.pen, 0.0, 1, pause.index, pause.count])
+        else:
+            self.pens.append([pause.pen, t_s, 0, pause.index, pause.count])
+
+    def pen_lines(self) -> list[str]:
+        """One line per pen (drawing/pens.time_lines); none for a drawing in one pen."""
+        from vplotter.drawing.pens import time_lines
+
+        return time_lines(self.pens, self.time_s)
 
     def text(self) -> str:
         m, s = divmod(int(round(self.time_s)), 60)
@@ -139,6 +158,7 @@ def _schedule(cfg, ops, counts, ref_mm, emit: bool, summary: Summary,
         elif kind == "start":
             rows = sched.start(op[1])
         elif kind == "pause":
+            summary.pen_mark(op[1], sched.t_us / 1e6)
             if op[1].pen is None:            # a plain pause: the coils are released
                 rows = sched.release()
                 if emit and rows is not None:

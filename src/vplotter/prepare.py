@@ -18,6 +18,7 @@ import time
 from dataclasses import dataclass, field
 from typing import Callable, Iterable, Iterator
 
+from vplotter.drawing import pen_options
 from vplotter.errors import ConfigError, InputError
 from vplotter.inputs.image import STYLES as PHOTO_STYLES
 
@@ -87,6 +88,7 @@ def add_file_options(p: argparse.ArgumentParser) -> None:
                    help="draw only this SVG layer (label or id) or DXF layer; repeatable")
     o.add_argument("--pause-between-layers", action="store_true",
                    help="lift the pen after each layer and wait for Enter (change the pen)")
+    pen_options.add(o)              # --pen-order, --refill-every (drawing/pens.py)
     ph = p.add_argument_group("photos (PNG, JPEG, WebP, BMP, TIFF, GIF: darkness drawn as line "
                               "art, at a density that fits the plot-time budget)")
     ph.add_argument("--style", choices=PHOTO_STYLES,
@@ -203,10 +205,12 @@ def is_svg(path: str) -> bool:
 # ------------------------------------------------------------------ G-code as strokes
 def gcode_strokes(records: Iterable, tol_mm: float) -> list:
     """Group the pen-down moves of a record stream into strokes (arcs cut within tol_mm).
-    Pen-up moves are travel and are dropped: ordering and placement make their own."""
+    Pen-up moves are travel and are dropped: ordering and placement make their own. A stroke
+    carries the pen the last pen-change pause put in (a tool `T2`, or `(pen: NAME)`)."""
     import numpy as np
 
-    from vplotter.inputs.gcode import Dwell, Move, Pen
+    from vplotter.drawing.pens import _colour_of
+    from vplotter.inputs.gcode import Move, Pause, Pen
     from vplotter.inputs.strokes import Stroke
     from vplotter.motion import segment
 
@@ -215,10 +219,12 @@ def gcode_strokes(records: Iterable, tol_mm: float) -> list:
     cur: list[np.ndarray] = []
     first = None
     feed = None
+    pen = None
 
     def close() -> None:
         if first is not None and cur:
-            strokes.append(Stroke(np.concatenate(cur), first.line, first.col, feed))
+            strokes.append(Stroke(np.concatenate(cur), first.line, first.col, feed, pen=pen,
+                                  colour=_colour_of(pen)))
 
     xy = np.zeros((1, 2))
     for rec in records:
@@ -236,8 +242,8 @@ def gcode_strokes(records: Iterable, tol_mm: float) -> list:
                 if rec.feed_mm_s is not None and not rec.rapid:
                     feed = rec.feed_mm_s if feed is None else min(feed, rec.feed_mm_s)
             xy = np.array([[rec.x1, rec.y1]])
-        elif isinstance(rec, Dwell):
-            continue
+        elif isinstance(rec, Pause) and rec.pen is not None:
+            pen = rec.pen           # (the reader lifts the pen around a pause)
     if down:
         close()
     return strokes
@@ -261,6 +267,8 @@ class Prepared:
     notes: list[str] = field(default_factory=list)    # what was chosen and why (a photo)
     timed_s: float | None = None  # a photo: the plot time its budget search measured
     fill: object = None           # SVG: inputs.fill.FillOptions (--fill, --fill-spacing ...)
+    refill_mm: float | None = None    # --refill-every: a fresh pen after this much drawn
+    owned: tuple = ()             # config.toml [pens]: the pens owned (drawing/pens.py)
     _drawing: object = None
     _strokes: list | None = None
     _firsts: list[int] = field(default_factory=list)
@@ -298,46 +306,17 @@ class Prepared:
     def records(self) -> Iterator:
         """A fresh iterator of pipeline records (warnings are given on the first read only)."""
         if self.passthrough:
-            return self._gcode()
+            from vplotter.drawing import pens     # [pens]: the pens' names and speeds
+
+            warn = self.warn if self._reads == 0 else None
+            return pens.passthrough(self._gcode(), self.owned, warn, self.path)
         return self._stroke_records()
 
     def _stroke_records(self) -> Iterator:
-        from vplotter.drawing import order
-        from vplotter.inputs.gcode import Move, Pause, Pen
+        from vplotter.drawing.records import stroke_records
 
-        strokes = self.strokes
-        joined = order.joined(strokes, self.join_mm)
         firsts: list[int] = []
-        n = 0
-        x, y = 0.0, 0.0
-        have = False
-        for k, st in enumerate(strokes):
-            if k and self.pause and st.layer != strokes[k - 1].layer:
-                n += 1
-                yield Pause(n, 0, f"layer {strokes[k - 1].layer} done; next: layer {st.layer}")
-            n += 1
-            firsts.append(n)
-            p = st.pts
-            x0, y0 = float(p[0, 0]), float(p[0, 1])
-            if joined[k]:
-                if (x0, y0) != (x, y):
-                    yield Move(n, 0, x, y, x0, y0, feed_mm_s=st.feed_mm_s)
-                    n += 1
-            else:
-                if not have or (x0, y0) != (x, y):
-                    yield Move(n, 0, x, y, x0, y0, rapid=True)
-                    n += 1
-                yield Pen(n, 0, True)
-                n += 1
-            have = True
-            x, y = x0, y0
-            for x1, y1 in p[1:].tolist():
-                if (x1, y1) != (x, y):
-                    yield Move(n, 0, x, y, x1, y1, feed_mm_s=st.feed_mm_s)
-                    n += 1
-                x, y = x1, y1
-            if k + 1 == len(strokes) or not joined[k + 1]:
-                yield Pen(n, 0, False)
+        yield from stroke_records(self.strokes, self.join_mm, self.refill_mm, self.pause, firsts)
         self._firsts = firsts
 
     def where(self, line: int, col: int | None = None) -> str:
@@ -385,7 +364,7 @@ def options_key(path: str, args) -> str:
     photo = photo_options(args) if kind == "image" else None
     key = (method, placement(args), getattr(args, "join", None),
            getattr(args, "layer", None), bool(getattr(args, "pause_between_layers", False)),
-           photo)
+           photo, getattr(args, "pen_order", None), getattr(args, "refill_every", None))
     if kind == "svg" and getattr(args, "fill", None) not in (None, "outline"):
         key += (fill_options(args),)
     return repr(key)
@@ -424,11 +403,14 @@ def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
     prep = Prepared(path, kind, passthrough=False, strict=strict, join_mm=join_mm,
                     pause=pause, key=key, warn=warn,
                     start_xy=(float(start_xy[0]), float(start_xy[1])), tol_mm=tol,
-                    dialect=getattr(cfg, "gcode", None), fill=fill_options(args) if svg else None)
-    if kind == "gcode" and method == "keep" and place_opts.identity:
+                    dialect=getattr(cfg, "gcode", None), fill=fill_options(args) if svg else None,
+                    refill_mm=getattr(args, "refill_every", None),
+                    owned=tuple(getattr(getattr(cfg, "pens", None), "owned", ())))
+    pen_order = getattr(args, "pen_order", None)
+    if kind == "gcode" and method == "keep" and place_opts.identity and pen_order is None:
         prep.passthrough = True
         return prep
-    from vplotter.drawing import order, place
+    from vplotter.drawing import order, pens, place
 
     pg = cfg.page
     page = place.Box(pg.x_min_mm, pg.y_min_mm, pg.x_max_mm, pg.y_max_mm)
@@ -464,19 +446,24 @@ def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
                                          lambda pts: place.matrix(place_opts, pts, page))
         prep._drawing = drawing
         placed = place.place(drawing.strokes, place_opts, page)
+    placed = pens.resolve(placed, prep.owned, warn, path)
     t0 = time.perf_counter()
-    prep._strokes = order.order(placed, method, start_xy)
+    prep._strokes = pens.arrange(placed, pen_order or "light-to-dark",
+                                 lambda group, at: order.order(group, method, at), start_xy)
     prep.order_s = time.perf_counter() - t0
     if prep.timed_s is not None and method != "keep" and placed:
         # the budget timed the quick order; never let another order take longer
         if _timed(prep, prep._strokes, plot_time) > prep.timed_s:
-            prep._strokes = placed
+            prep._strokes = pens.arrange(placed, pen_order or "light-to-dark")
     return prep
 
 
 def _timed(prep: Prepared, strokes: list, plot_time) -> float:
     from dataclasses import replace as _replace
 
+    from vplotter.drawing.pens import resolve
+
+    strokes = resolve(strokes, prep.owned)      # the pens' speeds count (resolved: unchanged)
     return plot_time(_replace(prep, _strokes=strokes, _firsts=[], _drawing=None).records())
 
 

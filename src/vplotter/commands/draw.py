@@ -109,6 +109,8 @@ def cmd_draw(args, argv=None) -> int:
             s.live.update(0.0, 0, force=True)
         if summary is not None:
             _ordered(prep)
+            for line in summary.pen_lines():
+                say(f"{args.file}: {line}")
             say(f"{args.file}: {summary.text()}")
         if args.detach and summary is not None:
             return _detach(args, argv, s)
@@ -271,6 +273,8 @@ def cmd_estimate(args, argv=None) -> int:
     summary = pipeline.validate(cfg, prep.records(), pos.counts, pos.ref_mm, args.file,
                                 where=prep.where)
     _ordered(prep)
+    for line in summary.pen_lines():
+        print(f"{args.file}: {line}")
     print(f"{args.file}: {summary.text()}")
     return 0
 

@@ -60,9 +60,10 @@ def add_info(p: argparse.ArgumentParser) -> None:
     add_file_options(p)
 
 
-def _timed(cfg, pos, prep):
-    """(travel_mm, time_s) of the pipeline's validation pass; (None, None) when the drawing
-    does not fit the page (the error is printed as a warning: info still reports)."""
+def _timed(cfg, pos, prep, with_summary: bool = False):
+    """(travel_mm, time_s, problem) of the pipeline's validation pass; (None, None, the error
+    as a warning) when the drawing does not fit the page (info still reports); with_summary:
+    the pipeline's summary (or None) after them."""
     from vplotter import pipeline
 
     try:
@@ -71,12 +72,12 @@ def _timed(cfg, pos, prep):
     except InputError as e:
         if "outside the page" not in str(e):
             raise
-        return None, None, str(e).replace("error:", "warning:", 1)
-    return s.travel_mm, s.time_s, None
+        return (None, None, str(e).replace("error:", "warning:", 1)) + ((None,) * with_summary)
+    return (s.travel_mm, s.time_s, None) + ((s,) * with_summary)
 
 
 def cmd_info(args, argv=None) -> int:
-    from vplotter.drawing import place
+    from vplotter.drawing import pens, place
 
     cfg = load_config(args)
     pos = position(cfg, args, True)
@@ -97,7 +98,7 @@ def cmd_info(args, argv=None) -> int:
     width = drawing.width_mm if drawing.width_mm is not None else ext[2] - ext[0]
     height = drawing.height_mm if drawing.height_mm is not None else ext[3] - ext[1]
     t_keep, s_keep, problem = _timed(cfg, pos, keep)
-    t_best, s_best, _ = _timed(cfg, pos, best)
+    t_best, s_best, _, timed = _timed(cfg, pos, best, with_summary=True)
     if problem:
         eprint(problem)
     skipped = {k: int(drawing.skipped.get(k, 0)) for k in ("text", "image", "hidden")}
@@ -111,6 +112,7 @@ def cmd_info(args, argv=None) -> int:
                     "visible": bool(lay.get("visible", True))} for lay in drawing.layers],
         "skipped": skipped,
         "notes": list(best.notes),
+        "pens": [{**row, "drawn_mm": _r(row["drawn_mm"])} for row in pens.table(strokes)],
     }
     if args.json:
         say(json.dumps(out))
@@ -121,6 +123,7 @@ def cmd_info(args, argv=None) -> int:
         f"{out['height_mm']:g} mm; drawn extent X {ext[0]:.2f}..{ext[2]:.2f} "
         f"Y {ext[1]:.2f}..{ext[3]:.2f} mm")
     say(f"  {out['strokes']} strokes, drawn {out['drawn_mm'] / 1000:.2f} m")
+    _say_pens(out["pens"], timed, getattr(args, "pen_order", None) or "light-to-dark")
     for note in best.notes:
         say(f"  {note}")
     for what, t, s in (("file order", t_keep, s_keep), ("--order best", t_best, s_best)):
@@ -139,6 +142,24 @@ def cmd_info(args, argv=None) -> int:
         if n:
             say(f"  skipped {n} {notes[k]}")
     return 0
+
+
+def _say_pens(rows: list[dict], timed, pen_order: str) -> None:
+    """The pens in drawing order (none for a drawing in the one default pen), with the plot
+    time of each from the pipeline's pen changes when it has them."""
+    from vplotter.drawing import pens
+
+    if len(rows) < 2 and all(r["name"] == "default" for r in rows):
+        return
+    times: dict = {}
+    for pen, seconds, *_ in (pens.times(timed.pens, timed.time_s) if timed else []):
+        times[pen] = times.get(pen, 0.0) + seconds
+    order = f", {pen_order.replace('-', ' ')}" if len(rows) > 1 else ""
+    say(f"  {len(rows)} pen{'s' if len(rows) > 1 else ''}{order}:")
+    for r in rows:
+        t = f", for {clock_text(times[r['name']])}" if r["name"] in times else ""
+        say(f"    {r['name']} ({r['colour']}): {r['strokes']} stroke{'s' if r['strokes'] != 1 else ''}, drawn "
+            f"{r['drawn_mm'] / 1000:.2f} m{t}")
 
 
 def _r(v):
@@ -203,11 +224,17 @@ def _num(v: float) -> str:
 
 def write_gcode(prep, cfg, f) -> None:
     """The strokes as G-code: G0 travel, G1 drawing, the pen by `pen_words`; a stroke that
-    starts within --join of the previous end is drawn on without lifting."""
-    from vplotter.drawing import order
+    starts within --join of the previous end is drawn on without lifting. A drawing in two
+    pens or more has `M0 (pen: NAME)` before each pen's strokes (the first included), which
+    the reader reads back as the same pen change; a fresh pen (--refill-every) and the next
+    layer (--pause-between-layers) are an `M0 (what to do)`."""
+    from vplotter.drawing import order, pens
 
     strokes = prep.strokes
-    joined = order.joined(strokes, prep.join_mm)
+    joined = order.joined(strokes, prep.join_mm).copy()
+    breaks = pens.Breaks(strokes, getattr(prep, "refill_mm", None), prep.pause)
+    pause = breaks.before(0) if strokes else None
+    pen = None
     pen_up, pen_down = pen_words(cfg)
     f.write(f"(vplotter convert {os.path.basename(prep.path)}: {len(strokes)} strokes)\n")
     f.write(f"G21\nG90\n{pen_up}\n")
@@ -216,27 +243,45 @@ def write_gcode(prep, cfg, f) -> None:
     layer = object()
     at = ""
     for k, st in enumerate(strokes):
+        if pause:
+            f.write(_m0(pause, pen, st.colour) + "\n")
+            pen = pause[1] if len(pause) > 1 else pen
         if st.layer is not None and st.layer != layer:
             f.write(f"(layer {_safe(str(st.layer))})\n")
         layer = st.layer
-        xy = [f"X{_num(x)} Y{_num(y)}" for x, y in st.pts.tolist()]
+        pts, cuts = breaks.split(k)
+        xy = [f"X{_num(x)} Y{_num(y)}" for x, y in pts.tolist()]
         if not joined[k]:
             f.write(f"G0 {xy[0]}\n{pen_down}\n")
             at = xy[0]
         lines = []
-        for w in xy:            # no zero-length moves: they would not read back
+        for i, w in enumerate(xy):      # no zero-length moves: they would not read back
             if w != at:
                 lines.append(f"G1 {w}")
                 at = w
+            if i in cuts:
+                lines += [pen_up, _m0(cuts[i], pen, st.colour), pen_down]
         want = st.feed_mm_s if st.feed_mm_s is not None else cfg.motion.draw_speed_mm_s
-        if feeds and lines and want != feed:
+        if feeds and lines and lines[0].startswith("G1") and want != feed:
             lines[0] += f" F{_num(want * 60)}"
             feed = want
         if lines:
             f.write("\n".join(lines) + "\n")
+        pause = breaks.before(k + 1) if k + 1 < len(strokes) else None
+        if pause:
+            joined[k + 1] = False
         if k + 1 == len(strokes) or not joined[k + 1]:
             f.write(f"{pen_up}\n")
     f.write("M2\n")
+
+
+def _m0(pause: tuple, pen: str | None, colour: str | None) -> str:
+    """M0 for a pause of the records (drawing/pens.Breaks): `M0 (pen: NAME)` at a pen change
+    (a name with parentheses, `rgb(...)`, as its colour), else `M0 (what to do)`."""
+    if len(pause) > 1 and pause[1] != pen:
+        name = colour if colour and ("(" in pause[1] or ")" in pause[1]) else pause[1]
+        return f"M0 (pen: {_safe(name)})"
+    return f"M0 ({_safe(pause[0])})"
 
 
 def _safe(text: str) -> str:

@@ -1,4 +1,4 @@
-"""Streaming G-code parser: text lines -> Move / Pen / Dwell records in G-code millimetres.
+"""Streaming G-code parser: text lines -> Move / Pen / Dwell / Pause records in G-code mm.
 
 Independent of the machine: it knows nothing of cords, pages or motors. One line is held in
 memory at a time, so a file of any size can be read. Every record carries file:line:col so
@@ -10,11 +10,13 @@ Frame: G-code coordinates, +Y up, millimetres (G20 inches are converted here).
 from __future__ import annotations
 
 import math
-import re
 from dataclasses import dataclass
 from typing import Callable, Iterable, Iterator
 
 from vplotter.errors import InputError
+from vplotter.inputs.gcode_tools import (Tools, comment_pen, comment_text, pen_message,
+                                         scan, tool_name)
+from vplotter.inputs.gcode_words import ALLOWED_LETTERS, _blank, tokenize  # noqa: F401
 
 MM_PER_INCH = 25.4
 MAX_VALUE = 1e6  # mm for X Y Z I J R, seconds for P: anything larger is a typo
@@ -23,7 +25,6 @@ IGNORED_G = {40.0, 49.0, 54.0, 61.0, 64.0, 80.0, 94.0}
 IGNORED_M = {7.0, 8.0, 9.0}
 MOTION_G = {0.0, 1.0, 2.0, 3.0}
 END_M = {2.0, 30.0}
-ALLOWED_LETTERS = set("GMXYZIJRFPNST")
 UNSUPPORTED_HINTS = {18.0: " (only the XY plane, G17, is drawn)",
                      19.0: " (only the XY plane, G17, is drawn)",
                      41.0: " (cutter compensation)", 42.0: " (cutter compensation)",
@@ -97,16 +98,6 @@ class PenDialect:
 CLASSIC = PenDialect()
 PEN_MODES = {"z": "z", "m3": "m", "m280": "s"}
 
-# ASCII digits only: \d would accept other scripts' digits, which float() also takes.
-_NUMBER = re.compile(r"[ \t]*([+-]?[ \t]*(?:[0-9]+\.?[0-9]*|\.[0-9]+))")
-_CHECKSUM = re.compile(r"\*[ \t]*([0-9]+)")
-_COMMENT = re.compile(r"\([^)]*\)|;.*")
-
-
-def _blank(text: str) -> bool:
-    """Nothing but white space and comments."""
-    return not _COMMENT.sub("", text).strip()
-
 
 def detect_pen_mode(lines: Iterable[str], servo: int | None = None) -> str:
     """'z' if a Z word comes before the program end (Inkscape gcodetools, CamBam), else 'm'
@@ -134,81 +125,13 @@ def _fmt_code(letter: str, value: float) -> str:
     return f"{letter}{int(value)}" if value == int(value) else f"{letter}{value:g}"
 
 
-def _checksum(text: str, star: int, where: str) -> None:
-    """Check `*N` at text[star]: N is the XOR of the characters before the '*'."""
-    m = _CHECKSUM.match(text, star)
-    if not m or not _blank(text[m.end():]):
-        raise InputError(f"{where}:{star + 1}: error: checksum after '*' must be a number "
-                         f"at the end of the line")
-    expected = 0
-    for ch in text[:star]:
-        expected ^= ord(ch)
-    if int(m.group(1)) != expected:
-        raise InputError(f"{where}:{star + 1}: error: checksum {m.group(1)} does not match "
-                         f"the line (expected {expected})")
-
-
-def tokenize(raw: str, where: str) -> list[tuple[str, float, int]]:
-    """Split one line into (letter, value, col) words; col is 1-based. Raises InputError."""
-    words: list[tuple[str, float, int]] = []
-    text = raw.rstrip("\r\n")
-    i, n = 0, len(text)
-    while i < n:
-        ch = text[i]
-        if ch in " \t":
-            i += 1
-        elif ch == "(":
-            end = text.find(")", i)
-            if end < 0:
-                raise InputError(f"{where}:{i + 1}: error: comment '(' is not closed on this line")
-            i = end + 1
-        elif ch == ";":
-            break
-        elif ch == "*":
-            _checksum(text, i, where)
-            break
-        elif ch == "%" and not words and _blank(text[i + 1:]):
-            break
-        elif ch.isascii() and ch.isalpha():
-            letter = ch.upper()
-            col = i + 1
-            m = _NUMBER.match(text, i + 1)
-            if letter == "O":
-                raise InputError(f"{where}:{col}: error: O-words (subroutines) are not supported")
-            if letter == "E" and words and text[i - 1] in "0123456789.":
-                raise InputError(f"{where}:{col}: error: a G-code number cannot have an "
-                                 f"exponent ('e'): write it out in full")
-            if letter not in ALLOWED_LETTERS:
-                number = m.group(1).strip() if m else ""
-                raise InputError(f"{where}:{col}: error: unsupported word {letter}{number}")
-            if not m:
-                rest = text[i + 1:].lstrip(" \t")
-                if rest[:1] in ("#", "["):
-                    i = n - len(rest)
-                    continue  # reported as #parameters or [expressions] below
-                got = rest[:7] or "end of line"
-                raise InputError(f"{where}:{col}: error: {letter} must be followed by a number "
-                                 f"(got {got!r})")
-            value = float(m.group(1).replace(" ", "").replace("\t", ""))
-            if not math.isfinite(value):
-                raise InputError(f"{where}:{col}: error: the number after {letter} is too large")
-            words.append((letter, value, col))
-            i = m.end()
-        elif ch == "#":
-            raise InputError(f"{where}:{i + 1}: error: #parameters are not supported")
-        elif ch == "[":
-            raise InputError(f"{where}:{i + 1}: error: [expressions] are not supported")
-        else:
-            raise InputError(f"{where}:{i + 1}: error: unexpected character {ch!r}")
-    return words
-
-
 class Parser:
     """Holds the modal state between lines. Use `read()` rather than this class directly."""
 
     def __init__(self, name: str, pen_mode: str, strict: bool, warn: Warn,
-                 dialect: PenDialect = CLASSIC):
+                 dialect: PenDialect = CLASSIC, tools: tuple | None = None):
         self.name = name
+        self.tools = Tools(tools)        # tool changes (gcode_tools.scan's result, or None)
         self.pen_mode = pen_mode
         self.dialect = dialect
         self.strict = strict
@@ -285,7 +208,8 @@ class Parser:
                                                f"(at most {MAX_VALUE:.0f} {unit})")
         pen_change: bool | None = None
         pen_col = 0
-        end_col = 0
+        end_col = m6_col = 0
+        stop: tuple[float, int] | None = None
         servo_line = False
         for value, col in m_codes:
             if value in (3.0, 5.0):
@@ -300,14 +224,18 @@ class Parser:
                     pen_change, pen_col = change, col
             elif value in END_M:
                 end_col = col
+            elif value == 6.0:
+                m6_col = col
+            elif value in (0.0, 1.0):
+                stop = (value, col)
             elif value in IGNORED_M:
                 key = _fmt_code("M", value)
                 self.ignored[key] = self.ignored.get(key, 0) + 1
             else:
                 raise self._err(line, col, f"unsupported code {_fmt_code('M', value)}")
-        for letter in ("S", "T"):
-            if letter in vals and not servo_line:
-                self.ignored[letter] = self.ignored.get(letter, 0) + 1
+        if "S" in vals and not servo_line:
+            self._ignore("S")
+        change = self._tool(raw, vals if not servo_line else {}, line, m6_col)
         if ("P" in vals and not dwell_col and not servo_line
                 and not any(v == 64.0 for v, _ in g_codes)):
             raise self._err(line, vals["P"][1], "P word without G4 (dwell)")
@@ -348,6 +276,8 @@ class Parser:
                 pen_change, pen_col = self.z < self.dialect.z_down_below_mm, zcol
             elif self.pen_mode == "s":
                 self._ignore("Z")
+        if change is not None:
+            yield from self._change(line, *change)
         if pen_change is not None and pen_change != self.pen_down:
             self.pen_down = pen_change
             yield Pen(line, pen_col, pen_change)
@@ -355,8 +285,53 @@ class Parser:
             yield Dwell(line, dwell_col, vals["P"][0])
         if has_xy or (has_arc_words and self.motion in (2.0, 3.0)):
             yield from self._move(vals, line, motion_col)
+        if stop is not None:
+            code, col = _fmt_code("M", stop[0]), stop[1]
+            pen = comment_pen(raw, f"{self.name}:{line}")
+            if pen is not None:
+                yield from self._change(line, pen, col, code)
+            else:
+                yield from self._pause(line, col, comment_text(raw) or f"{code}: program pause")
         if end_col:
             self.ended = True
+
+    def _tool(self, raw: str, vals: dict, line: int, m6_col: int) -> tuple | None:
+        """The tool change of a line: (pen, col, code) or None (T on an M280 line is the
+        servo's, not a tool: `vals` is then empty). T<n> selects a tool (and
+        changes to it in a file without M6); M6 changes to the selected one, or to the pen a
+        `(pen: NAME)` comment names."""
+        change = None
+        if "T" in vals:
+            value, col = vals["T"]
+            self.tools.selected = tool_name(value, f"{self.name}:{line}", col)
+            if not self.tools.m6:
+                change = (self.tools.selected, col, "T")
+        if m6_col:
+            pen = comment_pen(raw, f"{self.name}:{line}") or self.tools.selected
+            if pen is None:
+                raise self._err(line, m6_col, "M6 (tool change) without a tool: give T<n> on "
+                                              "this line or before it")
+            change = (pen, m6_col, "M6")
+        return change
+
+    def _change(self, line: int, pen: str, col: int, code: str) -> Iterator[Record]:
+        """Put in `pen`: a pen-change pause, unless it asks for nothing (then `code` changed
+        nothing and is summarised with the ignored codes)."""
+        asked = self.tools.change(pen)
+        if asked is None:
+            self._ignore(code)
+            return
+        yield from self._pause(line, col, pen_message(pen, *asked), pen, *asked)
+
+    def _pause(self, line: int, col: int, message: str, pen: str | None = None,
+               index: int = 0, count: int = 0) -> Iterator[Record]:
+        """A pause with the pen up; a pen that was down goes down again after it."""
+        down = self.pen_down
+        if down:
+            yield Pen(line, col, False)
+        yield Pause(line, col, message, pen, index, count)
+        if down:
+            yield Pen(line, col, True)
 
     def _ignore(self, key: str) -> None:
         self.ignored[key] = self.ignored.get(key, 0) + 1
@@ -455,10 +430,14 @@ def _stderr(msg: str) -> None:
 
 def parse_lines(lines: Iterable[str], name: str = "<input>", pen_mode: str = "m",
                 strict: bool = False, warn: Warn = _stderr,
-                dialect: PenDialect = CLASSIC) -> Iterator[Record]:
+                dialect: PenDialect = CLASSIC, tools: tuple | None = None) -> Iterator[Record]:
     """Parse an iterable of lines. pen_mode: 'z' (Z below the threshold is down), 'm' (M3/M5)
-    or 's' (M280 servo angles); `dialect` gives the values."""
-    p = Parser(name, pen_mode, strict, warn, dialect)
+    or 's' (M280 servo angles); `dialect` gives the values. `tools`: the file's tool changes
+    (`gcode_tools.scan`), scanned here when `lines` is a list; else a pen change says no
+    "k of n" and a T<n> waits for an M6."""
+    if tools is None and isinstance(lines, (list, tuple)):
+        tools = scan(lines)
+    p = Parser(name, pen_mode, strict, warn, dialect, tools)
     for number, raw in enumerate(lines, 1):
         yield from p.block(raw, number)
     p.finish()
@@ -466,7 +445,8 @@ def parse_lines(lines: Iterable[str], name: str = "<input>", pen_mode: str = "m"
 
 def read(path: str, strict: bool = False, warn: Warn = _stderr,
          dialect: PenDialect = CLASSIC) -> Iterator[Record]:
-    """Stream the records of a G-code file (two passes: pen mode first, then the records).
+    """Stream the records of a G-code file (three passes: pen mode, tool changes, then the
+    records).
     `dialect` is config.toml's [gcode] (cfg.gcode)."""
     try:
         if dialect.pen == "auto":
@@ -475,7 +455,9 @@ def read(path: str, strict: bool = False, warn: Warn = _stderr,
         else:
             mode = PEN_MODES[dialect.pen]
         with open(path, encoding="utf-8-sig", errors="replace") as f:
-            yield from parse_lines(f, path, mode, strict, warn, dialect)
+            tools = scan(f)
+        with open(path, encoding="utf-8-sig", errors="replace") as f:
+            yield from parse_lines(f, path, mode, strict, warn, dialect, tools)
     except FileNotFoundError:
         raise InputError(f"{path}: error: no such file") from None
     except IsADirectoryError:

@@ -1,0 +1,90 @@
+"""G-code words: one line split into (letter, value, column) words, comments and checksums
+handled. Shared by the reader (`gcode.py`) and its tool-change scan (`gcode_tools.py`)."""
+
+from __future__ import annotations
+
+import math
+import re
+
+from vplotter.errors import InputError
+
+ALLOWED_LETTERS = set("GMXYZIJRFPNST")
+
+# ASCII digits only: \d would accept other scripts' digits, which float() also takes.
+_NUMBER = re.compile(r"[ \t]*([+-]?[ \t]*(?:[0-9]+\.?[0-9]*|\.[0-9]+))")
+_CHECKSUM = re.compile(r"\*[ \t]*([0-9]+)")
+_COMMENT = re.compile(r"\([^)]*\)|;.*")
+
+
+def _blank(text: str) -> bool:
+    """Nothing but white space and comments."""
+    return not _COMMENT.sub("", text).strip()
+
+
+def _checksum(text: str, star: int, where: str) -> None:
+    """Check `*N` at text[star]: N is the XOR of the characters before the '*'."""
+    m = _CHECKSUM.match(text, star)
+    if not m or not _blank(text[m.end():]):
+        raise InputError(f"{where}:{star + 1}: error: checksum after '*' must be a number "
+                         f"at the end of the line")
+    expected = 0
+    for ch in text[:star]:
+        expected ^= ord(ch)
+    if int(m.group(1)) != expected:
+        raise InputError(f"{where}:{star + 1}: error: checksum {m.group(1)} does not match "
+                         f"the line (expected {expected})")
+
+
+def tokenize(raw: str, where: str) -> list[tuple[str, float, int]]:
+    """Split one line into (letter, value, col) words; col is 1-based. Raises InputError."""
+    words: list[tuple[str, float, int]] = []
+    text = raw.rstrip("\r\n")
+    i, n = 0, len(text)
+    while i < n:
+        ch = text[i]
+        if ch in " \t":
+            i += 1
+        elif ch == "(":
+            end = text.find(")", i)
+            if end < 0:
+                raise InputError(f"{where}:{i + 1}: error: comment '(' is not closed on this line")
+            i = end + 1
+        elif ch == ";":
+            break
+        elif ch == "*":
+            _checksum(text, i, where)
+            break
+        elif ch == "%" and not words and _blank(text[i + 1:]):
+            break
+        elif ch.isascii() and ch.isalpha():
+            letter = ch.upper()
+            col = i + 1
+            m = _NUMBER.match(text, i + 1)
+            if letter == "O":
+                raise InputError(f"{where}:{col}: error: O-words (subroutines) are not supported")
+            if letter == "E" and words and text[i - 1] in "0123456789.":
+                raise InputError(f"{where}:{col}: error: a G-code number cannot have an "
+                                 f"exponent ('e'): write it out in full")
+            if letter not in ALLOWED_LETTERS:
+                number = m.group(1).strip() if m else ""
+                raise InputError(f"{where}:{col}: error: unsupported word {letter}{number}")
+            if not m:
+                rest = text[i + 1:].lstrip(" \t")
+                if rest[:1] in ("#", "["):
+                    i = n - len(rest)
+                    continue  # reported as #parameters or [expressions] below
+                got = rest[:7] or "end of line"
+                raise InputError(f"{where}:{col}: error: {letter} must be followed by a number "
+                                 f"(got {got!r})")
+            value = float(m.group(1).replace(" ", "").replace("\t", ""))
+            if not math.isfinite(value):
+                raise InputError(f"{where}:{col}: error: the number after {letter} is too large")
+            words.append((letter, value, col))
+            i = m.end()
+        elif ch == "#":
+            raise InputError(f"{where}:{i + 1}: error: #parameters are not supported")
+        elif ch == "[":
+            raise InputError(f"{where}:{i + 1}: error: [expressions] are not supported")
+        else:
+            raise InputError(f"{where}:{i + 1}: error: unexpected character {ch!r}")
+    return words
