@@ -253,7 +253,7 @@ class Breaks:
         self.every = refill_mm
         self.layers = layers
         self.used = 0.0                  # mm drawn with the pen since it was put in
-        self.lengths = _lengths(strokes) if refill_mm else None
+        self.lengths = _lengths(strokes).tolist() if refill_mm else None
 
     def _pen(self, k: int) -> str:
         p = self.strokes[k].pen
