@@ -205,11 +205,9 @@ def is_svg(path: str) -> bool:
 # ------------------------------------------------------------------ G-code as strokes
 def gcode_strokes(records: Iterable, tol_mm: float) -> list:
     """Group the pen-down moves of a record stream into strokes (arcs cut within tol_mm).
-    Pen-up moves are travel and are dropped: ordering and placement make their own. A stroke
-    carries the pen the last pen-change pause put in (a tool `T2`, or `(pen: NAME)`)."""
+    Pen-up moves are travel and are dropped: ordering and placement make their own."""
     import numpy as np
 
-    from vplotter.drawing.pens import _colour_of
     from vplotter.inputs.gcode import Move, Pause, Pen
     from vplotter.inputs.strokes import Stroke
     from vplotter.motion import segment
@@ -223,8 +221,7 @@ def gcode_strokes(records: Iterable, tol_mm: float) -> list:
 
     def close() -> None:
         if first is not None and cur:
-            strokes.append(Stroke(np.concatenate(cur), first.line, first.col, feed, pen=pen,
-                                  colour=_colour_of(pen)))
+            strokes.append(Stroke(np.concatenate(cur), first.line, first.col, feed, pen=pen))
 
     xy = np.zeros((1, 2))
     for rec in records:
@@ -243,7 +240,7 @@ def gcode_strokes(records: Iterable, tol_mm: float) -> list:
                     feed = rec.feed_mm_s if feed is None else min(feed, rec.feed_mm_s)
             xy = np.array([[rec.x1, rec.y1]])
         elif isinstance(rec, Pause) and rec.pen is not None:
-            pen = rec.pen           # (the reader lifts the pen around a pause)
+            pen = rec.pen           # the pen a pen change put in (T2, `(pen: NAME)`)
     if down:
         close()
     return strokes
@@ -460,7 +457,6 @@ def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
 
 def _timed(prep: Prepared, strokes: list, plot_time) -> float:
     from dataclasses import replace as _replace
-
     from vplotter.drawing.pens import resolve
 
     strokes = resolve(strokes, prep.owned)      # the pens' speeds count (resolved: unchanged)
