@@ -436,20 +436,6 @@ def test_bad_tool_change_is_one_line_and_exit_2(capsys, config_path, tmp_path):
     assert err.strip().splitlines()[-1].startswith(f"{f}:5:1: error: M6 (tool change) without")
 
 
-def _svg_strokes_carry_colours() -> bool:
-    import tempfile
-
-    from vplotter.inputs import svg
-
-    with tempfile.NamedTemporaryFile("w", suffix=".svg", delete=False) as t:
-        t.write('<svg xmlns="http://www.w3.org/2000/svg" width="10mm" height="10mm" '
-                'viewBox="0 0 10 10"><path d="M1 1 L9 9" stroke="red"/></svg>')
-    d = svg.read(t.name, 0.01, warn=lambda m: None)
-    return bool(d.strokes) and getattr(d.strokes[0], "colour", None) is not None
-
-
-@pytest.mark.skipif(not _svg_strokes_carry_colours(),
-                    reason="the SVG reader does not give strokes their colours yet (fill work)")
 def test_svg_colours_are_pens_light_to_dark(capsys, config_path, tmp_path):
     f = tmp_path / "c.svg"
     f.write_text('<svg xmlns="http://www.w3.org/2000/svg" width="40mm" height="40mm" '
