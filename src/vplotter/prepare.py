@@ -106,6 +106,9 @@ def add_file_options(p: argparse.ArgumentParser) -> None:
     ph.add_argument("--invert", action="store_true", help="draw the light parts dark")
     ph.add_argument("--tsp", action="store_true",
                     help="stipple: one tour through the dots instead of dots (TSP art)")
+    ph.add_argument("--cmyk", action="store_true",
+                    help="a colour photo in four pens: yellow, cyan, magenta and black layers, "
+                         "within one budget")
     fl = p.add_argument_group("fills (SVG)")
     fl.add_argument("--fill", choices=("none", "outline", "hatch"),
                     help="filled shapes: none (only what has a stroke is drawn), outline (every "
@@ -141,6 +144,7 @@ def photo_options(args):
                         brightness=getattr(args, "brightness", 0.0),
                         invert=bool(getattr(args, "invert", False)),
                         tsp=bool(getattr(args, "tsp", False)),
+                        cmyk=bool(getattr(args, "cmyk", False)),
                         width_mm=getattr(args, "width", None),
                         height_mm=getattr(args, "height", None))
 
@@ -499,7 +503,7 @@ def _photo(prep: Prepared, args, page, place_opts, plot_time) -> list:
 
 
 def _no_photo_options(args, path: str) -> None:
-    given = [name for name in ("style", "max_time", "spacing", "tsp", "invert")
+    given = [name for name in ("style", "max_time", "spacing", "tsp", "invert", "cmyk")
              if getattr(args, name, None)]
     if given:
         flag = "--" + given[0].replace("_", "-")

@@ -157,8 +157,9 @@ def _row_turns(pic: Picture, y: float, p0: float, w: float, backwards: bool):
     return x[idx], along[idx], per[idx]
 
 
-def strokes(picture, spacing_mm: float, pen_mm: float = 0.5) -> list[Stroke]:
-    """Rows of zigzags `spacing_mm` apart (the tone model above)."""
+def strokes(picture, spacing_mm: float, pen_mm: float = 0.5, phase: float = 0.0) -> list[Stroke]:
+    """Rows of zigzags `spacing_mm` apart (the tone model above); `phase` (-1/2..1/2) moves
+    every row down by that share of the pitch (--cmyk's layers a quarter pitch apart)."""
     if not spacing_mm > 0 or not pen_mm > 0:
         raise ValueError("spacing_mm and pen_mm must be > 0")
     w, h = picture.width_mm, picture.height_mm
@@ -169,7 +170,7 @@ def strokes(picture, spacing_mm: float, pen_mm: float = 0.5) -> list[Stroke]:
     p0 = densest_period(pitch)
     pieces: list[np.ndarray] = []
     for r in range(rows):                     # one loop turn per row; numpy along it
-        y = h - margin - (r + 0.5) * pitch
+        y = h - margin - (r + 0.5 + min(max(phase, -0.5), 0.5)) * pitch
         x, s, per = _row_turns(pic, y, p0, w, backwards=bool(r % 2))
         centre = np.column_stack([x, np.full_like(x, y)])
         normal = np.tile([0.0, 1.0], (len(x), 1))
