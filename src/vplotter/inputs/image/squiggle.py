@@ -46,6 +46,16 @@ from vplotter.inputs.strokes import Stroke
 
 MIN_CHORD_MM = 0.1         # no shorter piece between two points (keeps the count sane)
 CAP_PENS = 7.0             # tracks never further apart than this (3.5 mm with a 0.5 mm pen)
+FREE_PENS = 6.5            # the tone curve: d (gamma 1) up to this spacing (pen widths),
+SCARCE_PENS = 20.0         # ... d^8 from this one
+
+
+def tone_gamma(spacing_mm: float, pen_mm: float) -> float:
+    """The tracks' tone curve exponent for this spacing (`tone.gamma` with the tracks' own
+    ends: at 3 h on bench/photo_tone.py, about 9 pen widths, d^3.5 drew the astronaut's
+    squiggle with a correlation of 0.84 where the shared curve's d^7 drew 0.80 at the same
+    length, the camera's 0.89 for 0.85; at 1 h, about 20 pen widths, d^8 stays best)."""
+    return tone.gamma(spacing_mm, pen_mm, FREE_PENS, SCARCE_PENS)
 
 
 def track_pitch(spacing_mm: float, pen_mm: float) -> float:
@@ -58,7 +68,7 @@ def toned(picture, spacing_mm: float, pen_mm: float) -> tuple[Picture, float]:
     the line of black: f(d) x pitch / spacing; the track pitch)."""
     p = track_pitch(spacing_mm, pen_mm)
     pic = smoothed(picture, p)
-    d = tone.curve(pic.darkness, tone.gamma(spacing_mm, pen_mm)) * np.float32(p / spacing_mm)
+    d = tone.curve(pic.darkness, tone_gamma(spacing_mm, pen_mm)) * np.float32(p / spacing_mm)
     return Picture(d, picture.width_mm, picture.height_mm, picture.name), p
 
 
