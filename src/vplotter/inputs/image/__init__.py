@@ -31,8 +31,7 @@ def describe(name: str, spacing_mm: float, pen_mm: float, picture=None, **extra)
 
     g = gamma(spacing_mm, pen_mm)
     if name == "hatch":
-        from vplotter.inputs.image.hatch import full_layers, tone_gamma
-        g = tone_gamma(spacing_mm, pen_mm)
+        from vplotter.inputs.image.hatch import full_layers
         return (f"finest pitch {spacing_mm:.2f} mm (the spacing; every {TOP}th line, dashed, in "
                 f"the lightest tones, up to {full_layers(spacing_mm, pen_mm):.1f} crossed layers "
                 f"in black), tone curve d^{g:.1f}")

@@ -13,7 +13,8 @@ carries the tone of its own strip), so the coverage is darkness x L_max x w / pi
 1.05 x darkness at 0.5 mm / 1.5 mm; a coarser spacing draws a lighter picture with less
 line, a finer one more line: halving the spacing doubles the length, as for every style).
 The line drawn follows the budget's tone curve (`tone.py`): L = f(d) x L_max x p / spacing with
-f(d) = d^gamma, the tracks p = min(spacing, CAP_PENS pen widths) apart (`track_pitch`: lines
+f(d) = d^gamma (gamma from the tracks' own ends, `tone_gamma`: 1 up to 6.5 pen widths, 8 from
+20), the tracks p = min(spacing, CAP_PENS pen widths) apart (`track_pitch`: lines
 10 mm apart are seen as lines, not as a tone), so a coarser spacing than the cap draws less
 line, on the darker tones, and halving the spacing still about doubles the line.
 A straight track (L = 1) is the most line a track can carry without zigzagging; a smaller L
