@@ -132,21 +132,9 @@ def placement(args):
 
 
 def photo_options(args):
-    from vplotter import budget
     from vplotter.drawing.photo import PhotoOptions
 
-    limit = getattr(args, "max_time", None)
-    return PhotoOptions(style=getattr(args, "style", None) or "hatch",
-                        max_time_s=budget.parse_duration(limit) if limit else None,
-                        spacing_mm=getattr(args, "spacing", None),
-                        pen_mm=getattr(args, "pen_width", None) or 0.5,
-                        contrast=getattr(args, "contrast", 1.0),
-                        brightness=getattr(args, "brightness", 0.0),
-                        invert=bool(getattr(args, "invert", False)),
-                        tsp=bool(getattr(args, "tsp", False)),
-                        cmyk=bool(getattr(args, "cmyk", False)),
-                        width_mm=getattr(args, "width", None),
-                        height_mm=getattr(args, "height", None))
+    return PhotoOptions.from_args(args)
 
 
 def fill_options(args):

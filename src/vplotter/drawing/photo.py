@@ -41,6 +41,22 @@ class PhotoOptions:
     width_mm: float | None = None
     height_mm: float | None = None
 
+    @classmethod
+    def from_args(cls, args) -> "PhotoOptions":
+        """The photo options of a command line (argparse namespace; absent ones default)."""
+        limit = getattr(args, "max_time", None)
+        return cls(style=getattr(args, "style", None) or "hatch",
+                   max_time_s=budget.parse_duration(limit) if limit else None,
+                   spacing_mm=getattr(args, "spacing", None),
+                   pen_mm=getattr(args, "pen_width", None) or 0.5,
+                   contrast=getattr(args, "contrast", 1.0),
+                   brightness=getattr(args, "brightness", 0.0),
+                   invert=bool(getattr(args, "invert", False)),
+                   tsp=bool(getattr(args, "tsp", False)),
+                   cmyk=bool(getattr(args, "cmyk", False)),
+                   width_mm=getattr(args, "width", None),
+                   height_mm=getattr(args, "height", None))
+
 
 def size_mm(aspect: float, opts: PhotoOptions, page: place.Box, margin_mm: float):
     """(width, height) of the picture on the wall: --width or --height (the other follows
