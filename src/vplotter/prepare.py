@@ -108,6 +108,9 @@ def add_file_options(p: argparse.ArgumentParser) -> None:
     ph.add_argument("--invert", action="store_true", help="draw the light parts dark")
     ph.add_argument("--tsp", action="store_true",
                     help="stipple: one tour through the dots instead of dots (TSP art)")
+    ph.add_argument("--cmyk", action="store_true",
+                    help="a colour photo in four pens: yellow, cyan, magenta and black layers, "
+                         "within one budget")
     fl = p.add_argument_group("fills (SVG)")
     fl.add_argument("--fill", choices=("none", "outline", "hatch"),
                     help="filled shapes: none (only what has a stroke is drawn), outline (every "
@@ -131,20 +134,9 @@ def placement(args):
 
 
 def photo_options(args):
-    from vplotter import budget
     from vplotter.drawing.photo import PhotoOptions
 
-    limit = getattr(args, "max_time", None)
-    return PhotoOptions(style=getattr(args, "style", None) or "hatch",
-                        max_time_s=budget.parse_duration(limit) if limit else None,
-                        spacing_mm=getattr(args, "spacing", None),
-                        pen_mm=getattr(args, "pen_width", None) or 0.5,
-                        contrast=getattr(args, "contrast", 1.0),
-                        brightness=getattr(args, "brightness", 0.0),
-                        invert=bool(getattr(args, "invert", False)),
-                        tsp=bool(getattr(args, "tsp", False)),
-                        width_mm=getattr(args, "width", None),
-                        height_mm=getattr(args, "height", None))
+    return PhotoOptions.from_args(args)
 
 
 def fill_options(args):
@@ -482,7 +474,7 @@ def _photo(prep: Prepared, args, page, place_opts, plot_time) -> list:
 
 
 def _no_photo_options(args, path: str) -> None:
-    given = [name for name in ("style", "max_time", "spacing", "tsp", "invert")
+    given = [name for name in ("style", "max_time", "spacing", "tsp", "invert", "cmyk")
              if getattr(args, name, None)]
     if given:
         flag = "--" + given[0].replace("_", "-")

@@ -60,7 +60,8 @@ def cmd_preview(args, argv=None) -> int:
     legend = f"{args.file}: {_legend(summary)}"
     if args.ink:
         pen_mm = getattr(args, "pen_width", None) or 0.5
-        pic = render.ink([s.pts for s in strokes], kin, cfg.page, pen_mm, legend, args.size)
+        pic = render.ink([s.pts for s in strokes], kin, cfg.page, pen_mm, legend, args.size,
+                         colours=[s.colour for s in strokes])
         what = f"ink of a pen {pen_mm:g} mm wide"
     else:
         pic = render.preview([s.pts for s in strokes], start, kin, cfg.page, legend, args.size,

@@ -11,6 +11,7 @@ default) and that order never takes longer than the greedy one it was timed in.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, replace
 from typing import Callable
 
@@ -36,8 +37,25 @@ class PhotoOptions:
     brightness: float = 0.0
     invert: bool = False
     tsp: bool = False
+    cmyk: bool = False                   # four pens: yellow, cyan, magenta, black layers
     width_mm: float | None = None
     height_mm: float | None = None
+
+    @classmethod
+    def from_args(cls, args) -> "PhotoOptions":
+        """The photo options of a command line (argparse namespace; absent ones default)."""
+        limit = getattr(args, "max_time", None)
+        return cls(style=getattr(args, "style", None) or "hatch",
+                   max_time_s=budget.parse_duration(limit) if limit else None,
+                   spacing_mm=getattr(args, "spacing", None),
+                   pen_mm=getattr(args, "pen_width", None) or 0.5,
+                   contrast=getattr(args, "contrast", 1.0),
+                   brightness=getattr(args, "brightness", 0.0),
+                   invert=bool(getattr(args, "invert", False)),
+                   tsp=bool(getattr(args, "tsp", False)),
+                   cmyk=bool(getattr(args, "cmyk", False)),
+                   width_mm=getattr(args, "width", None),
+                   height_mm=getattr(args, "height", None))
 
 
 def size_mm(aspect: float, opts: PhotoOptions, page: place.Box, margin_mm: float):
@@ -76,19 +94,33 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
         raise ConfigError("error: a photo is sized with --width or --height (or the page), "
                           "not --scale")
     w, h = size_mm(load.aspect(path), opts, page, placement.margin_mm)
-    picture = load.load(path, w, h, pen_mm=opts.pen_mm, contrast=opts.contrast,
-                        brightness=opts.brightness, invert=opts.invert)
+    tone = dict(pen_mm=opts.pen_mm, contrast=opts.contrast, brightness=opts.brightness,
+                invert=opts.invert)
+    layers = None
+    if opts.cmyk:
+        from vplotter.inputs.image import cmyk
+
+        layers = cmyk.layers(load.load_rgb(path, w, h, **tone), w, h, os.path.basename(path))
+        picture = layers[-1]                          # the black layer: for the notes
+    else:
+        picture = load.load(path, w, h, **tone)
     # the picture's centre on the page's centre, then rotate, align and offset as asked
     put = replace(placement, fit=False)
     shift = page.centre - np.array([w / 2, h / 2])
     extra = {"tsp": True} if opts.tsp else {}
 
     def make(spacing: float) -> list[Stroke]:
-        made = style(picture, spacing, opts.pen_mm, **extra)
+        if layers is not None:                        # every pen's layer: one budget
+            made = cmyk.strokes(style, opts.style, layers, spacing, opts.pen_mm, **extra)
+        else:
+            made = style(picture, spacing, opts.pen_mm, **extra)
         made = [replace(s, pts=s.pts + shift, line=i + 1) for i, s in enumerate(made)]
         return order.order(place.place(made, put, page), "greedy", start_xy)
 
     notes = [f"photo: {opts.style}, {w:.0f} x {h:.0f} mm, pen {opts.pen_mm:g} mm"]
+    if layers is not None:
+        notes.append(f"cmyk: four pens, light to dark, ink asked for (mean coverage): "
+                     f"{cmyk.shares(layers)}")
     if opts.spacing_mm is not None:
         if opts.max_time_s is not None:
             raise ConfigError("error: give --spacing or --max-time, not both")

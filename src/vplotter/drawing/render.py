@@ -210,18 +210,24 @@ def preview(strokes, start_xy, kin, page, legend: str, size_px: int = 1600,
     return pic
 
 
-def ink(strokes, kin, page, pen_mm: float, legend: str, size_px: int = 1600) -> Picture:
-    """The drawing as ink on paper: every stroke a black line of the pen's width (a one-point
-    stroke a dot of that diameter), no travel, no colours: the tone a photo style will give,
-    to judge before a long plot."""
+def ink(strokes, kin, page, pen_mm: float, legend: str, size_px: int = 1600,
+        colours=None) -> Picture:
+    """The drawing as ink on paper: every stroke a line of the pen's width (a one-point
+    stroke a dot of that diameter), no travel: the tone a photo style will give, to judge
+    before a long plot. `colours[i]` ('#rrggbb' or None: black) is stroke i's pen colour
+    (--cmyk's layers, an SVG's stroke colours)."""
     pts = [np.asarray(s, dtype=float).reshape(-1, 2) for s in strokes]
+    cols = [c or BLACK for c in (colours or [None] * len(pts))]
     allpts = np.vstack(pts) if pts else np.zeros((1, 2))
     view = _view(kin, page, allpts, size_px)
     pic, u = _frame(view, kin, page)
     width = pen_mm * view.scale
-    for p in pts:
-        pic.add("lines", view.px(p), colour=BLACK, width=width, name="ink")
-    _legend(pic, view, legend, [("line", BLACK, f"ink: a pen {pen_mm:g} mm wide")])
+    for p, c in zip(pts, cols):
+        pic.add("lines", view.px(p), colour=c, width=width, name="ink")
+    inks = list(dict.fromkeys(cols)) or [BLACK]
+    label = f"ink: a pen {pen_mm:g} mm wide" + (f", {len(inks)} colours" if len(inks) > 1 else "")
+    _legend(pic, view, legend, [("order" if len(inks) > 1 else "line",
+                                 inks if len(inks) > 1 else inks[0], label)])
     return pic
 
 

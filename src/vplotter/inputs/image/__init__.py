@@ -36,7 +36,8 @@ def describe(name: str, spacing_mm: float, pen_mm: float, picture=None, **extra)
                 f"the lightest tones, up to {full_layers(spacing_mm, pen_mm):.1f} crossed layers "
                 f"in black), tone curve d^{g:.1f}")
     if name in ("spiral", "squiggle"):
-        from vplotter.inputs.image.squiggle import track_pitch
+        from vplotter.inputs.image.squiggle import tone_gamma, track_pitch
+        g = tone_gamma(spacing_mm, pen_mm)
         return (f"track pitch {track_pitch(spacing_mm, pen_mm):.2f} mm (every {TOP}th track, "
                 f"dashed, in the lightest tones), tone curve d^{g:.1f}")
     if name == "stipple":

@@ -166,15 +166,10 @@ def target_px(width_mm: float, height_mm: float, pen_mm: float) -> tuple[int, in
     return max(1, math.ceil(width_mm / px)), max(1, math.ceil(height_mm / px))
 
 
-def load(path, width_mm: float, height_mm: float, pen_mm: float = 0.5, contrast: float = 1.0,
-         brightness: float = 0.0, invert: bool = False):
-    """Read an image into a `Picture` drawn width_mm x height_mm (the caller keeps the aspect,
-    see `aspect`). Raises InputError (one line, starting with the path) for anything it
-    cannot read."""
-    import numpy as np
+def _decoded(path, width_mm: float, height_mm: float, pen_mm: float):
+    """(the image decoded, canonical, reduced to 1..2 x the pixels the pen shows and upright;
+    the target size (across, down) in pixels)."""
     from PIL import Image
-
-    from vplotter.inputs.image.picture import Picture
 
     if not (width_mm > 0 and height_mm > 0 and pen_mm > 0):
         raise _fail(path, f"size {width_mm} x {height_mm} mm, pen {pen_mm} mm: must be > 0")
@@ -204,23 +199,75 @@ def load(path, width_mm: float, height_mm: float, pen_mm: float = 0.5, contrast:
         raise _fail(path, "not enough memory to decode it") from None
     except Exception as e:                            # truncated, corrupt: Pillow's many kinds
         raise _fail(path, f"cannot decode the image: {e}") from None
-    y = _luminance(im)
-    im.close()
+    return im, tw, th
+
+
+def _resized(y, tw: int, th: int):
+    """A linear-light plane reduced to at most tw x th (Lanczos), clipped to 0..1."""
+    import numpy as np
+    from PIL import Image
+
     h, w = y.shape
-    if w > tw or h > th:                              # last step in linear light
-        f = Image.fromarray(y)
+    if w > tw or h > th:
+        f = Image.fromarray(np.ascontiguousarray(y, dtype=np.float32))
         y = np.asarray(f.resize((min(w, tw), min(h, th)), Image.Resampling.LANCZOS),
                        dtype=np.float32)
         y = np.clip(y, 0, 1)
+    return y
+
+
+def _toned(y, contrast: float, brightness: float, invert: bool):
+    """The tone options on linear light (in the sRGB-encoded domain, see the module's text)."""
+    import numpy as np
+
     if invert or contrast != 1.0 or brightness != 0.0:
         v = srgb_encode(y)
         if invert:
             v = 1 - v
         v = np.clip((v - 0.5) * contrast + 0.5 + brightness, 0, 1)
         y = srgb_decode(v)
+    return y
+
+
+def load(path, width_mm: float, height_mm: float, pen_mm: float = 0.5, contrast: float = 1.0,
+         brightness: float = 0.0, invert: bool = False):
+    """Read an image into a `Picture` drawn width_mm x height_mm (the caller keeps the aspect,
+    see `aspect`). Raises InputError (one line, starting with the path) for anything it
+    cannot read."""
+    import numpy as np
+
+    from vplotter.inputs.image.picture import Picture
+
+    im, tw, th = _decoded(path, width_mm, height_mm, pen_mm)
+    y = _luminance(im)
+    im.close()
+    y = _toned(_resized(y, tw, th), contrast, brightness, invert)
     dark = np.clip(1 - y, 0, 1).astype(np.float32)
     return Picture(np.ascontiguousarray(dark), float(width_mm), float(height_mm),
                    name=os.path.basename(str(path)))
+
+
+def load_rgb(path, width_mm: float, height_mm: float, pen_mm: float = 0.5, contrast: float = 1.0,
+             brightness: float = 0.0, invert: bool = False):
+    """The image as red, green and blue in linear light on white paper ((3, H, W) float32,
+    0..1), at the resolution `load` gives, the tone options applied to each channel (for
+    --cmyk). A grey image has three equal channels."""
+    import numpy as np
+
+    im, tw, th = _decoded(path, width_mm, height_mm, pen_mm)
+    m = im.mode
+    if m in ("RGB", "RGBA"):
+        a = np.asarray(im)
+        lut = _linear_lut(256)
+        planes = [lut[a[..., i]] for i in range(3)]
+        if m == "RGBA":
+            alpha = a[..., 3].astype(np.float32) / np.float32(255)
+            planes = [alpha * p + (1 - alpha) for p in planes]
+    else:
+        planes = [_luminance(im)] * 3
+    im.close()
+    return np.stack([_toned(_resized(p, tw, th), contrast, brightness, invert)
+                     for p in planes]).astype(np.float32)
 
 
 def blur(a, radius_px: float):

@@ -35,8 +35,10 @@ def _theta(s: np.ndarray, b: float) -> np.ndarray:
 
 
 def strokes(picture, spacing_mm: float, pen_mm: float = 0.5,
-            period_mm: float | None = None) -> list[Stroke]:
-    """The pulsing spiral (above); `period_mm` is the zigzag's period (2/3 of the spacing)."""
+            period_mm: float | None = None, turn_deg: float = 0.0) -> list[Stroke]:
+    """The pulsing spiral (above); `period_mm` is the zigzag's period (2/3 of the spacing);
+    `turn_deg` turns the whole spiral about the centre (its track moves out by that share of
+    a turn's pitch: --cmyk's layers a quarter turn apart)."""
     if not spacing_mm > 0 or not pen_mm > 0:
         raise ValueError("spacing_mm and pen_mm must be > 0")
     w, h = picture.width_mm, picture.height_mm
@@ -48,10 +50,11 @@ def strokes(picture, spacing_mm: float, pen_mm: float = 0.5,
     s_max = b / 2 * (t_max * math.sqrt(1 + t_max * t_max) + math.asinh(t_max))
     s = np.arange(0.0, s_max, period / 2)
     t = _theta(s, b)
-    radial = np.column_stack([np.cos(t), np.sin(t)])
+    turn = np.radians(turn_deg)
+    radial = np.column_stack([np.cos(t + turn), np.sin(t + turn)])
     centre = np.array([w / 2, h / 2]) + (b * t)[:, None] * radial
     dark = pic.at(centre)
     per = np.full(len(s), period)
-    turn = np.floor(t / (2 * math.pi)).astype(np.int64)
+    track = np.floor(t / (2 * math.pi)).astype(np.int64)
     return [Stroke(p) for p in zigzag(centre, radial, s, dark, per, spacing_mm, pen_mm, w, h,
-                                      track=turn)]
+                                      track=track)]

@@ -13,7 +13,8 @@ carries the tone of its own strip), so the coverage is darkness x L_max x w / pi
 1.05 x darkness at 0.5 mm / 1.5 mm; a coarser spacing draws a lighter picture with less
 line, a finer one more line: halving the spacing doubles the length, as for every style).
 The line drawn follows the budget's tone curve (`tone.py`): L = f(d) x L_max x p / spacing with
-f(d) = d^gamma, the tracks p = min(spacing, CAP_PENS pen widths) apart (`track_pitch`: lines
+f(d) = d^gamma (gamma from the tracks' own ends, `tone_gamma`: 1 up to 6.5 pen widths, 8 from
+20), the tracks p = min(spacing, CAP_PENS pen widths) apart (`track_pitch`: lines
 10 mm apart are seen as lines, not as a tone), so a coarser spacing than the cap draws less
 line, on the darker tones, and halving the spacing still about doubles the line.
 A straight track (L = 1) is the most line a track can carry without zigzagging; a smaller L
@@ -46,6 +47,16 @@ from vplotter.inputs.strokes import Stroke
 
 MIN_CHORD_MM = 0.1         # no shorter piece between two points (keeps the count sane)
 CAP_PENS = 7.0             # tracks never further apart than this (3.5 mm with a 0.5 mm pen)
+FREE_PENS = 6.5            # the tone curve: d (gamma 1) up to this spacing (pen widths),
+SCARCE_PENS = 20.0         # ... d^8 from this one
+
+
+def tone_gamma(spacing_mm: float, pen_mm: float) -> float:
+    """The tracks' tone curve exponent for this spacing (`tone.gamma` with the tracks' own
+    ends: at 3 h on bench/photo_tone.py, about 9 pen widths, d^3.5 drew the astronaut's
+    squiggle with a correlation of 0.84 where the shared curve's d^7 drew 0.80 at the same
+    length, the camera's 0.89 for 0.85; at 1 h, about 20 pen widths, d^8 stays best)."""
+    return tone.gamma(spacing_mm, pen_mm, FREE_PENS, SCARCE_PENS)
 
 
 def track_pitch(spacing_mm: float, pen_mm: float) -> float:
@@ -58,7 +69,7 @@ def toned(picture, spacing_mm: float, pen_mm: float) -> tuple[Picture, float]:
     the line of black: f(d) x pitch / spacing; the track pitch)."""
     p = track_pitch(spacing_mm, pen_mm)
     pic = smoothed(picture, p)
-    d = tone.curve(pic.darkness, tone.gamma(spacing_mm, pen_mm)) * np.float32(p / spacing_mm)
+    d = tone.curve(pic.darkness, tone_gamma(spacing_mm, pen_mm)) * np.float32(p / spacing_mm)
     return Picture(d, picture.width_mm, picture.height_mm, picture.name), p
 
 
@@ -157,8 +168,9 @@ def _row_turns(pic: Picture, y: float, p0: float, w: float, backwards: bool):
     return x[idx], along[idx], per[idx]
 
 
-def strokes(picture, spacing_mm: float, pen_mm: float = 0.5) -> list[Stroke]:
-    """Rows of zigzags `spacing_mm` apart (the tone model above)."""
+def strokes(picture, spacing_mm: float, pen_mm: float = 0.5, phase: float = 0.0) -> list[Stroke]:
+    """Rows of zigzags `spacing_mm` apart (the tone model above); `phase` (-1/2..1/2) moves
+    every row down by that share of the pitch (--cmyk's layers a quarter pitch apart)."""
     if not spacing_mm > 0 or not pen_mm > 0:
         raise ValueError("spacing_mm and pen_mm must be > 0")
     w, h = picture.width_mm, picture.height_mm
@@ -169,7 +181,7 @@ def strokes(picture, spacing_mm: float, pen_mm: float = 0.5) -> list[Stroke]:
     p0 = densest_period(pitch)
     pieces: list[np.ndarray] = []
     for r in range(rows):                     # one loop turn per row; numpy along it
-        y = h - margin - (r + 0.5) * pitch
+        y = h - margin - (r + 0.5 + min(max(phase, -0.5), 0.5)) * pitch
         x, s, per = _row_turns(pic, y, p0, w, backwards=bool(r % 2))
         centre = np.column_stack([x, np.full_like(x, y)])
         normal = np.tile([0.0, 1.0], (len(x), 1))

@@ -52,13 +52,14 @@ DASH_LINES = TOP       # the dashes' period along a line: this many times the fi
 PHI = 0.6180339887     # successive lines' dashes shifted by this much of a period
 
 
-def gamma(spacing_mm: float, pen_mm: float) -> float:
-    """The tone curve's exponent for this spacing (the budget's knob): 1 up to FREE_PENS pen
-    widths, GAMMA_MAX from SCARCE_PENS, log-linear between."""
-    e = spacing_mm / (FREE_PENS * pen_mm)
+def gamma(spacing_mm: float, pen_mm: float, free_pens: float = FREE_PENS,
+          scarce_pens: float = SCARCE_PENS) -> float:
+    """The tone curve's exponent for this spacing (the budget's knob): 1 up to free_pens pen
+    widths, GAMMA_MAX from scarce_pens, log-linear between (each style may set its own)."""
+    e = spacing_mm / (free_pens * pen_mm)
     if e <= 1:
         return 1.0
-    return float(min(GAMMA_MAX, 1 + (GAMMA_MAX - 1) * math.log(e) / math.log(SCARCE_PENS / FREE_PENS)))
+    return float(min(GAMMA_MAX, 1 + (GAMMA_MAX - 1) * math.log(e) / math.log(scarce_pens / free_pens)))
 
 
 def curve(d, g: float, eps: float | None = None) -> np.ndarray:
