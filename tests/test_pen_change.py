@@ -411,16 +411,7 @@ def test_a_draw_stopped_in_a_pens_strokes_resumes_asking_for_that_pen(
     pos = state.load()
     resume = pos.extra["resume"]
     assert resume["line"] == 11 and pos.extra["pen_in"]["pen"] == "blue"
-    extra = []
-    if power_cut:     # what a power cut leaves: the journal's last record, an unclean stop
-        pos.clean = False
-        pos.extra["drawing"] = {k: resume[k] for k in ("file", "sha256", "options", "start")}
-        del pos.extra["resume"]
-        state.save(pos)
-        j = state.Journal()
-        j.record(pos.counts, (0, 0), 11, "down")
-        j.close()
-        extra = ["--trust-position"]
+    extra = _cut_power(pos, 11, "down") if power_cut else []
     monkeypatch.setattr(sys, "stdin", io.StringIO("\n\n"))
     code, out, _ = run(capsys, "--config", cfg_path, "draw", pen_file, "--backend", "fake",
                        "--resume", "--trace", t2, *extra)
@@ -509,16 +500,7 @@ def test_a_resume_on_a_tool_change_line_asks_for_that_pen_once(
     capsys.readouterr()
     pos = state.load()
     assert pos.extra["resume"]["line"] == 7
-    extra = []
-    if power_cut:
-        resume = pos.extra.pop("resume")
-        pos.clean = False
-        pos.extra["drawing"] = {k: resume[k] for k in ("file", "sha256", "options", "start")}
-        state.save(pos)
-        j = state.Journal()
-        j.record(pos.counts, (0, 0), 7, "up")
-        j.close()
-        extra = ["--trust-position"]
+    extra = _cut_power(pos, 7, "up") if power_cut else []
     monkeypatch.setattr(sys, "stdin", io.StringIO("\n\n"))
     code, out, _ = run(capsys, "--config", cfg_path, "draw", f, "--backend", "fake",
                        "--resume", "--trace", t2, *extra)
@@ -547,3 +529,16 @@ def test_the_servo_backends_take_each_pens_own_pulse(tmp_path):
     bad = config.load(write_config(tmp_path, '[pens.blue]\ncolour = "#0000ff"\ndown_us = 2600\n'))
     with pytest.raises(BackendError, match="not 2600"):
         create("lgpio", bad, lgpio=FakeLgpio(clock), clock=clock.now, sleep=clock.sleep).open()
+
+
+def _cut_power(pos, line: int, pen: str) -> list[str]:
+    """Turn a clean stop's state into what a power cut leaves (an unclean stop, the journal's
+    last record at `line` with the pen `pen`); the draw options that resume from it."""
+    resume = pos.extra.pop("resume")
+    pos.clean = False
+    pos.extra["drawing"] = {k: resume[k] for k in ("file", "sha256", "options", "start")}
+    state.save(pos)
+    j = state.Journal()
+    j.record(pos.counts, (0, 0), line, pen)
+    j.close()
+    return ["--trust-position"]

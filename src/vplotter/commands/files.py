@@ -177,27 +177,33 @@ def add_convert(p: argparse.ArgumentParser) -> None:
     add_file_options(p)
 
 
-def cmd_convert(args, argv=None) -> int:
+def save_gcode(prep, cfg, output: str) -> None:
+    """Write the prepared drawing as G-code to `output` ('-': standard output), whole or not at
+    all (a .part file renamed into place)."""
     import os
     import sys
 
-    cfg = load_config(args)
-    pos = position(cfg, args, True)
-    prep = prepare_file(args, cfg, pos)
-    if args.output == "-":
+    if output == "-":
         write_gcode(prep, cfg, sys.stdout)
-        return 0
-    tmp = f"{args.output}.part"
+        return
+    tmp = f"{output}.part"
     try:
         with open(tmp, "w", encoding="utf-8") as f:
             write_gcode(prep, cfg, f)
-        os.replace(tmp, args.output)
+        os.replace(tmp, output)
     except OSError as e:
         try:
             os.unlink(tmp)
         except OSError:
             pass
-        raise InputError(f"{args.output}: error: cannot write: {e.strerror}") from None
+        raise InputError(f"{output}: error: cannot write: {e.strerror}") from None
+
+
+def cmd_convert(args, argv=None) -> int:
+    cfg = load_config(args)
+    pos = position(cfg, args, True)
+    prep = prepare_file(args, cfg, pos)
+    save_gcode(prep, cfg, args.output)
     return 0
 
 

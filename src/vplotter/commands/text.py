@@ -45,7 +45,7 @@ def add_text(p: argparse.ArgumentParser) -> None:
 
 def cmd_text(args, argv=None) -> int:
     from vplotter.commands import jog
-    from vplotter.commands.files import _timed, write_gcode
+    from vplotter.commands.files import _timed, save_gcode
     from vplotter.inputs import text as fonts
     from vplotter.prepare import prepare
 
@@ -72,7 +72,7 @@ def cmd_text(args, argv=None) -> int:
     xy = jog.pen_xy(cfg, pos, pos.counts)
     prep = prepare(NAME, cfg, args, start_xy=(float(xy[0]), float(xy[1])), drawing=drawing)
     if args.output:
-        _write(prep, cfg, args.output, write_gcode)
+        save_gcode(prep, cfg, args.output)
         return 0
     from vplotter.budget import clock_text
     from vplotter.drawing import place
@@ -91,23 +91,3 @@ def cmd_text(args, argv=None) -> int:
                                      f"{clock_text(time_s)} ({time_s:.1f} s)"))
     say("  write it with -o OUT.ngc; then vplotter preview/draw OUT.ngc")
     return 0
-
-
-def _write(prep, cfg, output: str, write_gcode) -> None:
-    import os
-    import sys
-
-    if output == "-":
-        write_gcode(prep, cfg, sys.stdout)
-        return
-    tmp = f"{output}.part"
-    try:
-        with open(tmp, "w", encoding="utf-8") as f:
-            write_gcode(prep, cfg, f)
-        os.replace(tmp, output)
-    except OSError as e:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise InputError(f"{output}: error: cannot write: {e.strerror}") from None

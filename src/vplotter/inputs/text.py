@@ -183,24 +183,34 @@ def layout(text: str, size: float, *, font: str = DEFAULT_FONT, anchor: str = "s
     return TextShape(polys, x, missing, subs)
 
 
+def _lines(text: str, size: float, font: str, anchor: str, letter_spacing: float,
+           line_height: float):
+    """(line number from 0, the line's TextShape moved down to its baseline) per text line."""
+    for k, line in enumerate(text.splitlines() or [""]):
+        shape = layout(line.expandtabs(4), size, font=font, anchor=anchor,
+                       letter_spacing=letter_spacing)
+        dy = -k * line_height * size
+        yield k, TextShape([p + (0.0, dy) for p in shape.polylines], shape.advance,
+                           shape.missing, shape.substituted)
+
+
+def _merged(shapes: list[TextShape]) -> TextShape:
+    missing: set[str] = set()
+    subs: dict[str, str] = {}
+    for sh in shapes:
+        missing |= sh.missing
+        subs.update(sh.substituted)
+    return TextShape([p for sh in shapes for p in sh.polylines],
+                     max((sh.advance for sh in shapes), default=0.0), missing, subs)
+
+
 def layout_lines(text: str, size: float, *, font: str = DEFAULT_FONT, anchor: str = "start",
                  letter_spacing: float = 0.0, line_height: float = LINE_HEIGHT) -> TextShape:
     """Lines (split at newlines) under each other, baselines line_height x size apart, the
     first baseline at y = 0; each line is anchored at x = 0 on its own (start: left-aligned,
     middle: centred, end: right-aligned). advance: the widest line."""
-    polys: list[np.ndarray] = []
-    missing: set[str] = set()
-    subs: dict[str, str] = {}
-    width = 0.0
-    for k, line in enumerate(text.splitlines() or [""]):
-        shape = layout(line.expandtabs(4), size, font=font, anchor=anchor,
-                       letter_spacing=letter_spacing)
-        dy = -k * line_height * size
-        polys.extend(p + (0.0, dy) for p in shape.polylines)
-        missing |= shape.missing
-        subs.update(shape.substituted)
-        width = max(width, shape.advance)
-    return TextShape(polys, width, missing, subs)
+    return _merged([sh for _, sh in _lines(text, size, font, anchor, letter_spacing,
+                                           line_height)])
 
 
 def missing_warning(where: str, missing: set[str], substituted: dict[str, str] | None = None,
@@ -231,20 +241,9 @@ def drawing(name: str, text: str, cap_mm: float = TEXT_FILE_CAP_MM, *,
     line (1, 2, ...). Returns (Drawing, TextShape)."""
     from vplotter.inputs.strokes import Drawing, Stroke
 
-    size = cap_mm / CAP_HEIGHT
-    strokes = []
-    missing: set[str] = set()
-    subs: dict[str, str] = {}
-    width = 0.0
-    for k, line in enumerate(text.splitlines() or [""]):
-        shape = layout(line.expandtabs(4), size, font=font, anchor=anchor,
-                       letter_spacing=letter_spacing)
-        dy = -k * line_height * size
-        strokes.extend(Stroke(p + (0.0, dy), k + 1) for p in shape.polylines)
-        missing |= shape.missing
-        subs.update(shape.substituted)
-        width = max(width, shape.advance)
-    return Drawing(name, strokes), TextShape([s.pts for s in strokes], width, missing, subs)
+    lines = list(_lines(text, cap_mm / CAP_HEIGHT, font, anchor, letter_spacing, line_height))
+    strokes = [Stroke(p, k + 1) for k, sh in lines for p in sh.polylines]
+    return Drawing(name, strokes), _merged([sh for _, sh in lines])
 
 
 def read(path: str, warn) -> object:
