@@ -497,3 +497,22 @@ def test_tool_changes_agree_with_the_scan(text):
         elif isinstance(r, Pen) and r.down:
             want.append(pen)
     assert [s.pen for s in strokes] == want
+
+
+def test_refill_every_on_a_gcode_file_drawn_as_it_is(capsys, config_path):
+    """--refill-every without placement options still pauses (the file is then read into
+    strokes rather than streamed)."""
+    code, out, _ = run(capsys, ["--config", config_path, "draw", REPO / "gcode_samples" /
+                                "car.ngc", "--dry-run", "--refill-every", "0.5m"])
+    assert code == 0
+    assert out.count("pause: 0.5 m drawn with the default pen") == 3
+
+
+def test_plain_m0_left_out_of_a_placed_gcode_file_is_said(capsys, config_path, tmp_path):
+    f = tmp_path / "m0.ngc"
+    f.write_text("G1 X0 Y0 Z-1\nG1 X10\nM0 (look)\nG1 Y10\nG0 Z5\n")
+    code, out, err = run(capsys, ["--config", config_path, "draw", f, "--dry-run"])
+    assert code == 0 and "pause: look" in out
+    code, out, err = run(capsys, ["--config", config_path, "draw", f, "--dry-run", "--scale", "2"])
+    assert code == 0 and "pause:" not in out
+    assert f"{f}:3: warning: 1 M0/M1 pause left out" in err

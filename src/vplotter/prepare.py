@@ -195,9 +195,10 @@ def is_svg(path: str) -> bool:
 
 
 # ------------------------------------------------------------------ G-code as strokes
-def gcode_strokes(records: Iterable, tol_mm: float) -> list:
+def gcode_strokes(records: Iterable, tol_mm: float, warn=None, path: str = "") -> list:
     """Group the pen-down moves of a record stream into strokes (arcs cut within tol_mm).
-    Pen-up moves are travel and are dropped: ordering and placement make their own."""
+    Pen-up moves are travel and are dropped: ordering and placement make their own. A plain
+    M0/M1 has no place among reordered strokes: it is left out, with one warning."""
     import numpy as np
 
     from vplotter.inputs.gcode import Move, Pause, Pen
@@ -216,6 +217,7 @@ def gcode_strokes(records: Iterable, tol_mm: float) -> list:
             strokes.append(Stroke(np.concatenate(cur), first.line, first.col, feed, pen=pen))
 
     xy = np.zeros((1, 2))
+    plain: list = []
     for rec in records:
         if isinstance(rec, Pen):
             if rec.down and not down:
@@ -233,8 +235,14 @@ def gcode_strokes(records: Iterable, tol_mm: float) -> list:
             xy = np.array([[rec.x1, rec.y1]])
         elif isinstance(rec, Pause) and rec.pen is not None:
             pen = rec.pen           # the pen a pen change put in (T2, `(pen: NAME)`)
+        elif isinstance(rec, Pause):
+            plain.append(rec)
     if down:
         close()
+    if plain and warn is not None:
+        n = len(plain)
+        warn(f"{path}:{plain[0].line}: warning: {n} M0/M1 pause{'s' if n > 1 else ''} left out: "
+             f"the file is placed or reordered (drawn as it is, it stops there)")
     return strokes
 
 
@@ -282,7 +290,7 @@ class Prepared:
         return self._strokes
 
     def _read_gcode_strokes(self) -> list:
-        return gcode_strokes(self._gcode(), self.tol_mm)
+        return gcode_strokes(self._gcode(), self.tol_mm, self.warn, self.path)
 
     def _gcode(self):
         from vplotter.inputs import gcode
@@ -396,7 +404,8 @@ def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
                     refill_mm=getattr(args, "refill_every", None),
                     owned=tuple(getattr(getattr(cfg, "pens", None), "owned", ())))
     pen_order = getattr(args, "pen_order", None)
-    if kind == "gcode" and method == "keep" and place_opts.identity and pen_order is None:
+    if (kind == "gcode" and method == "keep" and place_opts.identity and pen_order is None
+            and prep.refill_mm is None):
         prep.passthrough = True
         return prep
     from vplotter.drawing import order, pens, place
