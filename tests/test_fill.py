@@ -413,3 +413,29 @@ def test_a_fill_spacing_far_too_fine_is_an_error(tmp_path, config_path, capsys):
     assert len(err) == 1 and err[0].endswith(
         "error: --fill-spacing 0.0001 mm is too fine: path#3 would take more than 200,000 "
         "hatch lines")
+
+
+def test_a_pens_own_width_is_its_fills_spacing_unless_given():
+    """[pens.NAME] width_mm spaces the hatch of what that pen fills; --fill-spacing wins."""
+    from vplotter.config.sections import PenSpec
+    from vplotter.drawing.pens import width_of
+    from vplotter.inputs.fill import merge
+    from vplotter.inputs.strokes import Stroke
+
+    owned = (PenSpec("fine", "#ff0000", width_mm=0.25), PenSpec("fat", "#000000", width_mm=2.0))
+    ring = square(0, 0, 10)
+    outline = [Stroke(ring, 1)]
+
+    def lines(colour, given=False):
+        reg = Region([ring], "nonzero", colour, colour, 0)
+        opts = FillOptions("hatch", 1.0, 0.0, spacing_given=given)
+        got = merge(outline, [reg], opts, None, width_of(owned))[:-1]
+        return len(got), sum(s.length_mm() for s in got)
+
+    _, mm_red = lines("#ee1100")        # nearest: fine, 0.25 mm
+    _, mm_black = lines("#101010")    # nearest: fat, 2 mm
+    _, mm_given = lines("#ee1100", given=True)
+    area = 2 * 10 ** 2                     # the square's corners are 10 mm from its centre
+    assert mm_red == pytest.approx(area / 0.25, rel=0.06)     # (the joins add a little)
+    assert mm_given == pytest.approx(area / 1.0, rel=0.15)
+    assert area / 2.0 < mm_black < 0.75 * mm_given

@@ -139,13 +139,10 @@ def photo_options(args):
     return PhotoOptions.from_args(args)
 
 
-def fill_options(args):
+def _fill(args):
     from vplotter.inputs.fill import FillOptions
 
-    spacing = getattr(args, "fill_spacing", None) or getattr(args, "pen_width", None) or 0.5
-    angle = getattr(args, "fill_angle", None)
-    return FillOptions(mode=getattr(args, "fill", None) or "outline", spacing_mm=spacing,
-                       angle_deg=45.0 if angle is None else angle)
+    return FillOptions.from_args(args)
 
 
 def file_kind(path: str) -> str:
@@ -363,7 +360,7 @@ def options_key(path: str, args) -> str:
            getattr(args, "layer", None), bool(getattr(args, "pause_between_layers", False)),
            photo, getattr(args, "pen_order", None), getattr(args, "refill_every", None))
     if kind == "svg" and getattr(args, "fill", None) not in (None, "outline"):
-        key += (fill_options(args),)
+        key += (_fill(args),)
     return repr(key)
 
 
@@ -400,7 +397,7 @@ def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
     prep = Prepared(path, kind, passthrough=False, strict=strict, join_mm=join_mm,
                     pause=pause, key=key, warn=warn,
                     start_xy=(float(start_xy[0]), float(start_xy[1])), tol_mm=tol,
-                    dialect=getattr(cfg, "gcode", None), fill=fill_options(args) if svg else None,
+                    dialect=getattr(cfg, "gcode", None), fill=_fill(args) if svg else None,
                     refill_mm=getattr(args, "refill_every", None),
                     owned=tuple(getattr(getattr(cfg, "pens", None), "owned", ())))
     pen_order = getattr(args, "pen_order", None)
@@ -441,7 +438,8 @@ def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
             from vplotter.inputs import fill
 
             drawing.strokes = fill.merge(drawing.strokes, fills, prep.fill,
-                                         lambda pts: place.matrix(place_opts, pts, page))
+                                         lambda pts: place.matrix(place_opts, pts, page),
+                                         pens.width_of(prep.owned))
         prep._drawing = drawing
         placed = place.place(drawing.strokes, place_opts, page)
     placed = pens.resolve(placed, prep.owned, warn, path)

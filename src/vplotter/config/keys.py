@@ -27,7 +27,8 @@ SECTIONS: dict[str, str] = {
     "gcode": "How G-code files move the pen (the pen dialect).",
     "pens": "Where the gondola waits for a pen change, and the pens you own: one table "
             "`[pens.NAME]` per pen with `colour` (a name such as `red`, `#rgb`, `#rrggbb`, "
-            "required), and optionally `width_mm`, `speed_mm_s` (draw speed cap with this pen) "
+            "required), and optionally `width_mm` (its line: the spacing of the hatch fills it "
+            "draws unless `--fill-spacing` is given), `speed_mm_s` (draw speed cap with this pen) "
             "and `down_us` (servo pulse for pen down with this pen). Colours in a file are "
             "matched to the nearest pen you own; without pen tables each colour is a pen of its "
             "own.",

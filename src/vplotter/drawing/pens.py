@@ -140,6 +140,17 @@ def match(owned: tuple, pen: str | None, colour: str | None, layer: str | None =
     return None, None
 
 
+def width_of(owned: tuple):
+    """region -> the `width_mm` of the owned pen its fill colour resolves to (None: no such
+    width): the spacing a hatch fill takes when --fill-spacing is not given."""
+    def width(region) -> float | None:
+        if not owned:
+            return None
+        spec, _ = match(owned, region.pen, region.colour, region.layer)
+        return None if spec is None else spec.width_mm
+    return width
+
+
 def _cap(feed: float | None, speed: float | None) -> float | None:
     if speed is None:
         return feed

@@ -31,6 +31,16 @@ class FillOptions:
     mode: str = "outline"         # none | outline | hatch
     spacing_mm: float = 0.5       # between hatch lines, on the wall
     angle_deg: float = 45.0       # of the hatch lines, on the wall
+    spacing_given: bool = False   # --fill-spacing given (else a pen's own width may replace it)
+
+    @classmethod
+    def from_args(cls, args) -> "FillOptions":
+        """--fill, --fill-spacing (default --pen-width, else 0.5), --fill-angle (default 45)."""
+        spacing = getattr(args, "fill_spacing", None) or getattr(args, "pen_width", None) or 0.5
+        angle = getattr(args, "fill_angle", None)
+        return cls(mode=getattr(args, "fill", None) or "outline", spacing_mm=spacing,
+                   angle_deg=45.0 if angle is None else angle,
+                   spacing_given=getattr(args, "fill_spacing", None) is not None)
 
 
 @dataclass
@@ -47,7 +57,7 @@ class Region:
 
 def hatch(region: Region, opts: FillOptions, A=None, b=None) -> list[Stroke]:
     """The hatch strokes of one region, made on its rings mapped by x -> A x + b (the wall)
-    and given back in the rings' own frame."""
+    and given back in the rings' own frame, `opts.spacing_mm` apart."""
     from vplotter.inputs.hatch import hatch_polygons
 
     A = np.eye(2) if A is None else np.asarray(A, dtype=float)
@@ -69,9 +79,11 @@ def hatch(region: Region, opts: FillOptions, A=None, b=None) -> list[Stroke]:
 
 
 def merge(strokes: list[Stroke], regions: list[Region], opts: FillOptions,
-          placement=None) -> list[Stroke]:
+          placement=None, spacing_of=None) -> list[Stroke]:
     """The strokes with each region's hatching (in their frame) before its outline.
-    `placement(points) -> (A, b)`: the placement the strokes will get (None: none)."""
+    `placement(points) -> (A, b)`: the placement the strokes will get (None: none);
+    `spacing_of(region) -> mm or None`: a region's own spacing (its pen's width) where
+    --fill-spacing was not given."""
     if not regions or opts.mode != "hatch" or not strokes:
         return strokes
     A, b = None, None
@@ -82,7 +94,8 @@ def merge(strokes: list[Stroke], regions: list[Region], opts: FillOptions,
     for reg in sorted(regions, key=lambda r: r.at):
         out.extend(strokes[k:reg.at])
         k = max(k, reg.at)
-        out.extend(hatch(reg, opts, A, b))
+        own = None if spacing_of is None or opts.spacing_given else spacing_of(reg)
+        out.extend(hatch(reg, opts if own is None else replace(opts, spacing_mm=own), A, b))
     out.extend(strokes[k:])
     return out
 
