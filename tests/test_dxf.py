@@ -524,3 +524,21 @@ def test_svg_plain_doctype_and_illustrator_entities_still_read(tmp_path):
         p = tmp_path / "ok.svg"
         p.write_text(f'<?xml version="1.0"?>{doctype}' + root.format('<path d="M0 0L5 5"/>'))
         assert len(svg.read(str(p), TOL, warn=lambda m: None).strokes) == 1
+
+
+def test_svgz_decompression_bomb(tmp_path, capsys, config_path, monkeypatch):
+    """An .svgz that inflates past the bound (GBs of whitespace in a few MB of gzip) is one
+    error line, not minutes of parsing; a small one below the bound still reads."""
+    import gzip
+
+    from vplotter.inputs import xml_guard
+    monkeypatch.setattr(xml_guard, "UNZIPPED_MAX", 1 << 16)
+    ok = tmp_path / "ok.svgz"
+    ok.write_bytes(gzip.compress(SVG.format('<path d="M0 0L5 5"/>').encode()))
+    assert len(svg.read(str(ok), TOL, warn=lambda m: None).strokes) == 1
+    p = tmp_path / "bomb.svgz"
+    p.write_bytes(gzip.compress(SVG.format('<path d="M0 0L5 5"/>' + " " * (1 << 17)).encode()))
+    code, out, err = run(capsys, ["--config", config_path, "info", p])
+    lines = [ln for ln in err.splitlines() if not ln.startswith("note:")]
+    assert code == 2 and lines == [f"{p}: error: decompresses to more than 0.0625 MB (a "
+                                   "decompression bomb?): not read"]

@@ -131,7 +131,7 @@ def load_tree(path: str) -> tuple[Node, dict[str, Node]]:
             if f.read(2) == b"\x1f\x8b":              # .svgz: gzip-compressed SVG
                 f.seek(0)
                 with gzip.GzipFile(fileobj=f) as z:
-                    parser.ParseFile(z)
+                    parser.ParseFile(xml_guard.Bounded(z, path))
             else:
                 f.seek(0)
                 parser.ParseFile(f)

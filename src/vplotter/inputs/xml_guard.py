@@ -14,6 +14,7 @@ from vplotter.errors import InputError
 ENTITY_MAX_CHARS = 1024     # an internal entity's value, at most (Illustrator's are ~50)
 ENTITY_MAX_COUNT = 64       # entity declarations, at most
 EXPANDED_MAX = 1 << 22      # attribute and text characters beyond the file's own, at most
+UNZIPPED_MAX = 1 << 27      # bytes an .svgz may decompress to (128 MiB; a bomb's are GBs)
 
 
 def guard_entities(parser, path: str) -> None:
@@ -75,3 +76,21 @@ def guard_entities(parser, path: str) -> None:
     parser.UnparsedEntityDeclHandler = (
         lambda name, base, system_id, public_id, notation:
         refuse(f"external entity {name!r} ({system_id}): not accepted"))
+
+
+class Bounded:
+    """A file object for expat's ParseFile that refuses to read more than UNZIPPED_MAX bytes
+    (an .svgz decompression bomb: a few MB of gzip that inflate to GBs of whitespace)."""
+
+    def __init__(self, f, path: str, limit: int | None = None):
+        self.f, self.path, self.done = f, path, 0
+        self.limit = UNZIPPED_MAX if limit is None else limit
+
+    def read(self, n: int = -1) -> bytes:
+        room = self.limit - self.done + 1        # one byte more than allowed tells a bomb
+        data = self.f.read(n if 0 <= n <= room else room)
+        self.done += len(data)
+        if self.done > self.limit:
+            raise InputError(f"{self.path}: error: decompresses to more than "
+                             f"{self.limit / (1 << 20):g} MB (a decompression bomb?): not read")
+        return data
