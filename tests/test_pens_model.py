@@ -465,6 +465,24 @@ def test_passthrough_gcode_names_owned_pens_and_caps_their_speed(pens_config, tm
     assert [r.feed_mm_s for r in recs if isinstance(r, Move)] == [10.0, 2.0]
 
 
+def test_passthrough_gcode_pen_by_a_far_colour_is_warned_about_once(pens_config, tmp_path):
+    """`(pen: purple)` in a G-code file drawn as it is, with no purple pen: drawn with the
+    nearest pen, and said once, as for an SVG's far colour."""
+    from vplotter.prepare import prepare
+
+    f = tmp_path / "p.ngc"
+    f.write_text("M0 (pen: purple)\nM3\nG1 X10 F600\nM5\nM0 (pen: red)\nM3\nG1 X20\nM5\n"
+                 "M0 (pen: purple)\nM3\nG1 X30\nM5\n")
+    said = []
+    args = argparse.Namespace(order=None, scale=None, rotate=None, fit=False, offset=None)
+    prep = prepare(str(f), config.load(pens_config), args, warn=said.append)
+    assert prep.passthrough
+    assert [p.pen for p in _pauses(list(prep.records()))] == ["black", "red", "black"]
+    assert [m for m in said if "purple" in m] == [
+        f"{f}:1: warning: no pen in [pens] is close to colour purple: drawn with black "
+        "(#000000, colour difference 34)"]
+
+
 @st.composite
 def tool_programs(draw):
     """Programs of strokes and tool changes in every form the reader takes."""

@@ -342,13 +342,18 @@ def _owned_records(records: Iterable, owned: tuple, warn: Warn | None, name: str
     said: set = set()
     for rec in records:
         if isinstance(rec, Pause) and rec.pen is not None:
-            spec, _ = match(owned, rec.pen, None)
+            spec, de = match(owned, rec.pen, None)
             cap = spec.speed_mm_s if spec is not None else None
             if spec is None and warn is not None and rec.pen not in said:
                 said.add(rec.pen)
                 warn(f"{name}:{rec.line}: warning: pen {rec.pen} is not one of the pens in "
                      f"[pens] ({', '.join(p.name for p in owned)}): it is asked for by that name")
-            elif spec is not None and spec.name != rec.pen:
+            if de is not None and de > FAR_DE and warn is not None and rec.pen not in said:
+                said.add(rec.pen)       # as resolve() says it for a drawing's far colours
+                warn(f"{name}:{rec.line}: warning: no pen in [pens] is close to colour "
+                     f"{rec.pen}: drawn with {spec.name} ({spec.colour}, colour difference "
+                     f"{de:.0f})")
+            if spec is not None and spec.name != rec.pen:
                 rec = replace(rec, pen=spec.name,
                               message=pen_message(spec.name, rec.index, rec.count))
         elif cap is not None and isinstance(rec, Move) and not rec.rapid:
