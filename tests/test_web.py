@@ -74,6 +74,7 @@ class Server:
         """(status, parsed JSON or bytes, headers)."""
         h = {"X-Vplotter": "1"} if method != "GET" else {}
         h.update(headers or {})
+        h = {k: v for k, v in h.items() if v is not None}     # None: leave that header out
         data = raw
         if body is not None:
             data = json.dumps(body).encode()
@@ -309,6 +310,14 @@ def test_loopback_server_refuses_cross_site_requests_and_foreign_hosts(serve):
     assert code == 403 and "X-Vplotter" in err["error"]
     code, err, _ = server.request("POST", "/api/stop", headers={"Origin": "http://evil.example"})
     assert code == 403 and "cross-site" in err["error"]
+    # a browser's request without the header is refused, whatever else it carries; curl or a
+    # script (none of a browser's headers) needs no header on the loopback
+    for h in ({"Referer": "http://evil.example/"}, {"Cookie": "a=b"},
+              {"Sec-Fetch-Site": "cross-site"}, {"Sec-Fetch-Mode": "navigate"}):
+        code, err, _ = server.request("POST", "/api/continue", headers={"X-Vplotter": None, **h})
+        assert code == 403 and "X-Vplotter" in err["error"], h
+    code, err, _ = server.request("POST", "/api/continue", headers={"X-Vplotter": None})
+    assert code == 409 and "nothing to continue" in err["error"]
     # a DNS-rebinding page reaches the loopback with its own host name
     code, _, _ = server.request("GET", "/api/status", headers={"Host": "evil.example:80"})
     assert code == 403

@@ -4,8 +4,10 @@ files, and the API routes of web/api.py.
 Security (docs/web.md): with a token, every request needs `Authorization: Bearer TOKEN` or the
 cookie that `/?token=TOKEN` sets (SameSite=Strict); a request that changes anything (POST,
 DELETE) needs the header itself, which a cross-site form or image cannot send. Without a token
-(the loopback default) such requests need `X-Vplotter: 1` instead (also a header no cross-site
-form can send), and the Host header must name the loopback (a DNS-rebinding page cannot pass).
+(the loopback default) such requests from a browser (any of BROWSER_HEADERS) need `X-Vplotter:
+1` instead (also a header no cross-site form can send; curl and scripts, which send none of
+those headers, need nothing), and the Host header must name the loopback (a DNS-rebinding page
+cannot pass).
 A request whose Origin is another site is refused in both cases.
 """
 
@@ -24,6 +26,8 @@ STATIC = Path(__file__).parent / "static"
 COOKIE = "vplotter_token"
 CHANGING = ("POST", "PUT", "PATCH", "DELETE")
 LOOPBACK_NAMES = ("127.0.0.1", "localhost", "[::1]")
+# what every browser adds to a cross-site request (curl and scripts send none of them)
+BROWSER_HEADERS = ("origin", "referer", "cookie", "sec-fetch-site", "sec-fetch-mode")
 PAGE_FILES = {"app.js": "text/javascript", "style.css": "text/css"}
 
 
@@ -120,7 +124,8 @@ class Guard:
         if self.token is None:
             if host.rsplit(":", 1)[0] not in LOOPBACK_NAMES and host not in LOOPBACK_NAMES:
                 return 403, "without --token the server answers only to 127.0.0.1 and localhost"
-            if method in CHANGING and h.get("x-vplotter") != "1":
+            if method in CHANGING and h.get("x-vplotter") != "1" and (
+                    "x-vplotter" in h or any(k in h for k in BROWSER_HEADERS)):
                 return 403, "a request that changes something needs the header X-Vplotter: 1"
             return None
         auth = h.get("authorization", "")
