@@ -184,6 +184,20 @@ def test_tspans_dy_and_new_chunks(tmp_path):
     assert all(h.any() for h in hits)                 # and each box drawn
 
 
+def test_css_font_shorthand_sets_the_size(tmp_path):
+    """matplotlib writes `style="font: 10px 'DejaVu Sans'; text-anchor: middle"`: the size is
+    10 px, not the default 16 (in a style attribute and in a <style> rule; bold from it)."""
+    d, w = read(tmp_path, '<style>.t { font: bold 12px/1.2 sans-serif }</style>'
+                          '<text id="m" x="100" y="50" style="font: 10px \'DejaVu Sans\'; '
+                          'text-anchor: middle">Time (s)</text>'
+                          '<text id="b" class="t" x="10" y="150">Ab</text>')
+    got = by_src(d)
+    want = box(100, 50, "Time (s)", 10, "middle")
+    assert inside(got["m"], want)
+    assert got["m"][:, 1].max() - got["m"][:, 1].min() > 0.6 * (want[3] - want[1])
+    assert inside(got["b"], box(10, 150, "Ab", 12, font="futuram"))
+
+
 def inside_each(p, b, tol=1e-6):
     x0, y0, x1, y1 = b
     return (p[:, 0] >= x0 - tol) & (p[:, 0] <= x1 + tol) & (p[:, 1] >= y0 - tol) & (p[:, 1] <= y1 + tol)

@@ -146,7 +146,7 @@ def declarations(text: str | None) -> dict[str, tuple[str, bool]]:
             continue
         prop, value = decl.split(":", 1)
         prop = prop.strip().lower()
-        if prop not in STYLE_PROPS:
+        if prop not in STYLE_PROPS and prop != "font":
             continue
         value = value.strip()
         important = re.search(r"!\s*important$", value, re.I) is not None
@@ -154,7 +154,30 @@ def declarations(text: str | None) -> dict[str, tuple[str, bool]]:
             value = value[: value.rindex("!")].strip()
         if prop not in CASED:
             value = value.lower()
-        out[prop] = (value, important)
+        if prop == "font":          # the shorthand (matplotlib writes `font: 10px 'DejaVu Sans'`)
+            out.update((k, (v, important)) for k, v in font_shorthand(value).items())
+        else:
+            out[prop] = (value, important)
+    return out
+
+
+_FONT = re.compile(r"^((?:[a-z-]+|\d+)\s+)*?((?:\d*\.)?\d+(?:px|pt|pc|mm|cm|in|q|em|ex|rem|%)|"
+                   r"(?:xx?-)?(?:small|large)|medium|larger|smaller)(?:\s*/\s*(\S+))?\s+(\S.*)$")
+
+
+def font_shorthand(value: str) -> dict[str, str]:
+    """CSS `font: [style] [variant] [weight] [stretch] size[/line-height] family` as its
+    longhands (those not given are reset to normal, as CSS does); {} when it does not parse."""
+    m = _FONT.match(value.strip())
+    if not m:
+        return {}
+    lead = value.strip()[: m.start(2)].split()
+    out = {"font-style": next((w for w in lead if w in ("italic", "oblique")), "normal"),
+           "font-weight": next((w for w in lead if w in ("bold", "bolder", "lighter")
+                                or w.isdigit()), "normal"),
+           "font-size": m.group(2), "font-family": m.group(4)}
+    if m.group(3):
+        out["line-height"] = m.group(3)
     return out
 
 
