@@ -232,7 +232,7 @@ def test_layer_pause_and_pen_change_at_the_same_place_are_one_pause():
                        line(0, 1, 1, 1, pen="yellow", colour="#ffff00", layer="b"),
                        line(0, 2, 1, 2, pen="black", colour="#000000", layer="c")])
     got = [p.message for p in _pauses(prepared(ss, pause=True).records())]
-    assert got == ["put in the yellow pen (1 of 2)", "layer a done; next: layer b",
+    assert got == ["put in the yellow pen (1 of 2)", "layer a done; next: layer b: change the pen",
                    "put in the black pen (2 of 2)"]
 
 

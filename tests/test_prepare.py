@@ -309,7 +309,7 @@ def test_svg_draw_pauses_between_layers_in_a_dry_run(capsys, config_path, tmp_pa
                                 "--pause-between-layers"])
     assert code == 0
     assert out.count("pause:") == 1
-    assert "pause: layer red done; next: layer blue (dry run: not waiting)" in out
+    assert "pause: layer red done; next: layer blue: change the pen (dry run: not waiting)" in out
 
 
 def test_pause_waits_for_enter_with_the_pen_up(capsys, config_path, tmp_path, svg_stub,

@@ -213,12 +213,12 @@ def _pause_handler(s, progress, detached: bool = False):
             say(f"pause: {text}; waiting: `vplotter continue` goes on")
             wait_continue(stop, live.take_continue)
         elif p.pen is not None:
-            say(f"pause: {text}, then press Enter")
+            say(f"pause: {text}, then press Enter")     # what to do is the pause's message
             if not wait_enter(sys.stdin, stop, go=live.take_continue,
                               closed="waiting for `vplotter continue`"):
                 wait_continue(stop, live.take_continue)     # no terminal (a service)
         else:
-            say(f"pause: {text}: change the pen, then press Enter")
+            say(f"pause: {text}, then press Enter")
             wait_enter(sys.stdin, stop, go=live.take_continue)
         if not s.stop_pending and p.pen is not None:
             say(f"going on with the {p.pen} pen")

@@ -288,7 +288,8 @@ class Breaks:
             return self._refill(pen)
         prev = self.strokes[k - 1] if k else None
         if prev is not None and self.layers and self.strokes[k].layer != prev.layer:
-            return (f"layer {prev.layer} done; next: layer {self.strokes[k].layer}",)
+            nxt = self.strokes[k].layer
+            return (f"layer {prev.layer} done; next: layer {nxt}: change the pen",)
         return None
 
     def split(self, k: int) -> tuple[np.ndarray, dict[int, tuple]]:
