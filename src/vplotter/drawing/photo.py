@@ -25,7 +25,7 @@ from vplotter.inputs.strokes import Stroke
 # the first spacing tried, per style, in pen widths; time ~ spacing^-POWER
 START_PENS = {"hatch": 3.0, "spiral": 3.0, "squiggle": 3.0, "stipple": 4.0}
 POWER = {"hatch": 1.0, "spiral": 1.0, "squiggle": 1.0, "stipple": 2.0}
-CURVES = ("hatch", "spiral", "squiggle")   # the styles whose tone curve is chosen per picture
+CURVES = ("hatch", "spiral", "squiggle", "stipple")   # the styles whose tone curve is chosen per picture
 CURVE_STEP = 1.6          # the curves tried: the spacing's own exponent, / and x this
 CURVE_MAX = 16.0
 CURVE_TRIES = 3           # drawings made per other curve (from the spacing already found)
@@ -118,8 +118,8 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
         if layers is not None:                        # every pen's layer: one budget
             made = cmyk.strokes(style, opts.style, layers, spacing, opts.pen_mm, **extra)
         else:
-            made = style(picture, spacing, opts.pen_mm, **extra,
-                         **({} if gamma is None else {"gamma": gamma}))
+            made = style(picture, spacing, opts.pen_mm, **extra, **({} if gamma is None else
+                         {"curve" if opts.style == "stipple" else "gamma": gamma}))
         moved = [replace(s, pts=s.pts + shift, line=i + 1) for i, s in enumerate(made)]
         return order.order(place.place(moved, put, page), "greedy", start_xy), made
 
@@ -154,10 +154,13 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
     return drawn, notes, choice.time_s
 
 
-def default_gamma(style: str, spacing_mm: float, pen_mm: float) -> float:
+def default_gamma(style: str, spacing_mm: float, pen_mm: float, picture=None,
+                  tsp: bool = False) -> float:
     """The tone curve's exponent a style takes from the spacing alone."""
-    from vplotter.inputs.image import squiggle, tone
+    from vplotter.inputs.image import squiggle, stipple, tone
 
+    if style == "stipple":
+        return stipple.tone_gamma(picture, spacing_mm, pen_mm, tsp)
     if style == "hatch":
         return tone.gamma(spacing_mm, pen_mm)
     return squiggle.tone_gamma(spacing_mm, pen_mm)
@@ -172,12 +175,14 @@ def pick_curve(picture, opts: PhotoOptions, make, timed, budget_s: float, lo: fl
     darkness). (placed strokes, budget.Choice, gamma, a note for `info`)."""
     from vplotter.inputs.image import score
 
+    from vplotter.inputs.image.stipple import GAMMA_MAX as stipple_max
+
     dark = score.darkness(picture)
-    g0 = default_gamma(opts.style, choice.spacing_mm, opts.pen_mm)
+    g0 = default_gamma(opts.style, choice.spacing_mm, opts.pen_mm, picture, opts.tsp)
     best = (score.correlation(raw, picture, opts.pen_mm, dark), g0, drawn, choice)
     said = [f"d^{g0:.1f} {best[0]:.3f}"]
     for g in (g0 / CURVE_STEP, g0 * CURVE_STEP):
-        g = min(max(g, 1.0), CURVE_MAX)
+        g = min(max(g, 1.0), CURVE_MAX if opts.style != "stipple" else stipple_max)
         if abs(g - g0) < 1e-6:
             continue
         try:
