@@ -5,7 +5,9 @@ The picture is sized first (--width, --height, or the largest size inside the pa
 --margin, aspect kept), because the line spacing only means something at the final size; it
 is loaded once at the resolution the pen can show; then `budget.fit` tries densities of the
 style, each placed on the page, put in a quick (greedy) order and timed by the caller's
-planner, and keeps the densest that fits. The caller orders the result as asked (best by
+planner, and keeps the densest that fits; then (`pick_curve`) the same for two other tone
+curves, each drawing scored against the picture (`inputs/image/score.py`), the best kept.
+The caller orders the result as asked (best by
 default) and that order never takes longer than the greedy one it was timed in.
 """
 
@@ -25,10 +27,11 @@ from vplotter.inputs.strokes import Stroke
 # the first spacing tried, per style, in pen widths; time ~ spacing^-POWER
 START_PENS = {"hatch": 3.0, "spiral": 3.0, "squiggle": 3.0, "stipple": 4.0}
 POWER = {"hatch": 1.0, "spiral": 1.0, "squiggle": 1.0, "stipple": 2.0}
-CURVES = ("hatch", "spiral", "squiggle", "stipple")   # the styles whose tone curve is chosen per picture
+CURVES = ("hatch", "spiral", "squiggle")   # the styles whose tone curve is chosen per picture
 CURVE_STEP = 1.6          # the curves tried: the spacing's own exponent, / and x this
 CURVE_MAX = 16.0
 CURVE_TRIES = 3           # drawings made per other curve (from the spacing already found)
+CURVE_MORE = 1            # further steps where an end curve wins
 
 
 @dataclass(frozen=True)
@@ -118,8 +121,8 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
         if layers is not None:                        # every pen's layer: one budget
             made = cmyk.strokes(style, opts.style, layers, spacing, opts.pen_mm, **extra)
         else:
-            made = style(picture, spacing, opts.pen_mm, **extra, **({} if gamma is None else
-                         {"curve" if opts.style == "stipple" else "gamma": gamma}))
+            made = style(picture, spacing, opts.pen_mm, **extra,
+                         **({} if gamma is None else {"gamma": gamma}))
         moved = [replace(s, pts=s.pts + shift, line=i + 1) for i, s in enumerate(made)]
         return order.order(place.place(moved, put, page), "greedy", start_xy), made
 
@@ -154,13 +157,10 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
     return drawn, notes, choice.time_s
 
 
-def default_gamma(style: str, spacing_mm: float, pen_mm: float, picture=None,
-                  tsp: bool = False) -> float:
+def default_gamma(style: str, spacing_mm: float, pen_mm: float) -> float:
     """The tone curve's exponent a style takes from the spacing alone."""
-    from vplotter.inputs.image import squiggle, stipple, tone
+    from vplotter.inputs.image import squiggle, tone
 
-    if style == "stipple":
-        return stipple.tone_gamma(picture, spacing_mm, pen_mm, tsp)
     if style == "hatch":
         return tone.gamma(spacing_mm, pen_mm)
     return squiggle.tone_gamma(spacing_mm, pen_mm)
@@ -169,33 +169,49 @@ def default_gamma(style: str, spacing_mm: float, pen_mm: float, picture=None,
 def pick_curve(picture, opts: PhotoOptions, make, timed, budget_s: float, lo: float, hi: float,
                drawn, raw, choice):
     """The tone curve that draws this picture best within the budget: the spacing's own
-    exponent g0 and g0 / CURVE_STEP and g0 x CURVE_STEP (within 1..CURVE_MAX), each fitted to
-    the budget (a few tries from the spacing already found), its strokes scored against the
-    picture (`score.correlation`: ink at the pen width, blurred at 1 mm, against the blurred
-    darkness). (placed strokes, budget.Choice, gamma, a note for `info`)."""
+    exponent g0, g0 / CURVE_STEP and g0 x CURVE_STEP, and when one of those two wins one step
+    further that way (at most CURVE_MORE more; gamma within 1..the style's most), each fitted
+    to the budget (a few tries from the spacing already found), its strokes scored against
+    the picture (`score.correlation`: ink at the pen width, blurred at 1 mm, against the
+    blurred darkness). (placed strokes, budget.Choice, gamma, a note for `info`)."""
     from vplotter.inputs.image import score
 
-    from vplotter.inputs.image.stipple import GAMMA_MAX as stipple_max
-
+    top = CURVE_MAX
     dark = score.darkness(picture)
-    g0 = default_gamma(opts.style, choice.spacing_mm, opts.pen_mm, picture, opts.tsp)
+    g0 = default_gamma(opts.style, choice.spacing_mm, opts.pen_mm)
     best = (score.correlation(raw, picture, opts.pen_mm, dark), g0, drawn, choice)
     said = [f"d^{g0:.1f} {best[0]:.3f}"]
-    for g in (g0 / CURVE_STEP, g0 * CURVE_STEP):
-        g = min(max(g, 1.0), CURVE_MAX if opts.style != "stipple" else stipple_max)
-        if abs(g - g0) < 1e-6:
-            continue
+    made_tries = list(choice.tries)
+
+    def attempt(g: float) -> bool:
+        """Try the curve d^g; True if it is the best so far."""
+        nonlocal best
         try:
             (placed, made), c = budget.fit(lambda sp: make(sp, g), timed, budget_s,
                                            choice.spacing_mm, lo, hi, POWER[opts.style],
                                            most=CURVE_TRIES)
         except ConfigError:                   # even the widest spacing is too long
-            continue
+            return False
+        made_tries.extend(c.tries)
         r = score.correlation(made, picture, opts.pen_mm, dark)
         said.append(f"d^{g:.1f} {r:.3f}")
         if r > best[0]:
             best = (r, g, placed, c)
+            return True
+        return False
+
+    for step in (1 / CURVE_STEP, CURVE_STEP):
+        g = min(max(g0 * step, 1.0), top)
+        if abs(g - g0) < 1e-6:
+            continue
+        if attempt(g):
+            for _ in range(CURVE_MORE):       # the best at an end: one step further
+                g2 = min(max(g * step, 1.0), top)
+                if abs(g2 - g) < 1e-6 or not attempt(g2):
+                    break
+                g = g2
     r, g, placed, c = best
+    c = replace(c, tries=made_tries)          # every drawing made counts
     note = (f"tone curve d^{g:.1f} chosen for this picture (correlation of ink with darkness at "
             f"a 1 mm blur, each curve fitted to the budget: {', '.join(said)})")
     return placed, c, g, note

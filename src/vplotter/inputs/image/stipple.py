@@ -64,17 +64,16 @@ FLOOR_GAMMA = 8.0       # ... and at least this
 
 def strokes(picture: Picture, spacing_mm: float, pen_mm: float, tsp: bool = False,
             seed: int = 0, dots: int | None = None, dot_mm: float | None = None,
-            curve: float | None = None, **_) -> list[Stroke]:
+            **_) -> list[Stroke]:
     """Stipples of `picture`: one 1-point stroke (a dot: the pen taps) per stipple; with
     dot_mm > pen_mm a small filled circle of that diameter instead; with tsp=True the tour
-    through all of them, split where it would cross light paper (see the module's text).
-    curve: the tone curve's exponent (default `tone_gamma`; the dots' count is the same)."""
+    through all of them, split where it would cross light paper (see the module's text)."""
     gamma = 2.0 if tsp else 1.0
-    if dots is None and (spacing_mm > CAP_PENS * pen_mm or (curve or 1) > 1):
-        dots = _dot_count(picture, spacing_mm, gamma)      # as many dots, on the darker tones
+    if dots is None and spacing_mm > CAP_PENS * pen_mm:   # as many dots, on the darker tones
+        dots = _dot_count(picture, spacing_mm, gamma)
         if dots <= 0:
             return []
-        g = tone_gamma(picture, spacing_mm, pen_mm, tsp, dots) if curve is None else curve
+        g = tone_gamma(picture, spacing_mm, pen_mm, tsp, dots)
         picture = Picture(tone.curve(picture.darkness, g), picture.width_mm,
                           picture.height_mm, picture.name)
         spacing_mm = _black_spacing(picture, spacing_mm, dots, gamma)
