@@ -63,3 +63,16 @@ def test_the_choice_says_what_and_why():
     text = c.text()
     assert "spacing" in text and "within 1:00:00" in text and "tries" in text
     assert 0.96 * 3600 <= c.time_s <= 3600
+
+
+def test_the_search_makes_at_most_what_it_is_allowed():
+    made = []
+
+    def make(s):
+        made.append(s)
+        return s
+
+    # time = 3600 / s (s in mm): from a start far off, two drawings cannot land within 4 %
+    drawing, choice = budget.fit(make, lambda s: 3600.0 / s, 1800.0, 20.0, 0.5, 50.0, most=2)
+    assert len(made) == 2 and len(choice.tries) == 2
+    assert 3600.0 / drawing <= 1800.0

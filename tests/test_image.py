@@ -481,3 +481,33 @@ def test_styles_any_picture(h, w, wmm, hmm, spacing, seed):
             p = s.pts
             assert np.all(p >= 0) and np.all(p[:, 0] <= wmm) and np.all(p[:, 1] <= hmm)
             assert len(p) < 2 or np.hypot(*np.diff(p, axis=0).T).min() >= 0.1 - 1e-9
+
+
+# ---- the converter's own tone score (choosing the curve per picture) ---------------------------
+
+def test_score_ink_counts_line_length_times_pen_width():
+    from vplotter.inputs.image import score
+    from vplotter.inputs.strokes import Stroke
+
+    pic = Picture(np.zeros((40, 60), np.float32), 60.0, 40.0)
+    line = Stroke(np.array([[5.0, 20.0], [45.0, 20.0]]))
+    ink = score.ink([line], pic, 0.5)
+    assert ink.shape == (40, 60)
+    assert ink.sum() == pytest.approx(40 * 0.5, rel=0.02)       # mm² of ink on 1 mm² cells
+    dot = score.ink([Stroke(np.array([[30.0, 20.0]]))], pic, 0.5)
+    assert dot.sum() == pytest.approx(np.pi * 0.25 / 4, rel=0.02)
+
+
+def test_score_prefers_ink_where_the_picture_is_dark():
+    from vplotter.inputs.image import score
+    from vplotter.inputs.strokes import Stroke
+
+    d = np.zeros((40, 60), np.float32)
+    d[:, :30] = 0.9                                                # dark left half
+    pic = Picture(d, 60.0, 40.0)
+    rows = [Stroke(np.array([[x0, y], [x0 + 28.0, y]])) for y in np.arange(1.0, 40.0, 1.5)
+            for x0 in (1.0,)]
+    wrong = [Stroke(p.pts + [30.0, 0.0]) for p in rows]
+    assert score.correlation(rows, pic, 0.5) > 0.8
+    assert score.correlation(wrong, pic, 0.5) < -0.8
+    assert score.correlation([], pic, 0.5) == 0.0                  # no ink: nothing to say

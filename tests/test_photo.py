@@ -179,3 +179,19 @@ def test_ink_preview_is_dark_where_the_photo_is(capsys, config_path, photo, tmp_
     assert code == 0, err and "ink of a pen 0.5 mm wide" in out
     grey = np.asarray(Image.open(png).convert("L"), dtype=float)
     assert grey.min() < 80                        # black ink is there
+
+
+@pytest.mark.parametrize("style", ["squiggle", "hatch"])
+def test_info_says_which_tone_curve_the_picture_got(capsys, config_path, photo, style):
+    """The tone curve is chosen per picture: info names the curves tried with their scores,
+    the one drawn scored best, and the drawing still fits the budget."""
+    code, out, _ = run(capsys, ["--config", config_path, "info", photo, "--json",
+                                "--width", 100, "--style", style, "--max-time", "20m"])
+    assert code == 0
+    info = json.loads(out)
+    note = next(n for n in info["notes"] if "chosen for this picture" in n)
+    chosen = float(re.search(r"tone curve d\^([0-9.]+) chosen", note).group(1))
+    tried = {float(g): float(r) for g, r in re.findall(r"d\^([0-9.]+) (-?[0-9.]+)", note)}
+    assert len(tried) >= 2 and tried[chosen] == max(tried.values())
+    assert any(f"tone curve d^{chosen:.1f}" in n and "pitch" in n for n in info["notes"])
+    assert info["time_s"]["best"] <= 1200

@@ -56,10 +56,11 @@ class Choice:
 
 
 def fit(make: Callable[[float], object], plot_time: Callable[[object], float], budget_s: float,
-        start_mm: float, min_mm: float, max_mm: float, power: float = 1.0):
+        start_mm: float, min_mm: float, max_mm: float, power: float = 1.0, most: int = TRIES):
     """(result of make(spacing), Choice): the densest spacing in [min_mm, max_mm] whose plot
     time is at most budget_s, found to within UNDER of it. make(spacing) builds the drawing;
-    plot_time(drawing) times it. `power`: time ~ spacing^-power, the first guess's slope."""
+    plot_time(drawing) times it. `power`: time ~ spacing^-power, the first guess's slope;
+    `most`: drawings made at most."""
     tries: list[tuple[float, float]] = []
     best = None                                  # (spacing, drawing, time) under the budget
 
@@ -78,7 +79,7 @@ def fit(make: Callable[[float], object], plot_time: Callable[[object], float], b
 
     s, t = attempt(start_mm)
     slope = -power
-    for _ in range(TRIES - 1):
+    for _ in range(most - 1):
         if UNDER * budget_s <= t <= budget_s:
             break
         if s <= min_mm and t <= budget_s:

@@ -5,7 +5,9 @@ The picture is sized first (--width, --height, or the largest size inside the pa
 --margin, aspect kept), because the line spacing only means something at the final size; it
 is loaded once at the resolution the pen can show; then `budget.fit` tries densities of the
 style, each placed on the page, put in a quick (greedy) order and timed by the caller's
-planner, and keeps the densest that fits. The caller orders the result as asked (best by
+planner, and keeps the densest that fits; then (`pick_curve`) the same for two other tone
+curves, each drawing scored against the picture (`inputs/image/score.py`), the best kept.
+The caller orders the result as asked (best by
 default) and that order never takes longer than the greedy one it was timed in.
 """
 
@@ -25,6 +27,11 @@ from vplotter.inputs.strokes import Stroke
 # the first spacing tried, per style, in pen widths; time ~ spacing^-POWER
 START_PENS = {"hatch": 3.0, "spiral": 3.0, "squiggle": 3.0, "stipple": 4.0}
 POWER = {"hatch": 1.0, "spiral": 1.0, "squiggle": 1.0, "stipple": 2.0}
+CURVES = ("hatch", "spiral", "squiggle")   # the styles whose tone curve is chosen per picture
+CURVE_STEP = 1.6          # the curves tried: the spacing's own exponent, / and x this
+CURVE_MAX = 16.0
+CURVE_TRIES = 3           # drawings made per other curve (from the spacing already found)
+CURVE_MORE = 1            # further steps where an end curve wins
 
 
 @dataclass(frozen=True)
@@ -109,13 +116,15 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
     shift = page.centre - np.array([w / 2, h / 2])
     extra = {"tsp": True} if opts.tsp else {}
 
-    def make(spacing: float) -> list[Stroke]:
+    def make(spacing: float, gamma: float | None = None):
+        """(placed strokes in a greedy order, the style's own strokes in picture mm)."""
         if layers is not None:                        # every pen's layer: one budget
             made = cmyk.strokes(style, opts.style, layers, spacing, opts.pen_mm, **extra)
         else:
-            made = style(picture, spacing, opts.pen_mm, **extra)
-        made = [replace(s, pts=s.pts + shift, line=i + 1) for i, s in enumerate(made)]
-        return order.order(place.place(made, put, page), "greedy", start_xy)
+            made = style(picture, spacing, opts.pen_mm, **extra,
+                         **({} if gamma is None else {"gamma": gamma}))
+        moved = [replace(s, pts=s.pts + shift, line=i + 1) for i, s in enumerate(made)]
+        return order.order(place.place(moved, put, page), "greedy", start_xy), made
 
     notes = [f"photo: {opts.style}, {w:.0f} x {h:.0f} mm, pen {opts.pen_mm:g} mm"]
     if layers is not None:
@@ -125,18 +134,84 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
         if opts.max_time_s is not None:
             raise ConfigError("error: give --spacing or --max-time, not both")
         what = image.describe(opts.style, opts.spacing_mm, opts.pen_mm, picture, **extra)
-        return (make(opts.spacing_mm), notes + [f"spacing {opts.spacing_mm:g} mm (--spacing)", what],
-                None)
+        return (make(opts.spacing_mm)[0],
+                notes + [f"spacing {opts.spacing_mm:g} mm (--spacing)", what], None)
     if plot_time is None:
         raise ConfigError("error: a photo needs --spacing here (no planner to time a budget)")
     budget_s = opts.max_time_s or budget.DEFAULT_S
     start = START_PENS[opts.style] * opts.pen_mm
     lo = opts.pen_mm * (1.2 if opts.style == "stipple" else 1.0)
     hi = max(w, h) / 4
-    drawn, choice = budget.fit(make, plot_time, budget_s, start, lo, hi, POWER[opts.style])
+    timed = lambda made: plot_time(made[0])                    # noqa: E731
+    (drawn, raw), choice = budget.fit(make, timed, budget_s, start, lo, hi, POWER[opts.style])
+    if opts.style in CURVES and layers is None:
+        drawn, choice, gamma, said = pick_curve(picture, opts, make, timed, budget_s, lo, hi,
+                                                drawn, raw, choice)
+        extra = {**extra, "gamma": gamma}
+        notes.append(said)
     notes.append(choice.text())
     notes.append(image.describe(opts.style, choice.spacing_mm, opts.pen_mm, picture, **extra))
     if opts.max_time_s is None:
         notes.append(f"no --max-time: the budget for a photo is {budget.clock_text(budget_s)} "
                      f"by default")
     return drawn, notes, choice.time_s
+
+
+def default_gamma(style: str, spacing_mm: float, pen_mm: float) -> float:
+    """The tone curve's exponent a style takes from the spacing alone."""
+    from vplotter.inputs.image import squiggle, tone
+
+    if style == "hatch":
+        return tone.gamma(spacing_mm, pen_mm)
+    return squiggle.tone_gamma(spacing_mm, pen_mm)
+
+
+def pick_curve(picture, opts: PhotoOptions, make, timed, budget_s: float, lo: float, hi: float,
+               drawn, raw, choice):
+    """The tone curve that draws this picture best within the budget: the spacing's own
+    exponent g0, g0 / CURVE_STEP and g0 x CURVE_STEP, and when one of those two wins one step
+    further that way (at most CURVE_MORE more; gamma within 1..the style's most), each fitted
+    to the budget (a few tries from the spacing already found), its strokes scored against
+    the picture (`score.correlation`: ink at the pen width, blurred at 1 mm, against the
+    blurred darkness). (placed strokes, budget.Choice, gamma, a note for `info`)."""
+    from vplotter.inputs.image import score
+
+    top = CURVE_MAX
+    dark = score.darkness(picture)
+    g0 = default_gamma(opts.style, choice.spacing_mm, opts.pen_mm)
+    best = (score.correlation(raw, picture, opts.pen_mm, dark), g0, drawn, choice)
+    said = [f"d^{g0:.1f} {best[0]:.3f}"]
+    made_tries = list(choice.tries)
+
+    def attempt(g: float) -> bool:
+        """Try the curve d^g; True if it is the best so far."""
+        nonlocal best
+        try:
+            (placed, made), c = budget.fit(lambda sp: make(sp, g), timed, budget_s,
+                                           choice.spacing_mm, lo, hi, POWER[opts.style],
+                                           most=CURVE_TRIES)
+        except ConfigError:                   # even the widest spacing is too long
+            return False
+        made_tries.extend(c.tries)
+        r = score.correlation(made, picture, opts.pen_mm, dark)
+        said.append(f"d^{g:.1f} {r:.3f}")
+        if r > best[0]:
+            best = (r, g, placed, c)
+            return True
+        return False
+
+    for step in (1 / CURVE_STEP, CURVE_STEP):
+        g = min(max(g0 * step, 1.0), top)
+        if abs(g - g0) < 1e-6:
+            continue
+        if attempt(g):
+            for _ in range(CURVE_MORE):       # the best at an end: one step further
+                g2 = min(max(g * step, 1.0), top)
+                if abs(g2 - g) < 1e-6 or not attempt(g2):
+                    break
+                g = g2
+    r, g, placed, c = best
+    c = replace(c, tries=made_tries)          # every drawing made counts
+    note = (f"tone curve d^{g:.1f} chosen for this picture (correlation of ink with darkness at "
+            f"a 1 mm blur, each curve fitted to the budget: {', '.join(said)})")
+    return placed, c, g, note

@@ -29,7 +29,8 @@ def describe(name: str, spacing_mm: float, pen_mm: float, picture=None, **extra)
     """What a style draws at this spacing (for `info`)."""
     from vplotter.inputs.image.tone import TOP, gamma
 
-    g = gamma(spacing_mm, pen_mm)
+    chosen = extra.get("gamma")
+    g = gamma(spacing_mm, pen_mm) if chosen is None else chosen
     if name == "hatch":
         from vplotter.inputs.image.hatch import full_layers
         return (f"finest pitch {spacing_mm:.2f} mm (the spacing; every {TOP}th line, dashed, in "
@@ -37,7 +38,7 @@ def describe(name: str, spacing_mm: float, pen_mm: float, picture=None, **extra)
                 f"in black), tone curve d^{g:.1f}")
     if name in ("spiral", "squiggle"):
         from vplotter.inputs.image.squiggle import tone_gamma, track_pitch
-        g = tone_gamma(spacing_mm, pen_mm)
+        g = tone_gamma(spacing_mm, pen_mm) if chosen is None else chosen
         return (f"track pitch {track_pitch(spacing_mm, pen_mm):.2f} mm (every {TOP}th track, "
                 f"dashed, in the lightest tones), tone curve d^{g:.1f}")
     if name == "stipple":

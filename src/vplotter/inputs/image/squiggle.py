@@ -64,12 +64,15 @@ def track_pitch(spacing_mm: float, pen_mm: float) -> float:
     return min(spacing_mm, CAP_PENS * pen_mm)
 
 
-def toned(picture, spacing_mm: float, pen_mm: float) -> tuple[Picture, float]:
+def toned(picture, spacing_mm: float, pen_mm: float,
+          gamma: float | None = None) -> tuple[Picture, float]:
     """(the picture to draw, smoothed for its tracks, its darkness replaced by the share of
-    the line of black: f(d) x pitch / spacing; the track pitch)."""
+    the line of black: f(d) x pitch / spacing; the track pitch). gamma: the tone curve's
+    exponent (default `tone_gamma`)."""
     p = track_pitch(spacing_mm, pen_mm)
     pic = smoothed(picture, p)
-    d = tone.curve(pic.darkness, tone_gamma(spacing_mm, pen_mm)) * np.float32(p / spacing_mm)
+    g = tone_gamma(spacing_mm, pen_mm) if gamma is None else gamma
+    d = tone.curve(pic.darkness, g) * np.float32(p / spacing_mm)
     return Picture(d, picture.width_mm, picture.height_mm, picture.name), p
 
 
@@ -168,13 +171,15 @@ def _row_turns(pic: Picture, y: float, p0: float, w: float, backwards: bool):
     return x[idx], along[idx], per[idx]
 
 
-def strokes(picture, spacing_mm: float, pen_mm: float = 0.5, phase: float = 0.0) -> list[Stroke]:
+def strokes(picture, spacing_mm: float, pen_mm: float = 0.5, phase: float = 0.0,
+            gamma: float | None = None) -> list[Stroke]:
     """Rows of zigzags `spacing_mm` apart (the tone model above); `phase` (-1/2..1/2) moves
-    every row down by that share of the pitch (--cmyk's layers a quarter pitch apart)."""
+    every row down by that share of the pitch (--cmyk's layers a quarter pitch apart); gamma:
+    the tone curve's exponent (default `tone_gamma`)."""
     if not spacing_mm > 0 or not pen_mm > 0:
         raise ValueError("spacing_mm and pen_mm must be > 0")
     w, h = picture.width_mm, picture.height_mm
-    pic, spacing_mm = toned(picture, spacing_mm, pen_mm)
+    pic, spacing_mm = toned(picture, spacing_mm, pen_mm, gamma)
     pitch = min(spacing_mm, h)
     rows = max(1, math.floor(h / pitch))
     margin = (h - rows * pitch) / 2

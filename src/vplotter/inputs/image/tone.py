@@ -26,6 +26,10 @@ an hour: bench/photo_tone.py). So the styles
   the sparser lines stay where they were when the denser ones join them), however small: any
   tone above white gets some line, and a darker tone more.
 
+The exponent gamma here is where the choice starts: with a budget, `drawing/photo.py` also
+tries gamma / 1.6 and gamma x 1.6 for the picture at hand and keeps the curve whose drawing
+scores best (`score.py`: the darkest pictures want steeper curves than the spacing suggests).
+
 Chosen on bench/photo_tone.py (five photographs, a grey ramp, 1 h and 3 h, 300 mm wide): a
 steeper curve wins at 1 h, a gentler one at 3 h (where the spacing is finer); a floor of 1/16
 or 1/64 moved no figure by more than 0.01.
