@@ -534,3 +534,22 @@ def test_plain_m0_left_out_of_a_placed_gcode_file_is_said(capsys, config_path, t
     code, out, err = run(capsys, ["--config", config_path, "draw", f, "--dry-run", "--scale", "2"])
     assert code == 0 and "pause:" not in out
     assert f"{f}:3: warning: 1 M0/M1 pause left out" in err
+
+
+def test_white_strokes_are_left_out_unless_a_white_pen_is_owned():
+    """A page's white background rectangle (matplotlib, Illustrator) must not ask for a white
+    pen: white does not show on paper. One warning counts what is left out."""
+    sq = np.array([[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 0.0]])
+    ss = [Stroke(sq, 1, pen="white", colour="#ffffff"), Stroke(sq + 1, 2, pen="red",
+                                                                colour="#ff0000"),
+          Stroke(sq + 2, 3, pen="#fefefe", colour="#fefefe")]
+    said = []
+    got = pens.resolve(ss, (), said.append, "f.svg")
+    assert [s.pen for s in got] == ["red"]
+    assert said == ["f.svg: warning: 2 strokes in white left out (white does not show on "
+                    "paper; a white pen in [pens] draws them)"]
+    owned = (PenSpec("chalk", "#ffffff"), PenSpec("ink", "#cc1010"))
+    said.clear()
+    got = pens.resolve(ss, owned, said.append, "f.svg")
+    assert [s.pen for s in got] == ["chalk", "ink", "chalk"]
+    assert not any("white" in m for m in said)

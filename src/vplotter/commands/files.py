@@ -104,7 +104,7 @@ def cmd_info(args, argv=None) -> int:
     skipped = {k: int(drawing.skipped.get(k, 0)) for k in ("text", "image", "hidden")}
     out = {
         "width_mm": _r(width), "height_mm": _r(height), "extent": [_r(v) for v in ext],
-        "strokes": len(drawing.strokes),
+        "strokes": len(strokes),
         "drawn_mm": _r(float(sum(s.length_mm() for s in strokes))),
         "travel_mm": {"file": _r(t_keep), "best": _r(t_best)},
         "time_s": {"file": _r(s_keep), "best": _r(s_best)},

@@ -157,10 +157,30 @@ def _cap(feed: float | None, speed: float | None) -> float | None:
     return speed if feed is None else min(feed, speed)
 
 
+WHITE_L = 99.0           # L* from which a colour is white (#fdfdfd and lighter)
+
+
+def _no_white(strokes: list[Stroke], owned: tuple, warn: Warn, name: str) -> list[Stroke]:
+    """The strokes without those in white (L* >= WHITE_L: a page's background, a white fill)
+    unless a pen in [pens] is white: white does not show on paper. One warning says so."""
+    if any(colours.lightness(p.colour) >= WHITE_L for p in owned):
+        return strokes
+    white = [(st.colour or _colour_of(st.pen)) for st in strokes]
+    keep = [c is None or colours.lightness(c) < WHITE_L for c in white]
+    if all(keep):
+        return strokes
+    n = keep.count(False)
+    warn(f"{name}: warning: {n} stroke{'s' if n > 1 else ''} in white left out (white does not "
+         f"show on paper; a white pen in [pens] draws them)")
+    return [st for st, k in zip(strokes, keep) if k]
+
+
 def resolve(strokes: list[Stroke], owned: tuple = (), warn: Warn = lambda m: None,
             name: str = "<input>") -> list[Stroke]:
     """New strokes whose `pen` is the pen that draws them and `colour` its colour (see the
-    module's doc); one warning per colour drawn with a far pen and per unknown pen name."""
+    module's doc); one warning per colour drawn with a far pen and per unknown pen name.
+    Strokes in white are left out unless a white pen is owned."""
+    strokes = _no_white(strokes, owned, warn, name)
     if not owned:
         return _own_pens(strokes)
     out, done, said = [], {}, set()
