@@ -411,17 +411,8 @@ def test_a_draw_stopped_in_a_pens_strokes_resumes_asking_for_that_pen(
     pos = state.load()
     resume = pos.extra["resume"]
     assert resume["line"] == 11 and pos.extra["pen_in"]["pen"] == "blue"
-    extra = _cut_power(pos, 11, "down") if power_cut else []
-    monkeypatch.setattr(sys, "stdin", io.StringIO("\n\n"))
-    code, out, _ = run(capsys, "--config", cfg_path, "draw", pen_file, "--backend", "fake",
-                       "--resume", "--trace", t2, *extra)
-    assert code == 0
-    assert [line for line in out.splitlines() if line.startswith("pause:")] == [
-        "pause: put in the blue pen (2 of 3), then press Enter",
-        "pause: put in the green pen (3 of 3), then press Enter"]
-    xy = watchless_xy(cfg_path, pos)
-    both = np.vstack([drawn(t1, cfg_path), drawn(t2, cfg_path, tuple(xy))])
-    covers(both, pen_file)
+    _resume_asks_blue_then_green(monkeypatch, capsys, cfg_path, pen_file, pos, t1, t2,
+                                 _cut_power(pos, 11, "down") if power_cut else [])
 
 
 # ---------------------------------------------------------------- live.json and continue
@@ -500,16 +491,8 @@ def test_a_resume_on_a_tool_change_line_asks_for_that_pen_once(
     capsys.readouterr()
     pos = state.load()
     assert pos.extra["resume"]["line"] == 7
-    extra = _cut_power(pos, 7, "up") if power_cut else []
-    monkeypatch.setattr(sys, "stdin", io.StringIO("\n\n"))
-    code, out, _ = run(capsys, "--config", cfg_path, "draw", f, "--backend", "fake",
-                       "--resume", "--trace", t2, *extra)
-    assert code == 0
-    assert [line for line in out.splitlines() if line.startswith("pause:")] == [
-        "pause: put in the blue pen (2 of 3), then press Enter",
-        "pause: put in the green pen (3 of 3), then press Enter"]
-    xy = watchless_xy(cfg_path, pos)
-    covers(np.vstack([drawn(t1, cfg_path), drawn(t2, cfg_path, tuple(xy))]), f)
+    _resume_asks_blue_then_green(monkeypatch, capsys, cfg_path, f, pos, t1, t2,
+                                 _cut_power(pos, 7, "up") if power_cut else [])
 
 
 def test_the_servo_backends_take_each_pens_own_pulse(tmp_path):
@@ -542,3 +525,17 @@ def _cut_power(pos, line: int, pen: str) -> list[str]:
     j.record(pos.counts, (0, 0), line, pen)
     j.close()
     return ["--trust-position"]
+
+
+def _resume_asks_blue_then_green(monkeypatch, capsys, cfg_path, f, pos, t1, t2, extra):
+    """`draw --resume` (Enter at each prompt) asks for the blue pen, then the green one, and
+    the two traces together draw the file."""
+    monkeypatch.setattr(sys, "stdin", io.StringIO("\n\n"))
+    code, out, _ = run(capsys, "--config", cfg_path, "draw", f, "--backend", "fake",
+                       "--resume", "--trace", t2, *extra)
+    assert code == 0
+    assert [line for line in out.splitlines() if line.startswith("pause:")] == [
+        "pause: put in the blue pen (2 of 3), then press Enter",
+        "pause: put in the green pen (3 of 3), then press Enter"]
+    xy = watchless_xy(cfg_path, pos)
+    covers(np.vstack([drawn(t1, cfg_path), drawn(t2, cfg_path, tuple(xy))]), f)
