@@ -459,3 +459,48 @@ def test_parse_status_reads_what_grbl_prints(reports):
     for state_, x, y in reports:
         s = grbl.parse_status(f"<{state_}|MPos:{x:.3f},{y:.3f},0.000|FS:0,0|Pn:XYZ>")
         assert s.state == state_ and s.mpos[:2] == (float(f"{x:.3f}"), float(f"{y:.3f}"))
+
+
+TWO_PENS = """G21 G90
+M0 (pen: black)
+G0 Z5
+G0 X0 Y0
+G1 Z-1 F600
+G1 X20
+G1 Y20
+G0 Z5
+M0 (pen: red)
+G0 X-20 Y0
+G1 Z-1
+G1 X-40
+G1 Y-10
+G0 Z5
+"""
+
+
+def test_pen_changes_wait_until_the_controller_has_run_all_before_them(tmp_path, standins,
+                                                                      monkeypatch, capsys):
+    """An M0 / pen change over serial: everything before it runs (Idle, pen up), then the
+    prompt names the pen; Enter goes on, and the whole file is drawn."""
+    g = standins(tick_s=0.5)
+    cfg_path = serial_config(tmp_path, g.port)
+    calibrated(cfg_path)
+    f = tmp_path / "two.ngc"
+    f.write_text(TWO_PENS)
+    seen = []
+
+    class Person:
+        def readline(self):
+            seen.append((g.state, g.pen_down, g.answered))
+            return "\n"
+
+    monkeypatch.setattr(sys, "stdin", Person())
+    capsys.readouterr()
+    assert run(cfg_path, "draw", str(f), "--backend", "serial") == 0
+    out = capsys.readouterr().out
+    assert [ln for ln in out.splitlines() if ln.startswith("pause:")] == [
+        "pause: put in the black pen (1 of 2), then press Enter",
+        "pause: put in the red pen (2 of 2), then press Enter"]
+    assert len(seen) == 2 and all(st == "Idle" and not down for st, down, _ in seen)
+    assert seen[0][2] < seen[1][2] < g.answered        # lines ran between and after the waits
+    check_path(cfg_path, f, g.segments)

@@ -22,7 +22,7 @@ _COMMENT_RE = re.compile(r"\([^)]*\)")
 #: G codes accepted and ignored (besides the ones interpreted).
 IGNORED_G = {"17", "40", "49", "54", "61", "64", "80", "94", "91.1"}
 #: M codes accepted and ignored (besides M2, M30, M3, M5).
-IGNORED_M = {"7", "8", "9"}
+IGNORED_M = {"0", "1", "7", "8", "9"}     # M0/M1 pause: they move nothing
 _ALLOWED_LETTERS = set("GMXYZIJRFPSTN")
 
 

@@ -359,7 +359,8 @@ class Streamer:
         """Stream every line of `chunks`; True once the controller is Idle after the last
         answer, False as soon as stop() is true (nothing more is sent then)."""
         clock = self.link.clock
-        self.start_q = tuple(start_q)
+        if self.start_q is None:           # a run after a pause goes on from where it was
+            self.start_q = tuple(start_q)
         self._last_rx = self._moved = clock()
         it = iter(chunks)
         exhausted = False

@@ -86,7 +86,8 @@ def cmd_draw(args, argv=None) -> int:
     if args.backend == "serial" or args.save_stream:
         from vplotter.commands import serial
 
-        return serial.draw(args, argv, cfg, pos, begin)
+        return serial.draw(args, argv, cfg, pos, begin,
+                           lambda s, progress: _pause_handler(s, progress, False))
     sess = session(args, cfg, command_line(argv), pos)
     sess.drawing = {"file": os.path.abspath(args.file), "sha256": file_hash(args.file),
                     "options": options_key(args.file, args)}

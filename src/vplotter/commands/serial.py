@@ -10,7 +10,7 @@ from vplotter.commands.common import Progress, command_line, eprint, file_hash, 
 from vplotter.errors import ConfigError, Interrupted
 
 
-def draw(args, argv, cfg, pos, begin) -> int:
+def draw(args, argv, cfg, pos, begin, pause_handler=None) -> int:
     """cmd_draw hands the serial case here: validate, then stream the lines to the controller."""
     import numpy as np
 
@@ -52,6 +52,8 @@ def draw(args, argv, cfg, pos, begin) -> int:
         quiet = gcode.read(args.file, strict=args.strict, warn=lambda m: None)
         progress = (Progress(summary) if summary and sys.stderr.isatty() and not s.dry_run
                     else None)
+        if pause_handler is not None:      # M0, a pen change: all before it runs, then it asks
+            s.on_pause = pause_handler(s, progress)
         try:
             s.play(pipeline.stream(cfg, quiet, pos.counts, pos.ref_mm, args.file,
                                    start_at=begin, scheduler=LineScheduler), progress)

@@ -16,6 +16,7 @@ from vplotter import kinematics
 from vplotter.backends.grbl import NOT_YET, AlarmError, ControllerError, LinkError, Streamer
 from vplotter.backends.serial import SerialBackend
 from vplotter.errors import BackendError, Interrupted
+from vplotter.inputs.gcode import Pause
 from vplotter.machine.job import _END, SIGNALS, Session, Stop, _Ahead, _Failure
 
 
@@ -114,7 +115,7 @@ class SerialSession(Session):
                 progress(t_us, line)
 
         try:
-            done = s.run(ahead, first.q[0], lambda: bool(self._signum), on_status, self._cover)
+            done = self._run_to_pauses(s, ahead, on_status, first.q[0])
         except ControllerError as e:
             text, _, (line, _, _) = s.line_at(e.index)
             self._halt()
@@ -137,9 +138,27 @@ class SerialSession(Session):
         on_status(s)
         self.pen_down = bool(s.meta[-1][1]) if s.meta else self.pen_down
 
+    def _run_to_pauses(self, s: Streamer, ahead, on_status, q0) -> bool:
+        """Stream up to each Pause (M0, a pen change), let everything before it run until
+        the controller is Idle (the pen is up), then the pause: `on_pause` asks the person
+        and waits. True once all has run, False at a stop."""
+        stop = lambda: bool(self._signum)      # noqa: E731
+        while True:
+            seg = _UpToPause(ahead)
+            if not s.run(seg, q0, stop, on_status, self._cover):
+                return False
+            if seg.pause is None:
+                return True
+            on_status(s)
+            if self.on_pause is not None:
+                self.on_pause(seg.pause)
+            if stop():
+                return False
+
     def _tee(self, chunks):
         for ch in chunks:
-            self._trace_file.write("".join(t + "\n" for t in ch.text))
+            if not isinstance(ch, Pause):
+                self._trace_file.write("".join(t + "\n" for t in ch.text))
             yield ch
 
     def _play_dry(self, chunks, progress) -> None:
@@ -148,6 +167,10 @@ class SerialSession(Session):
             if self._signum:
                 signum = self._signum
                 raise Interrupted(f"stopped by {signal.Signals(signum).name}", signum)
+            if isinstance(ch, Pause):
+                if self.on_pause is not None:
+                    self.on_pause(ch)
+                continue
             if len(ch):
                 last = ch
                 self.line = int(ch.line[-1])
@@ -197,6 +220,23 @@ class SerialSession(Session):
                 self._halt()
             except BackendError:
                 pass
+
+
+class _UpToPause:
+    """The chunks of `it` up to the next Pause, which is kept in `pause`."""
+
+    def __init__(self, it):
+        self.it, self.pause = it, None
+
+    def __iter__(self):
+        return self
+
+    def __next__(self):
+        ch = next(self.it)
+        if isinstance(ch, Pause):
+            self.pause = ch
+            raise StopIteration
+        return ch
 
 
 class _Prefetch(_Ahead):
