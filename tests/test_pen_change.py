@@ -539,3 +539,22 @@ def _resume_asks_blue_then_green(monkeypatch, capsys, cfg_path, f, pos, t1, t2, 
         "pause: put in the green pen (3 of 3), then press Enter"]
     xy = watchless_xy(cfg_path, pos)
     covers(np.vstack([drawn(t1, cfg_path), drawn(t2, cfg_path, tuple(xy))]), f)
+
+
+def test_a_background_draw_waits_for_continue_at_a_plain_pause_too(capsys, cfg_path,
+                                                                   monkeypatch, tmp_path):
+    """M0 (or --pause-between-layers) in a background draw: it waits for `vplotter continue`
+    as at a pen change, instead of being refused or skipped."""
+    f = tmp_path / "m0.ngc"
+    f.write_text("G1 X0 Y0 Z-1 F600\nG1 X10\nG0 Z5\nM0 (turn the paper)\nG1 Z-1\nG1 Y10\nG0 Z5\n")
+    assert run(capsys, "--config", cfg_path, "calibrate", "--at", "0", "0")[0] == 0
+    seen = []
+
+    def meanwhile(k):
+        seen.append(capsys.readouterr().out)
+        assert nested("continue") == 0
+
+    code, polls = detached_draw(capsys, cfg_path, f, monkeypatch, meanwhile)
+    assert code == 0 and len(polls) == 1
+    assert seen[0].splitlines()[-1] == ("pause: turn the paper; waiting: `vplotter continue` "
+                                        "goes on")

@@ -78,9 +78,6 @@ def cmd_draw(args, argv=None) -> int:
     cfg = load_config(args)
     if args.detach and args.dry_run:
         raise ConfigError("error: --detach draws on the machine; a --dry-run has nothing to detach")
-    if args.detach and args.pause_between_layers:
-        raise ConfigError("error: --pause-between-layers waits for Enter on the terminal; "
-                          "not with --detach")
     pos = position(cfg, args, args.dry_run)
     begin = start_at(args, pos)
     if args.backend == "serial" or args.save_stream:
