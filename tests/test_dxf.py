@@ -441,6 +441,7 @@ def test_bad_dxf_one_line_exit_2(tmp_path, capsys, config_path, content):
     p.write_bytes(content)
     code, _, err = run(capsys, ["--config", config_path, "estimate", p])
     assert code == 2 and err.count("\n") <= 2 and f"{p}: error:" in err
+    assert "StopIteration" not in err            # a truncated file says so in words
 
 
 def test_convert_info_and_binary_dxf(tmp_path, capsys, config_path):

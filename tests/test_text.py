@@ -349,3 +349,18 @@ def test_a_font_size_that_does_not_parse_is_ignored_as_css_does(tmp_path):
     d2, _ = read(tmp_path, '<text x="10" y="50" font-size="20">Abc</text>')
     assert w == [] and all(np.allclose(a.pts, b.pts)
                            for a, b in zip(d1.strokes, d2.strokes, strict=True))
+
+
+def test_too_much_text_is_one_line_and_exit_2_with_memory_bounded(capsys, tmp_path,
+                                                                  config_path):
+    """A one-line 5 MB .txt (or SVG text) once took 2.5 GB and minutes: now refused at once."""
+    f = tmp_path / "huge.txt"
+    f.write_text("A" * (T.MAX_CHARS + 1), encoding="utf-8")
+    code, _, err = run(capsys, ["--config", config_path, "estimate", f])
+    assert code == 2 and err.splitlines()[-1] == (
+        f"{f}: error: more than {T.MAX_CHARS:,} characters of text: too many to draw")
+    svg = tmp_path / "huge.svg"
+    svg.write_text('<svg xmlns="http://www.w3.org/2000/svg" width="10mm" height="10mm">'
+                   + "<text x='0' y='5'>ABCDEFGHIJ</text>" * (T.MAX_CHARS // 10 + 1) + "</svg>")
+    code, _, err = run(capsys, ["--config", config_path, "estimate", svg])
+    assert code == 2 and err.splitlines()[-1].startswith(f"{svg}: error: more than")

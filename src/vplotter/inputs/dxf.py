@@ -106,6 +106,8 @@ def _open(path: str):
 
 
 def _first_line(e: BaseException) -> str:
+    if isinstance(e, (StopIteration, EOFError)):
+        return "it ends before its sections do (truncated?)"
     text = str(e).strip().splitlines()
     return (text[0] if text else type(e).__name__)[:200]
 

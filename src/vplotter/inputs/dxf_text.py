@@ -53,6 +53,7 @@ class TextWriter:
         self.missing: set[str] = set()
         self.subs: dict[str, str] = {}
         self.used: set[str] = set()
+        self.chars = 0
 
     def font(self, e) -> str:
         name = e.dxf.get("style", "Standard")
@@ -65,6 +66,8 @@ class TextWriter:
         return self.fonts[name]
 
     def layout(self, line: str, size: float, font: str, anchor: str = "start"):
+        self.chars += len(line)
+        hershey.too_many(self.chars, self.path)
         shape = hershey.layout(line, size, font=font, anchor=anchor)
         self.missing |= shape.missing
         self.subs.update(shape.substituted)

@@ -141,6 +141,7 @@ class TextReader:
         self.fonts: set[str] = set()
         self.unsupported: set[str] = set()
         self.cache: dict = {}
+        self.chars = 0
 
     def finish(self) -> None:
         r = self.r
@@ -282,6 +283,9 @@ class TextReader:
         return out
 
     def note(self, c: Char, what: str | None) -> None:
+        self.chars += 1
+        if self.chars > fonts.MAX_CHARS:
+            fonts.too_many(self.chars, self.r.path)
         self.fonts.add(c.p.font)
         if what == "missing":
             self.missing.add(c.ch)

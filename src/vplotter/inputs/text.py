@@ -152,6 +152,19 @@ def glyph(font: str, ch: str) -> tuple[tuple[np.ndarray, ...], float, str | None
     return (), glyphs["?"][1], "missing"
 
 
+MAX_CHARS = 200_000     # characters one drawing may set (1 km of 5 mm letters): beyond, a typo
+
+
+def too_many(count: int, where: str) -> None:
+    """An error once a drawing sets more than MAX_CHARS characters (memory and time stay
+    bounded: a 5 MB one-line file would take gigabytes)."""
+    if count > MAX_CHARS:
+        from vplotter.errors import InputError
+
+        raise InputError(f"{where}: error: more than {MAX_CHARS:,} characters of text: too "
+                         f"many to draw")
+
+
 def layout(text: str, size: float, *, font: str = DEFAULT_FONT, anchor: str = "start",
            letter_spacing: float = 0.0) -> TextShape:
     """One line of text at font size `size` (see the module notes for units and axes).
@@ -241,6 +254,7 @@ def drawing(name: str, text: str, cap_mm: float = TEXT_FILE_CAP_MM, *,
     line (1, 2, ...). Returns (Drawing, TextShape)."""
     from vplotter.inputs.strokes import Drawing, Stroke
 
+    too_many(len(text), name)
     lines = list(_lines(text, cap_mm / CAP_HEIGHT, font, anchor, letter_spacing, line_height))
     strokes = [Stroke(p, k + 1) for k, sh in lines for p in sh.polylines]
     return Drawing(name, strokes), _merged([sh for _, sh in lines])
