@@ -334,9 +334,10 @@ def join_limit(join_mm: float | None, tol_mm: float, warn: Callable[[str], None]
     return join_mm
 
 
-def options_key(path: str, args) -> str:
-    """The options that decide what is drawn in which order (a resume needs the same)."""
-    kind = file_kind(path)
+def options_key(path: str, args, kind: str | None = None) -> str:
+    """The options that decide what is drawn in which order (a resume needs the same).
+    `kind`: file_kind(path), when the caller has it."""
+    kind = kind or file_kind(path)
     method = getattr(args, "order", None) or ("keep" if kind == "gcode" else "best")
     photo = photo_options(args) if kind == "image" else None
     key = (method, placement(args), getattr(args, "join", None),
@@ -376,7 +377,7 @@ def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
     pause = bool(getattr(args, "pause_between_layers", False))
     tol = cfg.motion.tolerance_mm * CHORD_SHARE
     join_mm = join_limit(getattr(args, "join", None), tol, warn)
-    key = options_key(path, args)
+    key = options_key(path, args, kind)
     prep = Prepared(path, kind, passthrough=False, strict=strict, join_mm=join_mm,
                     pause=pause, key=key, warn=warn,
                     start_xy=(float(start_xy[0]), float(start_xy[1])), tol_mm=tol,
