@@ -146,49 +146,32 @@ def _fill(args):
 
 
 def file_kind(path: str) -> str:
-    """"svg", "dxf", "image", "text" or "gcode": by suffix, else by the first bytes."""
+    """"svg", "dxf", "image", "text" or "gcode": by suffix, else by the first bytes (read
+    once)."""
     low = path.lower()
     if low.endswith(SVG_SUFFIXES):
         return "svg"
-    if low.endswith(TEXT_SUFFIXES):        # unless it holds SVG
-        return "svg" if _svg_markup(path) else "text"
     if low.endswith(".dxf"):
         return "dxf"
     if low.endswith(IMAGE_SUFFIXES):
         return "image"
     try:
         with open(path, "rb") as f:
-            head = f.read(32)
+            head = f.read(256)
     except OSError:
-        return "gcode"      # the reader reports it
+        head = None         # the reader reports it
+    text = head.lstrip(b"\xef\xbb\xbf \t\r\n") if head is not None else b""
+    if low.endswith(TEXT_SUFFIXES):        # unless it holds SVG
+        return "svg" if text.startswith((b"<?xml", b"<svg", b"<!--", b"<!DOCTYPE")) else "text"
+    if head is None:
+        return "gcode"
     if head.startswith(IMAGE_MAGIC) or (head[:4] == b"RIFF" and head[8:12] == b"WEBP"):
         return "image"
     if head.startswith(b"AutoCAD Binary DXF") or head.split()[:2] == [b"0", b"SECTION"]:
         return "dxf"        # group code 0, SECTION: a DXF file; or a binary DXF's sentinel
-    return "svg" if is_svg(path) else "gcode"
-
-
-def _svg_markup(path: str) -> bool:
-    try:
-        with open(path, "rb") as f:
-            head = f.read(256).lstrip(b"\xef\xbb\xbf \t\r\n")
-    except OSError:
-        return False
-    return head.startswith((b"<?xml", b"<svg", b"<!--", b"<!DOCTYPE"))
-
-
-def is_svg(path: str) -> bool:
-    """By suffix, or by content: gzip (svgz) or text starting with '<'."""
-    if path.lower().endswith(SVG_SUFFIXES):
-        return True
-    try:
-        with open(path, "rb") as f:
-            head = f.read(256)
-    except OSError:
-        return False        # the reader reports it
-    if head.startswith(b"\x1f\x8b"):
-        return True
-    return head.lstrip(b"\xef\xbb\xbf \t\r\n").startswith(b"<")
+    if head.startswith(b"\x1f\x8b") or text.startswith(b"<"):
+        return "svg"        # gzip (svgz), or markup
+    return "gcode"
 
 
 # ------------------------------------------------------------------ G-code as strokes
@@ -351,9 +334,10 @@ def join_limit(join_mm: float | None, tol_mm: float, warn: Callable[[str], None]
     return join_mm
 
 
-def options_key(path: str, args) -> str:
-    """The options that decide what is drawn in which order (a resume needs the same)."""
-    kind = file_kind(path)
+def options_key(path: str, args, kind: str | None = None) -> str:
+    """The options that decide what is drawn in which order (a resume needs the same).
+    `kind`: file_kind(path), when the caller has it."""
+    kind = kind or file_kind(path)
     method = getattr(args, "order", None) or ("keep" if kind == "gcode" else "best")
     photo = photo_options(args) if kind == "image" else None
     key = (method, placement(args), getattr(args, "join", None),
@@ -393,7 +377,7 @@ def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
     pause = bool(getattr(args, "pause_between_layers", False))
     tol = cfg.motion.tolerance_mm * CHORD_SHARE
     join_mm = join_limit(getattr(args, "join", None), tol, warn)
-    key = options_key(path, args)
+    key = options_key(path, args, kind)
     prep = Prepared(path, kind, passthrough=False, strict=strict, join_mm=join_mm,
                     pause=pause, key=key, warn=warn,
                     start_xy=(float(start_xy[0]), float(start_xy[1])), tol_mm=tol,

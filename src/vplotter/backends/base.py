@@ -6,6 +6,13 @@ from vplotter.config import Config
 from vplotter.motion.schedule import Rows
 
 
+def servo_widths(cfg: Config) -> tuple[int, ...]:
+    """Every servo pulse a draw may send (us): [pen] up_us and down_us, and the down_us of
+    each owned [pens.NAME] that has one of its own."""
+    return (cfg.pen.up_us, cfg.pen.down_us,
+            *(p.down_us for p in cfg.pens.owned if p.down_us is not None))
+
+
 class Backend:
     """Base class. `open` claims the pins (motor outputs at the idle word, pen pulses off),
     `play` outputs rows at their times, `close` releases everything and must never raise.

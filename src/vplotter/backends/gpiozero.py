@@ -20,7 +20,7 @@ import time
 import warnings
 
 from vplotter.backends import memory
-from vplotter.backends.base import Backend
+from vplotter.backends.base import Backend, servo_widths
 from vplotter.backends.realtime import Player
 from vplotter.errors import BackendError
 from vplotter.motion.schedule import Rows
@@ -45,9 +45,8 @@ class GpiozeroBackend(Backend):
         self._pen_dev = None                 # the pen pin on the lgpio factory
         self._kind_pen = None                # a solenoid or a cam (pens.py)
         self._pen_devices = []
-        widths = [cfg.pen.up_us, cfg.pen.down_us] + [p.down_us for p in cfg.pens.owned
-                                                    if p.down_us is not None]
-        lo, hi = min(widths), max(widths)      # [pens.NAME] down_us: per-pen pen-down pulses
+        widths = servo_widths(cfg)             # [pens.NAME] down_us: per-pen pen-down pulses
+        lo, hi = min(widths), max(widths)
         self._pen_range = (lo, hi)
         self._clock, self._sleep = clock or time.perf_counter_ns, sleep or time.sleep
         # coils: one pin at a time in a legal order, 1 / max_step_rate between two changes of
@@ -161,8 +160,7 @@ class GpiozeroBackend(Backend):
     def _lgpio_pen(self, factory) -> None:
         from gpiozero import DigitalOutputDevice
 
-        for w in (self.cfg.pen.up_us, self.cfg.pen.down_us,
-                  *(p.down_us for p in self.cfg.pens.owned if p.down_us is not None)):
+        for w in servo_widths(self.cfg):
             if not 500 <= w <= 2500:
                 raise ValueError(f"lgpio makes servo pulses of 500..2500 us, not {w} ([pen] "
                                  f"up_us/down_us)")

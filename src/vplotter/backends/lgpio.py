@@ -29,7 +29,7 @@ import inspect
 import time
 
 
-from vplotter.backends.base import Backend
+from vplotter.backends.base import Backend, servo_widths
 from vplotter.backends.lgpio_setup import chip_error, load_lgpio, tight_timers
 from vplotter.backends import memory
 from vplotter.backends.realtime import Player
@@ -64,8 +64,7 @@ class LgpioBackend(Backend):
         if self.cfg.pen.kind != "servo":
             raise BackendError(f"error: the lgpio backend drives a servo pen; for [pen] kind = "
                                f"\"{self.cfg.pen.kind}\" use --backend gpiozero")
-        for w in (self.cfg.pen.up_us, self.cfg.pen.down_us,
-                  *(p.down_us for p in self.cfg.pens.owned if p.down_us is not None)):
+        for w in servo_widths(self.cfg):
             if not 500 <= w <= 2500:
                 raise BackendError(f"error: servo pulses are 500..2500 us, not {w} "
                                    f"([pen] up_us/down_us)")

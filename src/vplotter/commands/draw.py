@@ -55,8 +55,8 @@ def start_at(args, pos):
                            f"(--force to resume anyway, or --from-line N)")
     from vplotter.prepare import options_key
 
-    if info.get("options", options_key(args.file, args)) != options_key(args.file, args) \
-            and not args.force:
+    key = options_key(args.file, args)
+    if info.get("options", key) != key and not args.force:
         raise MachineError(f"error: the interrupted draw of {args.file} was placed or ordered "
                            f"with other options; give the same ones to --resume")
     xy = info.get("xy")

@@ -6,6 +6,8 @@ from __future__ import annotations
 import queue
 import threading
 
+from vplotter.motion.schedule import Rows
+
 
 class Writer:
     """Writes journal records and trace rows in order on a helper thread (fsync and text
