@@ -489,10 +489,11 @@ def tool_programs(draw):
     lines, m6 = [], draw(st.booleans())
     for k in range(draw(st.integers(1, 8))):
         t = draw(st.integers(0, 3))
-        form = draw(st.sampled_from(["T M6", "M6 T", "T;M6", "M0", "none"] if m6 else
-                                    ["T", "M0", "none"]))
+        form = draw(st.sampled_from(["T M6", "M6 T", "T;M6", "M6.0 T", "M0", "M0.0", "none"]
+                                    if m6 else ["T", "M0", "M0.0", "none"]))
         lines += {"T M6": [f"T{t} M6"], "M6 T": [f"M6 T{t}"], "T;M6": [f"T{t}", "G0 X0", "M6"],
-                  "T": [f"T{t}"], "M0": [f"M0 (pen: P{t})"], "none": []}[form]
+                  "M6.0 T": [f"M6.0 T{t}"], "T": [f"T{t}"], "M0": [f"M0 (pen: P{t})"],
+                  "M0.0": [f"M1.0 (pen: P{t})"], "none": []}[form]
         lines += ["M3", f"G1 X{k + 1}", "M5"]
     return "\n".join(lines)
 
@@ -515,6 +516,15 @@ def test_tool_changes_agree_with_the_scan(text):
         elif isinstance(r, Pen) and r.down:
             want.append(pen)
     assert [s.pen for s in strokes] == want
+
+
+def test_the_scan_sees_a_pen_change_written_with_a_decimal_point():
+    # M0.0 is M0 to the reader: the scan that counts the pens must see it too, else the
+    # second pen is not counted and neither change pauses (the file looked like one pen)
+    text = "M0 (pen: red)\nM3\nG1 X1\nM5\nM0.0 (pen: blue)\nM3\nG1 X2\nM5"
+    assert gcode_tools.scan(text.split("\n")) == (False, ("red", "blue"))
+    recs, _ = _read(text)
+    assert [(p.pen, p.index, p.count) for p in _pauses(recs)] == [("red", 1, 2), ("blue", 2, 2)]
 
 
 def test_refill_every_on_a_gcode_file_drawn_as_it_is(capsys, config_path):

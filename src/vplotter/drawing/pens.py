@@ -47,11 +47,7 @@ Warn = Callable[[str], None]
 # ------------------------------------------------------------------ colour difference
 def lab(colour: str) -> tuple[float, float, float]:
     """CIE L*a*b* (D65) of '#rrggbb'."""
-    rgb = []
-    for k in (1, 3, 5):
-        c = int(colour[k:k + 2], 16) / 255.0
-        rgb.append(c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4)
-    r, g, b = rgb
+    r, g, b = colours.linear_rgb(colour)
     xyz = (0.4124564 * r + 0.3575761 * g + 0.1804375 * b) / 0.95047, \
           (0.2126729 * r + 0.7151522 * g + 0.0721750 * b), \
           (0.0193339 * r + 0.1191920 * g + 0.9503041 * b) / 1.08883

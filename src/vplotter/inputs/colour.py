@@ -43,11 +43,17 @@ def parse(text: str) -> str | None:
                      f"rgb(r, g, b))")
 
 
-def lightness(colour: str) -> float:
-    """CIE L* of '#rrggbb', 0 (black) to 100 (white): how light a pen draws."""
+def linear_rgb(colour: str) -> list[float]:
+    """The linear (not gamma-encoded) sRGB channels of '#rrggbb', 0 to 1."""
     lin = []
     for k in (1, 3, 5):
         c = int(colour[k:k + 2], 16) / 255.0
         lin.append(c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4)
+    return lin
+
+
+def lightness(colour: str) -> float:
+    """CIE L* of '#rrggbb', 0 (black) to 100 (white): how light a pen draws."""
+    lin = linear_rgb(colour)
     y = 0.2126 * lin[0] + 0.7152 * lin[1] + 0.0722 * lin[2]
     return 116.0 * (y ** (1 / 3) if y > 216 / 24389 else (24389 / 27 * y + 16) / 116) - 16.0

@@ -166,23 +166,26 @@ def _bulged(xy: np.ndarray, bulge: np.ndarray, closed: bool, tol: float) -> np.n
     n = len(xy)
     if closed and n > 1:
         xy = np.vstack([xy, xy[:1]])
-    out = [xy[:1]]
-    for i in range(len(xy) - 1):
-        p, q, b = xy[i], xy[i + 1], float(bulge[i % n]) if i < len(bulge) else 0.0
-        chord = float(np.hypot(*(q - p)))
-        if abs(b) < 1e-12 or chord == 0.0:
-            out.append(xy[i + 1:i + 2])
-            continue
-        sweep = 4 * math.atan(b)
-        r = chord / (2 * abs(math.sin(sweep / 2)))
+    b = np.zeros(max(len(xy) - 1, 0))
+    k = min(len(b), len(bulge))
+    b[:k] = bulge[:k]
+    chord = np.hypot(*np.diff(xy, axis=0).T)
+    out, start = [], 0
+    # straight segments are the vertices as they are: only the bulged ones are walked
+    for i in np.nonzero(~(np.abs(b) < 1e-12) & (chord != 0.0))[0].tolist():
+        p, q, c_len = xy[i], xy[i + 1], float(chord[i])
+        sweep = 4 * math.atan(float(b[i]))
+        r = c_len / (2 * abs(math.sin(sweep / 2)))
         # the centre: off the chord's middle to the left of p->q by chord / (2 tan(sweep / 2))
         # (to the right for a clockwise arc or one of more than 180 degrees)
-        d = (q - p) / chord
-        c = (p + q) / 2 + np.array([-d[1], d[0]]) * chord / (2 * math.tan(sweep / 2))
+        d = (q - p) / c_len
+        c = (p + q) / 2 + np.array([-d[1], d[0]]) * c_len / (2 * math.tan(sweep / 2))
         a0 = math.atan2(p[1] - c[1], p[0] - c[0])
         pts = _arc(c[0], c[1], r, a0, sweep, tol)
         pts[-1] = q
-        out.append(pts[1:])
+        out += [xy[start:i + 1], pts[1:]]
+        start = i + 2
+    out.append(xy[start:])
     return np.concatenate(out)
 
 

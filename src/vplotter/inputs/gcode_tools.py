@@ -18,8 +18,9 @@ from vplotter.inputs.gcode_words import tokenize
 
 PEN_COMMENT = re.compile(r"\(\s*pen\s*:\s*([^)]*?)\s*\)", re.IGNORECASE)
 _COMMENT_TEXT = re.compile(r"\(\s*([^)]*?)\s*\)|;\s*(.*?)\s*$")
-# a superset of the lines that may change the pen or end the program (T, M0, M1, M6, M2, M30)
-_HINT = re.compile(r"[tT]|[mM][ \t]*\+?0*(?:[0126]|30)(?![0-9.])")
+# a superset of the lines that may change the pen or end the program (T, M0, M1, M6, M2, M30,
+# however the number is written: M06, M 6, M6.0, M.0 are what tokenize reads as those)
+_HINT = re.compile(r"[tT]|[mM][ \t]*[+-]?[ \t]*0*(?:[0126]|30)?(?![0-9])")
 END_M = (2.0, 30.0)
 
 
