@@ -39,6 +39,14 @@ def _spot(rng, box, margin=15.0):
     return rng.uniform(x0 + margin, x1 - margin), rng.uniform(y0 + margin, y1 - margin)
 
 
+def _turn(x, y, heading, r, side, sweep):
+    """An arc of radius r leaving (x, y) along `heading`, turning left (side 1) or right (-1)
+    by `sweep` radians: its centre and end point (cx, cy, x1, y1)."""
+    cxx, cyy = x - side * r * math.sin(heading), y + side * r * math.cos(heading)
+    a1 = math.atan2(y - cyy, x - cxx) + side * sweep
+    return cxx, cyy, cxx + r * math.cos(a1), cyy + r * math.sin(a1)
+
+
 def tiny_shapes(path, n=1, box=SEED_BOX, seed=1):
     rng = np.random.default_rng(seed)
     out = ["(tiny shapes: every side its own stroke)", "G21 G90", "G00 Z5"]
@@ -79,10 +87,7 @@ def far_arcs(path, n=1, box=SEED_BOX, seed=2):
             ccw = rng.random() < 0.5
             side = 1 if ccw else -1
             sweep = chord / r
-            cxx, cyy = x - side * r * math.sin(heading), y + side * r * math.cos(heading)
-            a0 = math.atan2(y - cyy, x - cxx)
-            a1 = a0 + side * sweep
-            x1, y1 = cxx + r * math.cos(a1), cyy + r * math.sin(a1)
+            cxx, cyy, x1, y1 = _turn(x, y, heading, r, side, sweep)
             x0b, x1b, y0b, y1b = box
             if not (x0b + 5 < x1 < x1b - 5 and y0b + 5 < y1 < y1b - 5):
                 heading += math.pi
@@ -113,11 +118,9 @@ def micro_arcs(path, n=1, box=SEED_BOX, seed=3):
                 continue
             side = 1 if i % 2 else -1                     # wiggle: alternate the turn
             sweep = rng.uniform(0.5, 2.5)
-            cxx, cyy = x - side * r * math.sin(heading), y + side * r * math.cos(heading)
-            a0 = math.atan2(y - cyy, x - cxx)
-            a1 = a0 + side * sweep
+            cxx, cyy, x1, y1 = _turn(x, y, heading, r, side, sweep)
             i_, j_ = cxx - x, cyy - y
-            x, y = cxx + r * math.cos(a1), cyy + r * math.sin(a1)
+            x, y = x1, y1
             out.append(f"{'G03' if side > 0 else 'G02'} X{x:.5f} Y{y:.5f} I{i_:.5f} J{j_:.5f}")
             heading += side * sweep
         out.append("G00 Z5")
@@ -147,10 +150,7 @@ def gcodetools_far(path, n=1, box=SEED_BOX, seed=4, arcs=20):
             sweep = min(length / r, 1.2)
             ccw = rng.random() < 0.5
             side = 1 if ccw else -1
-            cxx, cyy = x - side * r * math.sin(heading), y + side * r * math.cos(heading)
-            a0 = math.atan2(y - cyy, x - cxx)
-            a1 = a0 + side * sweep
-            x1, y1 = cxx + r * math.cos(a1), cyy + r * math.sin(a1)
+            cxx, cyy, x1, y1 = _turn(x, y, heading, r, side, sweep)
             if not (x0b + 5 < x1 < x1b - 5 and y0b + 5 < y1 < y1b - 5):
                 break
             feed = " F400.000000" if i == 0 else ""

@@ -505,3 +505,17 @@ def test_upload_folder_keeps_a_limited_count_and_cleans_what_a_crash_left(tmp_pa
                                 {"name": "b.ngc", "size": len(DRAWING), "estimate_s": 12.3}]
     files.Folder(tmp_path / "up")                     # a new server: the half upload goes
     assert not again.parent.exists()
+
+
+def test_machine_preview_that_times_out_answers_code_and_message(config_path, monkeypatch):
+    """A niced preview subprocess that times out returns (code, stderr) like any other preview
+    (it once returned the three-tuple of the timeout path, which preview's caller could not
+    unpack)."""
+    from vplotter.commands.serve import Machine
+
+    def late(cmd, **kw):
+        raise subprocess.TimeoutExpired(cmd, kw.get("timeout"))
+
+    monkeypatch.setattr(subprocess, "run", late)
+    code, err = Machine(str(config_path)).preview("x.ngc", "x.png")
+    assert code == 1 and "no answer within" in err

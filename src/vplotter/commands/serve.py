@@ -73,7 +73,8 @@ class Machine:
 
     def preview(self, path: str, out: str, size: int = 900) -> tuple[int, str]:
         """`vplotter preview FILE -o OUT.png` (a niced subprocess): (exit code, stderr)."""
-        return self._run(["preview", path, "-o", out, "--size", str(size)], nice=10)
+        code, _, err = self._run(["preview", path, "-o", out, "--size", str(size)], nice=10)
+        return code, err
 
     # ------------------------------------------------------------ act (subprocesses)
     def draw(self, path: str, resume: bool) -> tuple[int, str, str]:
@@ -101,8 +102,6 @@ class Machine:
                                else None)
         except subprocess.TimeoutExpired:
             return 1, "", f"vplotter {argv[0]}: no answer within {timeout_s:g} s"
-        if nice:
-            return r.returncode, r.stderr
         return r.returncode, r.stdout, r.stderr
 
 

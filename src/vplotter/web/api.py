@@ -24,9 +24,10 @@ def error(status: int, message: str):
 
 
 def first_line(text: str) -> str:
+    """The first line naming an error, else the last line, else "failed" (at most 500 chars)."""
     lines = [ln.strip() for ln in text.splitlines() if ln.strip()]
     errors = [ln for ln in lines if "error" in ln]
-    return (errors or lines or ["failed"])[-1 if not errors else 0][:500]
+    return (errors[0] if errors else lines[-1] if lines else "failed")[:500]
 
 
 class TooBig(Exception):

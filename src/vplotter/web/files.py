@@ -92,7 +92,8 @@ class Folder:
         """A fresh path .incoming-XXXX/NAME inside the folder to write an upload to (the
         caller validates it, then keep() or discard())."""
         name = safe_name(raw_name)
-        if name not in self.names() and len(self.names()) >= MAX_FILES:
+        names = self.names()
+        if name not in names and len(names) >= MAX_FILES:
             raise FileError(409, f"the upload folder holds {MAX_FILES} files: delete some first")
         return Path(tempfile.mkdtemp(prefix=".incoming-", dir=self.path)) / name
 
@@ -116,8 +117,7 @@ class Folder:
     def delete(self, raw: str) -> None:
         p = self.file(raw)
         p.unlink()
-        for extra in (self.path / META / f"{p.name}.json",):
-            extra.unlink(missing_ok=True)
+        (self.path / META / f"{p.name}.json").unlink(missing_ok=True)
         self._drop_preview(p.name)
 
     def preview_path(self, name: str) -> Path:

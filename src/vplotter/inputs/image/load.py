@@ -264,10 +264,10 @@ def load_rgb(path, width_mm: float, height_mm: float, pen_mm: float = 0.5, contr
             alpha = a[..., 3].astype(np.float32) / np.float32(255)
             planes = [alpha * p + (1 - alpha) for p in planes]
     else:
-        planes = [_luminance(im)] * 3
+        planes = [_luminance(im)]                 # grey: one plane, resized and toned once
     im.close()
-    return np.stack([_toned(_resized(p, tw, th), contrast, brightness, invert)
-                     for p in planes]).astype(np.float32)
+    out = [_toned(_resized(p, tw, th), contrast, brightness, invert) for p in planes]
+    return np.stack(out * (3 // len(out))).astype(np.float32)
 
 
 def blur(a, radius_px: float):
