@@ -17,7 +17,7 @@ For every image in a folder, every style (hatch, spiral, squiggle, stipple) and 
   length whose plot time (`vplotter estimate --order best` of its lines as G-code, the same
   planner) equals that of our dots.
 - metric, the same for both: the strokes are drawn as lines of the pen width (0.5 mm; dots as
-  discs) at RASTER px/mm (Pillow ImageDraw), reduced to ink coverage 0..1 per 0.5 mm cell (box),
+  discs) at RASTER px/mm (`stamp`: exact at every angle, unlike Pillow's wide lines), reduced to ink coverage 0..1 per 0.5 mm cell (box),
   and Gaussian-blurred with sigma 1 mm (viewing distance); the photo's darkness is computed
   here, independently of vplotter (Pillow's ImageOps.exif_transpose, sRGB decoded,
   Y = 0.2126 R + 0.7152 G + 0.0722 B, darkness 1 - Y), box-resized in linear light to the same
@@ -305,22 +305,44 @@ def cells(height_mm: float) -> tuple[int, int]:
     return round(height_mm * RASTER) // CELL, round(WIDTH_MM * RASTER) // CELL
 
 
-def ink(polys_pic, height_mm: float) -> np.ndarray:
-    """Ink coverage 0..1 per cell, blurred: lines of pen width, dots as discs."""
-    from PIL import Image, ImageDraw
+def stamp(polys_px, shape, width_px: float) -> np.ndarray:
+    """0/1 raster of the strokes: a pixel is ink where its centre lies within width_px / 2 of
+    a stroke (the exact stroke shape with round ends and joins, point-sampled at the pixel
+    centres, the same at every angle: Pillow's wide lines come out about 0.7 of their width
+    near 45 degrees and 1.07 near 70, which bent the measure by the lines' angles). Each
+    polyline is walked in steps of a tenth of the width and a disc set around every step."""
+    rows, cols = shape
+    r = width_px / 2
+    pts = []
+    for q in polys_px:
+        if len(q) == 1 or np.ptp(q, axis=0).max() < 1e-9:
+            pts.append(q[:1])
+            continue
+        seg = np.hypot(*np.diff(q, axis=0).T)
+        n = np.maximum(1, np.ceil(seg / (width_px / 10))).astype(np.int64)
+        idx = np.repeat(np.arange(len(seg)), n)
+        t = (np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)) / np.repeat(n, n)
+        pts.append(np.vstack([q[idx] + (q[idx + 1] - q[idx]) * t[:, None], q[-1:]]))
+    out = np.zeros(rows * cols, dtype=bool)
+    if not pts:
+        return out.reshape(rows, cols)
+    p = np.concatenate(pts)
+    base = np.floor(p).astype(np.int64)
+    k = int(math.ceil(r)) + 1
+    for dy in range(-k, k + 1):
+        for dx in range(-k, k + 1):
+            cx, cy = base[:, 0] + dx, base[:, 1] + dy
+            hit = ((cx + 0.5 - p[:, 0]) ** 2 + (cy + 0.5 - p[:, 1]) ** 2 <= r * r)
+            hit &= (cx >= 0) & (cx < cols) & (cy >= 0) & (cy < rows)
+            out[cy[hit] * cols + cx[hit]] = True
+    return out.reshape(rows, cols)
 
+
+def ink(polys_pic, height_mm: float) -> np.ndarray:
+    """Ink coverage 0..1 per cell, blurred: lines of pen width, dots as discs (`stamp`)."""
     rows, cols = cells(height_mm)
-    im = Image.new("L", (cols * CELL, rows * CELL), 0)
-    d = ImageDraw.Draw(im)
-    lw = round(PEN_MM * RASTER)
-    for p in polys_pic:
-        q = p * RASTER
-        if len(q) == 1 or np.ptp(q, axis=0).max() < 0.5:
-            x, y = q[0]
-            d.ellipse([x - lw / 2, y - lw / 2, x + lw / 2, y + lw / 2], fill=255)
-        else:
-            d.line(list(map(tuple, q.tolist())), fill=255, width=lw, joint="curve")
-    a = np.asarray(im, dtype=np.float64).reshape(rows, CELL, cols, CELL).mean(axis=(1, 3)) / 255
+    im = stamp([p * RASTER for p in polys_pic], (rows * CELL, cols * CELL), PEN_MM * RASTER)
+    a = im.reshape(rows, CELL, cols, CELL).mean(axis=(1, 3))
     return blur(a, SIGMA_MM * RASTER / CELL)
 
 
