@@ -311,10 +311,15 @@ def _ink_per_band(strokes, pic, pen):
     return length * pen / (pic.width_mm / len(STEPS) * pic.height_mm)
 
 
+# a generous spacing (tone curve d^1) per style: the hatch crosses its layers only this fine
+GENEROUS = {"hatch": 0.75}
+
+
 @pytest.mark.parametrize("name", MINE)
 def test_style_inside_and_tone(name):
     pic = _ramp()
-    strokes = style(name)(pic, 1.5, 0.5)
+    sp = GENEROUS.get(name, 1.5)
+    strokes = style(name)(pic, sp, 0.5)
     pts = np.concatenate([s.pts for s in strokes])
     assert np.all(pts >= 0) and np.all(pts[:, 0] <= pic.width_mm) and np.all(pts[:, 1] <= pic.height_mm)
     ink = _ink_per_band(strokes, pic, 0.5)
@@ -324,7 +329,7 @@ def test_style_inside_and_tone(name):
         assert np.all(np.diff(ink) > 0.03), ink                # follow every step
     chords = np.concatenate([np.hypot(*np.diff(s.pts, axis=0).T) for s in strokes])
     assert chords.min() >= 0.1
-    again = style(name)(pic, 1.5, 0.5)                         # deterministic
+    again = style(name)(pic, sp, 0.5)                          # deterministic
     assert len(again) == len(strokes) and all(np.array_equal(a.pts, b.pts)
                                               for a, b in zip(again, strokes))
 
@@ -334,8 +339,9 @@ def test_spacing_is_the_density_knob(name):
     pic = Picture(np.full((240, 320), 0.5, np.float32), 80, 60)
     # a generous spacing (tone curve d^1): halving it about doubles the line (the hatch's
     # layers overlap less at a coarser pitch, so it needs more of them for the same grey)
-    n = sum(s.length_mm() for s in style(name)(pic, 1.5, 0.5))
-    m = sum(s.length_mm() for s in style(name)(pic, 0.75, 0.5))
+    sp = GENEROUS.get(name, 1.5)
+    n = sum(s.length_mm() for s in style(name)(pic, sp, 0.5))
+    m = sum(s.length_mm() for s in style(name)(pic, sp / 2, 0.5))
     assert (1.25 if name == "hatch" else 1.6) < m / n < 2.5
     # coarser (a steeper curve, fewer layers): less line still, never more
     lengths = [sum(s.length_mm() for s in style(name)(pic, sp, 0.5)) for sp in (1.5, 2.5, 4, 6)]
@@ -365,10 +371,11 @@ def test_ramp_ink_rises_in_every_band(name, scarce):
     """Five grey bands, 0.2 to 1.0: every one gets ink and each darker one strictly more, at a
     generous spacing (tone curve d^1) and at a scarce one (d^6 or more, one hatch layer, sparse
     dashed lines in the light)."""
-    from vplotter.inputs.image import squiggle, tone
+    from vplotter.inputs.image import hatch, squiggle, tone
 
-    spacing = (6.0 if name in ("spiral", "squiggle") else 3.0) if scarce else 1.5
-    own = {"spiral": squiggle.tone_gamma, "squiggle": squiggle.tone_gamma}.get(name, tone.gamma)
+    spacing = (6.0 if name in ("spiral", "squiggle") else 3.0) if scarce else GENEROUS.get(name, 1.5)
+    own = {"spiral": squiggle.tone_gamma, "squiggle": squiggle.tone_gamma,
+           "hatch": hatch.tone_gamma}.get(name, tone.gamma)
     w_mm, h_mm, px = 500.0, 50.0, 0.5
     cols = round(w_mm / px)
     d = np.repeat(np.array(RAMP5, np.float32), cols // len(RAMP5))
@@ -412,14 +419,14 @@ def test_white_draws_nothing(name):
 
 def test_hatch_few_lifts_and_layers():
     from vplotter.inputs.image.hatch import coverage, full_layers, layer_units
-    assert full_layers(1.5, 0.5) == 3 and full_layers(3.0, 0.5) == 1
-    c = 1 / 3
+    assert full_layers(0.75, 0.5) == 3 and full_layers(1.25, 0.5) == 1
+    c = 2 / 3
     x = np.linspace(0, 3, 31)
     assert np.allclose(layer_units(coverage(x, c), c, 3), x, atol=1e-5)
     # a generous spacing: d^1 onto 0..C(3), the lines' ink about linear in darkness
     tones = np.array([0, 0.25, 0.5, 0.75, 1.0], np.float32)
     pic = Picture(np.tile(np.repeat(tones, 100), (120, 1)), 125, 30)
-    strokes = style("hatch")(pic, 1.5, 0.5)
+    strokes = style("hatch")(pic, 0.75, 0.5)
     pts = _densify([s.pts for s in strokes], 0.05)
     band = np.minimum((pts[:, 0] / 25).astype(int), 4)
     ink = np.bincount(band, minlength=5) * 0.05 * 0.5 / (25 * 30)
@@ -427,7 +434,7 @@ def test_hatch_few_lifts_and_layers():
     want = layer_units(tones * coverage(3, c), c, 3) * c
     assert np.allclose(ink, want, rtol=0.1, atol=0.02), (ink, want)
     pic = Picture(np.full((200, 200), 0.99, np.float32), 50, 50)
-    strokes = style("hatch")(pic, 1.5, 0.5)
+    strokes = style("hatch")(pic, 0.75, 0.5)
     assert {s.layer for s in strokes} == {"hatch 1", "hatch 2", "hatch 3"}
     # the full layers: a back-and-forth or two each (the third, 95 % of its lines, is dashed)
     assert sum(s.layer != "hatch 3" for s in strokes) <= 6

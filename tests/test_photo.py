@@ -87,7 +87,8 @@ def test_info_says_what_the_budget_chose(capsys, config_path, photo):
     assert any("within 1:00:00" in n for n in info["notes"])
     assert info["time_s"]["best"] <= 3600 and "100 x 67 mm" in info["notes"][0]
     # and what is drawn: the track pitch and the tone curve
-    assert any(re.search(r"track pitch [0-9.]+ mm .*tone curve d\^[0-9.]+", n) for n in info["notes"])
+    assert any(re.search(r"track pitch [0-9.]+ mm .*tone curve (d\^[0-9.]+|fitted)", n)
+               for n in info["notes"])
 
 
 def test_exif_orientation_makes_it_upright(capsys, config_path, tmp_path):
@@ -190,8 +191,33 @@ def test_info_says_which_tone_curve_the_picture_got(capsys, config_path, photo, 
     assert code == 0
     info = json.loads(out)
     note = next(n for n in info["notes"] if "chosen for this picture" in n)
-    chosen = float(re.search(r"tone curve d\^([0-9.]+) chosen", note).group(1))
-    tried = {float(g): float(r) for g, r in re.findall(r"d\^([0-9.]+) (-?[0-9.]+)", note)}
-    assert len(tried) >= 2 and tried[chosen] == max(tried.values())
-    assert any(f"tone curve d^{chosen:.1f}" in n and "pitch" in n for n in info["notes"])
+    curve = r"d\^[0-9.]+|fitted \(ink from darkness [0-9.]+ up\)"
+    chosen = re.search(rf"tone curve ({curve}) chosen", note).group(1)
+    tried = {g: float(r) for g, r in re.findall(rf"({curve}) (-?[0-9.]+)", note.split(": ", 1)[1])}
+    assert len(tried) >= 3 and tried[chosen] == max(tried.values())
+    assert any("fitted" in g for g in tried)           # the measured response was tried too
+    assert any(f"tone curve {chosen}" in n and "pitch" in n for n in info["notes"])
     assert info["time_s"]["best"] <= 1200
+
+
+@pytest.mark.parametrize("style", ["hatch", "spiral", "squiggle"])
+@pytest.mark.parametrize("limit", ["15m", "45m"])
+def test_a_chosen_curve_keeps_ink_rising_with_darkness(capsys, config_path, tmp_path, style, limit):
+    """Five grey bands (linear darkness 0.2 to 1.0) through the whole budget search, the
+    fitted curves (ink from a threshold up) among those tried: each darker band gets more
+    ink, the lightest some."""
+    bands = 5
+    v = [round(255 * (1 - d) ** (1 / 2.2)) for d in np.linspace(0.2, 1.0, bands)]
+    img = Image.fromarray(np.repeat(np.array(v, np.uint8), 60)[None, :].repeat(40, 0))
+    src, out = tmp_path / "bands.png", tmp_path / "bands.ngc"
+    img.save(src)
+    code, _, err = run(capsys, ["--config", config_path, "convert", src, "-o", out, "--style",
+                                style, "--width", 150, "--max-time", limit])
+    assert code == 0, err
+    x0 = PAGE_CENTRE[0] - 75
+    ink = np.zeros(bands)
+    for p in tc.reference_path(str(out)):
+        seg = np.hypot(*np.diff(p, axis=0).T)
+        mid = (p[1:, 0] + p[:-1, 0]) / 2
+        ink += np.bincount(np.clip(((mid - x0) / 30).astype(int), 0, bands - 1), seg, bands)
+    assert ink[0] > 0 and np.all(np.diff(ink) > 0), (ink, err)

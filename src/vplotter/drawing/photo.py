@@ -5,8 +5,10 @@ The picture is sized first (--width, --height, or the largest size inside the pa
 --margin, aspect kept), because the line spacing only means something at the final size; it
 is loaded once at the resolution the pen can show; then `budget.fit` tries densities of the
 style, each placed on the page, put in a quick (greedy) order and timed by the caller's
-planner, and keeps the densest that fits; then (`pick_curve`) the same for two other tone
-curves, each drawing scored against the picture (`inputs/image/score.py`), the best kept.
+planner, and keeps the densest that fits; then (`pick_curve`) the same for other tone
+curves (exponents either side, and curves fitted to the drawing's own measured response:
+`inputs/image/calibrate.py`), each drawing scored against the picture
+(`inputs/image/score.py`), the best kept.
 The caller orders the result as asked (best by
 default) and that order never takes longer than the greedy one it was timed in.
 """
@@ -116,13 +118,16 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
     shift = page.centre - np.array([w / 2, h / 2])
     extra = {"tsp": True} if opts.tsp else {}
 
-    def make(spacing: float, gamma: float | None = None):
-        """(placed strokes in a greedy order, the style's own strokes in picture mm)."""
+    def draw(spacing: float, curve=None):
+        """The style's own strokes in picture mm (curve: the tone curve, None: the style's)."""
         if layers is not None:                        # every pen's layer: one budget
-            made = cmyk.strokes(style, opts.style, layers, spacing, opts.pen_mm, **extra)
-        else:
-            made = style(picture, spacing, opts.pen_mm, **extra,
-                         **({} if gamma is None else {"gamma": gamma}))
+            return cmyk.strokes(style, opts.style, layers, spacing, opts.pen_mm, **extra)
+        return style(picture, spacing, opts.pen_mm, **extra,
+                     **({} if curve is None else {"curve": curve}))
+
+    def make(spacing: float, curve=None):
+        """(placed strokes in a greedy order, the style's own strokes in picture mm)."""
+        made = draw(spacing, curve)
         moved = [replace(s, pts=s.pts + shift, line=i + 1) for i, s in enumerate(made)]
         return order.order(place.place(moved, put, page), "greedy", start_xy), made
 
@@ -145,9 +150,9 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
     timed = lambda made: plot_time(made[0])                    # noqa: E731
     (drawn, raw), choice = budget.fit(make, timed, budget_s, start, lo, hi, POWER[opts.style])
     if opts.style in CURVES and layers is None:
-        drawn, choice, gamma, said = pick_curve(picture, opts, make, timed, budget_s, lo, hi,
-                                                drawn, raw, choice)
-        extra = {**extra, "gamma": gamma}
+        drawn, choice, curve, said = pick_curve(picture, opts, draw, make, timed, budget_s, lo,
+                                                hi, raw, drawn, choice)
+        extra = {**extra, "curve": curve}
         notes.append(said)
     notes.append(choice.text())
     notes.append(image.describe(opts.style, choice.spacing_mm, opts.pen_mm, picture, **extra))
@@ -159,59 +164,75 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
 
 def default_gamma(style: str, spacing_mm: float, pen_mm: float) -> float:
     """The tone curve's exponent a style takes from the spacing alone."""
-    from vplotter.inputs.image import squiggle, tone
+    from vplotter.inputs.image import hatch, squiggle
 
     if style == "hatch":
-        return tone.gamma(spacing_mm, pen_mm)
+        return hatch.tone_gamma(spacing_mm, pen_mm)
     return squiggle.tone_gamma(spacing_mm, pen_mm)
 
 
-def pick_curve(picture, opts: PhotoOptions, make, timed, budget_s: float, lo: float, hi: float,
-               drawn, raw, choice):
-    """The tone curve that draws this picture best within the budget: the spacing's own
-    exponent g0, g0 / CURVE_STEP and g0 x CURVE_STEP, and when one of those two wins one step
-    further that way (at most CURVE_MORE more; gamma within 1..the style's most), each fitted
-    to the budget (a few tries from the spacing already found), its strokes scored against
-    the picture (`score.correlation`: ink at the pen width, blurred at 1 mm, against the
-    blurred darkness). (placed strokes, budget.Choice, gamma, a note for `info`)."""
-    from vplotter.inputs.image import score
+def pick_curve(picture, opts: PhotoOptions, draw, make, timed, budget_s: float, lo: float,
+               hi: float, raw, drawn, choice):
+    """The tone curve that draws this picture best within the budget. First exponents: the
+    spacing's own g0, g0 / CURVE_STEP and g0 x CURVE_STEP, and when one of those two wins one
+    step further that way (at most CURVE_MORE more; within 1..CURVE_MAX), each fitted to the
+    budget (a few tries from the spacing already found). Then curves fitted to the best
+    drawing's measured response (`calibrate.py`: ink rising straight with darkness above a
+    threshold): a few thresholds drawn at that drawing's spacing (`calibrate.search`), the
+    best of them fitted to the budget. Every drawing is scored
+    against the picture (`score.correlation`: ink at the pen width, blurred at 1 mm, against
+    the blurred darkness). (placed strokes, budget.Choice, the curve, a note for `info`)."""
+    from vplotter.inputs.image import calibrate, score, tone
 
-    top = CURVE_MAX
     dark = score.darkness(picture)
     g0 = default_gamma(opts.style, choice.spacing_mm, opts.pen_mm)
-    best = (score.correlation(raw, picture, opts.pen_mm, dark), g0, drawn, choice)
-    said = [f"d^{g0:.1f} {best[0]:.3f}"]
+    best = (score.correlation(raw, picture, opts.pen_mm, dark), g0, drawn, choice, raw)
+    said = [f"{tone.name(g0)} {best[0]:.3f}"]
     made_tries = list(choice.tries)
 
-    def attempt(g: float) -> bool:
-        """Try the curve d^g; True if it is the best so far."""
+    def attempt(g) -> bool:
+        """Try the curve g (an exponent or a tone.Table); True if it is the best so far."""
         nonlocal best
         try:
             (placed, made), c = budget.fit(lambda sp: make(sp, g), timed, budget_s,
-                                           choice.spacing_mm, lo, hi, POWER[opts.style],
+                                           best[3].spacing_mm, lo, hi, POWER[opts.style],
                                            most=CURVE_TRIES)
         except ConfigError:                   # even the widest spacing is too long
             return False
         made_tries.extend(c.tries)
         r = score.correlation(made, picture, opts.pen_mm, dark)
-        said.append(f"d^{g:.1f} {r:.3f}")
+        said.append(f"{tone.name(g)} {r:.3f}")
         if r > best[0]:
-            best = (r, g, placed, c)
+            best = (r, g, placed, c, made)
             return True
         return False
 
     for step in (1 / CURVE_STEP, CURVE_STEP):
-        g = min(max(g0 * step, 1.0), top)
+        g = min(max(g0 * step, 1.0), CURVE_MAX)
         if abs(g - g0) < 1e-6:
             continue
         if attempt(g):
             for _ in range(CURVE_MORE):       # the best at an end: one step further
-                g2 = min(max(g * step, 1.0), top)
+                g2 = min(max(g * step, 1.0), CURVE_MAX)
                 if abs(g2 - g) < 1e-6 or not attempt(g2):
                     break
                 g = g2
-    r, g, placed, c = best
+    if dark.std() > 0:                        # curves fitted to the best drawing's response
+        _, g, _, c, made = best
+        ink = score.ink(made, picture, opts.pen_mm)
+        resp = calibrate.response(g, ink, dark)
+
+        tables: dict[float, tone.Table] = {}
+
+        def fitted(q: float) -> float:
+            """The score of the curve for threshold q, drawn at the measured drawing's spacing."""
+            t = calibrate.table(resp, dark, float(ink.mean()), q)
+            tables[q] = t
+            return score.correlation(draw(c.spacing_mm, t), picture, opts.pen_mm, dark)
+
+        attempt(tables[calibrate.search(fitted)])
+    r, g, placed, c, _ = best
     c = replace(c, tries=made_tries)          # every drawing made counts
-    note = (f"tone curve d^{g:.1f} chosen for this picture (correlation of ink with darkness at "
-            f"a 1 mm blur, each curve fitted to the budget: {', '.join(said)})")
+    note = (f"tone curve {tone.name(g)} chosen for this picture (correlation of ink with "
+            f"darkness at a 1 mm blur, each curve fitted to the budget: {', '.join(said)})")
     return placed, c, g, note

@@ -26,24 +26,24 @@ def style(name: str):
 
 
 def describe(name: str, spacing_mm: float, pen_mm: float, picture=None, **extra) -> str:
-    """What a style draws at this spacing (for `info`)."""
-    from vplotter.inputs.image.tone import TOP, gamma
+    """What a style draws at this spacing (for `info`); extra "curve": the tone curve chosen."""
+    from vplotter.inputs.image import tone
 
-    chosen = extra.get("gamma")
-    g = gamma(spacing_mm, pen_mm) if chosen is None else chosen
+    chosen = extra.get("curve")
     if name == "hatch":
-        from vplotter.inputs.image.hatch import full_layers
-        return (f"finest pitch {spacing_mm:.2f} mm (the spacing; every {TOP}th line, dashed, in "
-                f"the lightest tones, up to {full_layers(spacing_mm, pen_mm):.1f} crossed layers "
-                f"in black), tone curve d^{g:.1f}")
+        from vplotter.inputs.image.hatch import full_layers, tone_gamma
+        g = tone_gamma(spacing_mm, pen_mm) if chosen is None else chosen
+        return (f"finest pitch {spacing_mm:.2f} mm (the spacing; every {tone.TOP}th line, dashed, "
+                f"in the lightest tones, up to {full_layers(spacing_mm, pen_mm):.1f} crossed layers "
+                f"in black), tone curve {tone.name(g)}")
     if name in ("spiral", "squiggle"):
         from vplotter.inputs.image.squiggle import tone_gamma, track_pitch
         g = tone_gamma(spacing_mm, pen_mm) if chosen is None else chosen
-        return (f"track pitch {track_pitch(spacing_mm, pen_mm):.2f} mm (every {TOP}th track, "
-                f"dashed, in the lightest tones), tone curve d^{g:.1f}")
+        return (f"track pitch {track_pitch(spacing_mm, pen_mm):.2f} mm (every {tone.TOP}th track, "
+                f"dashed, in the lightest tones), tone curve {tone.name(g)}")
     if name == "stipple":
         from vplotter.inputs.image import stipple
         g = stipple.tone_gamma(picture, spacing_mm, pen_mm, bool(extra.get("tsp"))) if picture else 1.0
         return (f"as many dots as a spacing of {spacing_mm:.2f} mm spreads evenly, tone curve "
                 f"d^{g:.1f}")
-    return f"tone curve d^{g:.1f}"
+    return f"tone curve {tone.name(chosen if chosen is not None else tone.gamma(spacing_mm, pen_mm))}"

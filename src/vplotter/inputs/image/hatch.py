@@ -40,17 +40,26 @@ from vplotter.inputs.strokes import Stroke
 
 TURNS = (0.0, -90.0, -45.0)             # the layers' angles, from angle_deg
 MAX_LAYERS = 3
-ONE_LAYER_PENS = 6.0                    # from this spacing on (pen widths): one layer in black
+CROSS_PENS = 1.5                        # up to this spacing (pen widths): MAX_LAYERS in black
+ONE_LAYER_PENS = 2.5                    # from this spacing on (pen widths): one layer in black
+SCARCE_PENS = 6.0                       # the tone curve d^8 from this spacing (pen widths)
 
 
 def full_layers(spacing_mm: float, pen_mm: float) -> float:
     """Layers of lines in black (1 to MAX_LAYERS, continuous): MAX_LAYERS up to
-    tone.FREE_PENS pen widths, 1 from ONE_LAYER_PENS, log-linear between."""
-    e = spacing_mm / (tone.FREE_PENS * pen_mm)
+    CROSS_PENS pen widths, 1 from ONE_LAYER_PENS, log-linear between."""
+    e = spacing_mm / (CROSS_PENS * pen_mm)
     if e <= 1:
         return float(MAX_LAYERS)
-    x = math.log(e) / math.log(ONE_LAYER_PENS / tone.FREE_PENS)
+    x = math.log(e) / math.log(ONE_LAYER_PENS / CROSS_PENS)
     return float(max(1.0, MAX_LAYERS - (MAX_LAYERS - 1) * x))
+
+
+def tone_gamma(spacing_mm: float, pen_mm: float) -> float:
+    """The hatch's tone curve exponent for this spacing (`tone.gamma` with its own ends: d^1 up
+    to CROSS_PENS pen widths, d^8 from SCARCE_PENS; one layer draws a finer pitch than the
+    crossed ones did for the same budget, so the curve steepens sooner)."""
+    return tone.gamma(spacing_mm, pen_mm, CROSS_PENS, SCARCE_PENS)
 
 
 def coverage(layers, c):
@@ -71,14 +80,15 @@ def layer_units(cover, c, most: float) -> np.ndarray:
 
 def strokes(picture, spacing_mm: float, pen_mm: float = 0.5, angle_deg: float = 45.0,
             layers: float | None = None, smooth_mm: float | None = None,
-            min_run_mm: float | None = None, gamma: float | None = None) -> list[Stroke]:
+            min_run_mm: float | None = None, curve=None) -> list[Stroke]:
     """Crosshatch the picture: finest pitch `spacing_mm`, up to `layers` directions in black
-    (default `full_layers`), tone curve d^gamma (default `tone.gamma`)."""
+    (default `full_layers`), tone curve `curve`: an exponent or a tone.Table (default
+    d^`tone_gamma`)."""
     if not spacing_mm > 0 or not pen_mm > 0:
         raise ValueError("spacing_mm and pen_mm must be > 0")
     p = spacing_mm
     most = full_layers(p, pen_mm) if layers is None else float(min(max(layers, 1), MAX_LAYERS))
-    g = tone.gamma(p, pen_mm) if gamma is None else gamma
+    g = tone_gamma(p, pen_mm) if curve is None else curve
     px = picture.mm_per_px
     d = blur(picture.darkness, (2 * pen_mm if smooth_mm is None else smooth_mm) / px / 1.4)
     c = min(1.0, pen_mm / p)

@@ -36,15 +36,15 @@ def _theta(s: np.ndarray, b: float) -> np.ndarray:
 
 def strokes(picture, spacing_mm: float, pen_mm: float = 0.5,
             period_mm: float | None = None, turn_deg: float = 0.0,
-            gamma: float | None = None) -> list[Stroke]:
+            curve=None) -> list[Stroke]:
     """The pulsing spiral (above); `period_mm` is the zigzag's period (2/3 of the spacing);
     `turn_deg` turns the whole spiral about the centre (its track moves out by that share of
-    a turn's pitch: --cmyk's layers a quarter turn apart); gamma: the tone curve's exponent
-    (default `squiggle.tone_gamma`)."""
+    a turn's pitch: --cmyk's layers a quarter turn apart); curve: the tone curve
+    (`squiggle.toned`)."""
     if not spacing_mm > 0 or not pen_mm > 0:
         raise ValueError("spacing_mm and pen_mm must be > 0")
     w, h = picture.width_mm, picture.height_mm
-    pic, spacing_mm = toned(picture, spacing_mm, pen_mm, gamma)     # pitch capped (squiggle.py)
+    pic, spacing_mm = toned(picture, spacing_mm, pen_mm, curve)     # pitch capped (squiggle.py)
     period = densest_period(spacing_mm) if period_mm is None else period_mm
     b = spacing_mm / (2 * math.pi)
     r_max = math.hypot(w, h) / 2 + spacing_mm

@@ -65,13 +65,13 @@ def track_pitch(spacing_mm: float, pen_mm: float) -> float:
 
 
 def toned(picture, spacing_mm: float, pen_mm: float,
-          gamma: float | None = None) -> tuple[Picture, float]:
+          curve=None) -> tuple[Picture, float]:
     """(the picture to draw, smoothed for its tracks, its darkness replaced by the share of
-    the line of black: f(d) x pitch / spacing; the track pitch). gamma: the tone curve's
-    exponent (default `tone_gamma`)."""
+    the line of black: f(d) x pitch / spacing; the track pitch). curve: the tone curve, an
+    exponent or a tone.Table (default d^`tone_gamma`)."""
     p = track_pitch(spacing_mm, pen_mm)
     pic = smoothed(picture, p)
-    g = tone_gamma(spacing_mm, pen_mm) if gamma is None else gamma
+    g = tone_gamma(spacing_mm, pen_mm) if curve is None else curve
     d = tone.curve(pic.darkness, g) * np.float32(p / spacing_mm)
     return Picture(d, picture.width_mm, picture.height_mm, picture.name), p
 
@@ -172,14 +172,14 @@ def _row_turns(pic: Picture, y: float, p0: float, w: float, backwards: bool):
 
 
 def strokes(picture, spacing_mm: float, pen_mm: float = 0.5, phase: float = 0.0,
-            gamma: float | None = None) -> list[Stroke]:
+            curve=None) -> list[Stroke]:
     """Rows of zigzags `spacing_mm` apart (the tone model above); `phase` (-1/2..1/2) moves
-    every row down by that share of the pitch (--cmyk's layers a quarter pitch apart); gamma:
-    the tone curve's exponent (default `tone_gamma`)."""
+    every row down by that share of the pitch (--cmyk's layers a quarter pitch apart); curve:
+    the tone curve (`toned`)."""
     if not spacing_mm > 0 or not pen_mm > 0:
         raise ValueError("spacing_mm and pen_mm must be > 0")
     w, h = picture.width_mm, picture.height_mm
-    pic, spacing_mm = toned(picture, spacing_mm, pen_mm, gamma)
+    pic, spacing_mm = toned(picture, spacing_mm, pen_mm, curve)
     pitch = min(spacing_mm, h)
     rows = max(1, math.floor(h / pitch))
     margin = (h - rows * pitch) / 2

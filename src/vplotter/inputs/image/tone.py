@@ -27,8 +27,9 @@ an hour: bench/photo_tone.py). So the styles
   tone above white gets some line, and a darker tone more.
 
 The exponent gamma here is where the choice starts: with a budget, `drawing/photo.py` also
-tries gamma / 1.6 and gamma x 1.6 for the picture at hand and keeps the curve whose drawing
-scores best (`score.py`: the darkest pictures want steeper curves than the spacing suggests).
+tries gamma / 1.6 and gamma x 1.6 for the picture at hand, then curves fitted to the drawing's
+own measured response (`calibrate.py`, a `Table` of values), and keeps the curve whose drawing
+scores best (`score.py`). A style takes either kind as its `curve`: an exponent or a Table.
 
 Chosen on bench/photo_tone.py (five photographs, a grey ramp, 1 h and 3 h, 300 mm wide): a
 steeper curve wins at 1 h, a gentler one at 3 h (where the spacing is finer); a floor of 1/16
@@ -38,6 +39,7 @@ or 1/64 moved no figure by more than 0.01.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -66,9 +68,29 @@ def gamma(spacing_mm: float, pen_mm: float, free_pens: float = FREE_PENS,
     return float(min(GAMMA_MAX, 1 + (GAMMA_MAX - 1) * math.log(e) / math.log(scarce_pens / free_pens)))
 
 
-def curve(d, g: float, eps: float | None = None) -> np.ndarray:
-    """f(d) = (1 - eps) d^g + eps d (eps: EPS), darkness clipped to 0..1."""
+@dataclass(frozen=True)
+class Table:
+    """A tone curve by its values at evenly spaced darkness 0, 1/(n-1), ..., 1 (linear between):
+    f(0) = 0, rising. `label`: how it was made (for `info`)."""
+
+    values: tuple[float, ...]
+    label: str = "table"
+
+    def __call__(self, d) -> np.ndarray:
+        xs = np.linspace(0.0, 1.0, len(self.values))
+        return np.interp(d, xs, self.values).astype(np.float32)
+
+
+def name(g) -> str:
+    """The curve as `info` names it: d^3.5, or a Table's label."""
+    return g.label if isinstance(g, Table) else f"d^{g:.1f}"
+
+
+def curve(d, g, eps: float | None = None) -> np.ndarray:
+    """f(d) = (1 - eps) d^g + eps d (eps: EPS), darkness clipped to 0..1; g a Table: its values."""
     d = np.clip(np.asarray(d, dtype=np.float32), 0, 1)
+    if isinstance(g, Table):
+        return g(d)
     if g <= 1:
         return d
     eps = EPS if eps is None else eps
