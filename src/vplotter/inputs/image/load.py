@@ -242,8 +242,9 @@ def load(path, width_mm: float, height_mm: float, pen_mm: float = 0.5, contrast:
     y = _luminance(im)
     im.close()
     y = _toned(_resized(y, tw, th), contrast, brightness, invert)
-    dark = np.clip(1 - y, 0, 1).astype(np.float32)
-    return Picture(np.ascontiguousarray(dark), float(width_mm), float(height_mm),
+    dark = np.array(np.clip(1 - y, 0, 1), dtype=np.float32, order="C")
+    dark.flags.writeable = False                 # read-only: its blurs can be remembered
+    return Picture(dark, float(width_mm), float(height_mm),
                    name=os.path.basename(str(path)))
 
 
@@ -270,14 +271,22 @@ def load_rgb(path, width_mm: float, height_mm: float, pen_mm: float = 0.5, contr
     return np.stack(out * (3 // len(out))).astype(np.float32)
 
 
+_BLURRED: list = []            # the last few (array, radius, blurred): a budget search blurs the
+_KEEP = 4                     # same picture the same way for every density it tries
+
+
 def blur(a, radius_px: float):
     """A separable box blur (twice: close to a Gaussian of sigma ~ radius / 1.4) of a 2-D
-    array, edges clamped; radius below 0.5 px returns it unchanged."""
+    array, edges clamped; radius below 0.5 px returns it unchanged. The result is read-only
+    and remembered for the same array object and radius (the last _KEEP)."""
     import numpy as np
 
     r = int(round(radius_px))
     if r < 1:
         return a
+    for src, rr, done in _BLURRED:
+        if src is a and rr == r:
+            return done
     out = np.asarray(a, dtype=np.float32)
     for _ in range(2):
         for axis in (0, 1):
@@ -288,4 +297,8 @@ def blur(a, radius_px: float):
             hi = np.take(c, np.arange(2 * r + 1, 2 * r + 1 + n), axis=axis)
             lo = np.take(c, np.arange(0, n), axis=axis)
             out = ((hi - lo) / (2 * r + 1)).astype(np.float32)
+    out.flags.writeable = False
+    if isinstance(a, np.ndarray) and not a.flags.writeable and a.base is None:   # can't change
+        _BLURRED.insert(0, (a, r, out))
+        del _BLURRED[_KEEP:]
     return out
