@@ -33,7 +33,7 @@ CURVES = ("hatch", "spiral", "squiggle")   # the styles whose tone curve is chos
 CURVE_STEP = 1.6          # the curves tried: the spacing's own exponent, / and x this
 CURVE_MAX = 16.0
 CURVE_TRIES = 3           # drawings made per other curve (from the spacing already found)
-CURVE_MORE = 1            # further steps where an end curve wins
+CURVE_MORE = 0            # further steps where an end curve wins (the fitted curves do better)
 
 
 @dataclass(frozen=True)
@@ -223,12 +223,15 @@ def pick_curve(picture, opts: PhotoOptions, draw, make, timed, budget_s: float, 
         resp = calibrate.response(g, ink, dark)
 
         tables: dict[float, tone.Table] = {}
-
+        scored: dict[tuple, float] = {}           # the same curve (a picture mostly white:
+                                                  # the same threshold for many q) drawn once
         def fitted(q: float) -> float:
             """The score of the curve for threshold q, drawn at the measured drawing's spacing."""
-            t = calibrate.table(resp, dark, float(ink.mean()), q)
-            tables[q] = t
-            return score.correlation(draw(c.spacing_mm, t), picture, opts.pen_mm, dark)
+            t = tables[q] = calibrate.table(resp, dark, float(ink.mean()), q)
+            if t.values not in scored:
+                made = draw(c.spacing_mm, t)
+                scored[t.values] = score.correlation(made, picture, opts.pen_mm, dark)
+            return scored[t.values]
 
         attempt(tables[calibrate.search(fitted)])
     r, g, placed, c, _ = best
