@@ -33,6 +33,7 @@ CURVES = ("hatch", "spiral", "squiggle")   # the styles whose tone curve is chos
 CURVE_STEP = 1.6          # the curves tried: the spacing's own exponent, / and x this
 CURVE_MAX = 16.0
 CURVE_TRIES = 3           # drawings made per other curve (from the spacing already found)
+FITTED_TRIES = 5          # ... for the fitted curve (the likely winner: use the whole budget)
 CURVE_MORE = 0            # further steps where an end curve wins (the fitted curves do better)
 
 
@@ -190,13 +191,14 @@ def pick_curve(picture, opts: PhotoOptions, draw, make, timed, budget_s: float, 
     said = [f"{tone.name(g0)} {best[0]:.3f}"]
     made_tries = list(choice.tries)
 
-    def attempt(g) -> bool:
-        """Try the curve g (an exponent or a tone.Table); True if it is the best so far."""
+    def attempt(g, most: int = CURVE_TRIES) -> bool:
+        """Try the curve g (an exponent or a tone.Table), at most `most` drawings to fit the
+        budget; True if it is the best so far."""
         nonlocal best
         try:
             (placed, made), c = budget.fit(lambda sp: make(sp, g), timed, budget_s,
                                            best[3].spacing_mm, lo, hi, POWER[opts.style],
-                                           most=CURVE_TRIES)
+                                           most=most)
         except ConfigError:                   # even the widest spacing is too long
             return False
         made_tries.extend(c.tries)
@@ -233,7 +235,7 @@ def pick_curve(picture, opts: PhotoOptions, draw, make, timed, budget_s: float, 
                 scored[t.values] = score.correlation(made, picture, opts.pen_mm, dark)
             return scored[t.values]
 
-        attempt(tables[calibrate.search(fitted)])
+        attempt(tables[calibrate.search(fitted)], FITTED_TRIES)
     r, g, placed, c, _ = best
     c = replace(c, tries=made_tries)          # every drawing made counts
     note = (f"tone curve {tone.name(g)} chosen for this picture (correlation of ink with "
