@@ -34,6 +34,13 @@ that brings them CAP_PENS pen widths together in black (`tone_gamma`): dots 6 mm
 every tone are seen as dots, not tone (correlation of ink with darkness 0.08 at a 1 mm blur
 on a photo of a cat in 1 h; 0.49 so), and the floor tone.EPS d keeps a few dots in every tone above
 white, more where darker. The dots' count, so their plot time, does not depend on gamma.
+
+The dots (not the tour) are then moved to follow the picture's tone as it is seen, blurred at
+about a millimetre (`stipple_fit`: gradient ascent on the correlation of their blurred ink
+with the blurred darkness of the picture as given, before the budget's curve): at a budget's
+few dots this raised that correlation by a tenth or more (bench/photo_tone.py, 1 h: camera
+0.56 -> 0.60, coffee 0.50 -> 0.56, rocket 0.27 -> 0.31), for the same count of dots and
+about the same plot time.
 """
 
 from __future__ import annotations
@@ -43,7 +50,7 @@ import math
 import numpy as np
 
 from vplotter.errors import ConfigError
-from vplotter.inputs.image import tone
+from vplotter.inputs.image import stipple_fit, tone
 from vplotter.inputs.image.picture import Picture
 from vplotter.inputs.strokes import Stroke
 
@@ -64,11 +71,13 @@ FLOOR_GAMMA = 8.0       # ... and at least this
 
 def strokes(picture: Picture, spacing_mm: float, pen_mm: float, tsp: bool = False,
             seed: int = 0, dots: int | None = None, dot_mm: float | None = None,
-            **_) -> list[Stroke]:
-    """Stipples of `picture`: one 1-point stroke (a dot: the pen taps) per stipple; with
+            fit: bool = True, **_) -> list[Stroke]:
+    """Stipples of `picture`: one 1-point stroke (a dot: the pen taps) per stipple, moved to
+    draw the tone best as seen (`stipple_fit`; fit=False: as Lloyd left them); with
     dot_mm > pen_mm a small filled circle of that diameter instead; with tsp=True the tour
     through all of them, split where it would cross light paper (see the module's text)."""
     gamma = 2.0 if tsp else 1.0
+    seen = picture                                        # the tone the dots are fitted to
     if dots is None and spacing_mm > CAP_PENS * pen_mm:   # as many dots, on the darker tones
         dots = _dot_count(picture, spacing_mm, gamma)
         if dots <= 0:
@@ -83,6 +92,8 @@ def strokes(picture: Picture, spacing_mm: float, pen_mm: float, tsp: bool = Fals
     if tsp:
         path = pts[tour(pts)]
         return [Stroke(p) for p in split(path, picture, spacing_mm, gamma)]
+    if fit:
+        pts = stipple_fit.fit(pts, seen.darkness, seen.width_mm, seen.height_mm)
     pts = pts[np.argsort(_hilbert_points(pts, picture, spacing_mm / 2), kind="stable")]
     if dot_mm is not None and dot_mm > pen_mm:
         return _circles(pts, picture, dot_mm, pen_mm)

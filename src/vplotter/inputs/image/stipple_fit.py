@@ -1,0 +1,94 @@
+"""Stipples moved to draw the picture's tone best: the dots' positions fitted to the darkness
+as it is seen (blurred at viewing distance), after the Lloyd relaxation that spread them.
+
+A stipple drawing with a plot-time budget has few dots (on the seed machine a tap costs about
+2.2 s: an hour buys about 1,500), several millimetres apart, and is seen at a blur of about a
+millimetre (`score.py`), where each dot is a separate bump. How well the ink follows the tone
+is the Pearson correlation r of the blurred ink I with the blurred darkness D. Lloyd
+relaxation spreads the dots evenly over their density, but it does not know the blur: it does
+not put a dot where the darkness has a small dark feature between two dots, nor pull it off a
+light one. So the dots are moved by gradient ascent on r itself: with I = K * (sum of unit
+impulses at the dots), K the Gaussian of SIGMA_MM (the viewing blur, and the pen's disc),
+
+    dr/dI = D'/(|I'| |D'|) - r I'/|I'|²       (' : less the mean)
+    dr/dx_i = grad (K * dr/dI) at x_i         (K is symmetric)
+
+on a grid of CELL_MM cells (the dots splatted bilinearly; the blur a separable Gaussian,
+SciPy's ndimage). Each round moves every dot along its gradient, the 90th percentile of the
+moves STEP_MM long (step shrinking linearly to a fifth over the rounds) and none longer,
+clipped into the picture. A dot is never created or removed, so the plot time (the number of
+taps and the travel between them) barely changes; deterministic (no random numbers). ROUNDS
+rounds cost a few tenths of a second for 5,000 dots on a 300 mm picture.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+CELL_MM = 1.0      # the fitting grid
+SIGMA_MM = 1.0     # the viewing blur (score.SIGMA_MM)
+ROUNDS = 100
+STEP_MM = 0.4
+INSET = 1e-6
+
+
+def fit(pts: np.ndarray, darkness, width_mm: float, height_mm: float,
+        rounds: int = ROUNDS, step_mm: float = STEP_MM) -> np.ndarray:
+    """The dots `pts` (N, 2), G-code mm, moved to raise the correlation of their blurred ink
+    with `darkness` (a (H, W) array over the picture, row 0 at the top; blurred or not)."""
+    from PIL import Image
+    from scipy.ndimage import gaussian_filter
+
+    n = len(pts)
+    if n < 2 or rounds <= 0:
+        return pts
+    cols = max(2, round(width_mm / CELL_MM))
+    rows = max(2, round(height_mm / CELL_MM))
+    cw, ch = width_mm / cols, height_mm / rows
+    sig = (SIGMA_MM / ch, SIGMA_MM / cw)
+
+    def blur(a):
+        return gaussian_filter(a, sig, mode="reflect", truncate=3.0)
+
+    d = np.asarray(Image.fromarray(np.asarray(darkness, dtype=np.float32), mode="F")
+                   .resize((cols, rows), Image.BOX), dtype=np.float32)
+    dc = blur(d)
+    dc = dc - dc.mean()
+    nd = float(np.sqrt((dc * dc).sum()))
+    if not nd > 0:
+        return pts
+    pts = np.array(pts, dtype=np.float64)
+    hi = np.array([width_mm, height_mm]) - INSET
+    for k in range(rounds):
+        x = pts[:, 0] / cw - 0.5
+        y = (height_mm - pts[:, 1]) / ch - 0.5
+        x0 = np.clip(np.floor(x).astype(np.intp), 0, cols - 2)
+        y0 = np.clip(np.floor(y).astype(np.intp), 0, rows - 2)
+        fx, fy = np.clip(x - x0, 0, 1), np.clip(y - y0, 0, 1)
+        w = ((1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy)
+        cells = (y0 * cols + x0, y0 * cols + x0 + 1, (y0 + 1) * cols + x0,
+                 (y0 + 1) * cols + x0 + 1)
+        acc = np.bincount(np.concatenate(cells), np.concatenate(w), rows * cols)
+        ink = blur(acc.reshape(rows, cols).astype(np.float32))
+        ic = ink - ink.mean()
+        ni = float(np.sqrt((ic * ic).sum()))
+        if not ni > 0:
+            break
+        r = float((ic * dc).sum()) / (ni * nd)
+        field = blur((dc / (ni * nd) - r * ic / (ni * ni)).astype(np.float32))
+        gy, gx = np.gradient(field)
+
+        def at(a):
+            return sum(a.ravel()[c] * wt for c, wt in zip(cells, w))
+
+        g = np.column_stack([at(gx) / cw, -at(gy) / ch])
+        size = np.hypot(*g.T)
+        top = float(np.percentile(size, 90))
+        if not top > 0:
+            break
+        step = step_mm * (1.0 - 0.8 * k / max(rounds - 1, 1))
+        move = g * (step / top)
+        longest = np.hypot(*move.T)
+        move *= np.minimum(1.0, step / np.maximum(longest, 1e-12))[:, None]
+        pts = np.clip(pts + move, INSET, hi)
+    return pts
