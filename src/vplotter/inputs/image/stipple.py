@@ -72,17 +72,27 @@ FLOOR_GAMMA = 8.0       # ... and at least this
 def strokes(picture: Picture, spacing_mm: float, pen_mm: float, tsp: bool = False,
             seed: int = 0, dots: int | None = None, dot_mm: float | None = None,
             fit: bool = True, **_) -> list[Stroke]:
-    """Stipples of `picture`: one 1-point stroke (a dot: the pen taps) per stipple, moved to
-    draw the tone best as seen (`stipple_fit`; fit=False: as Lloyd left them); with
+    """Stipples of `picture`: one 1-point stroke (a dot: the pen taps) per stipple, on the
+    tone curve that draws this picture best and moved to draw its tone best as seen
+    (`chosen`; fit=False: the spacing's own curve, as Lloyd left them); with
     dot_mm > pen_mm a small filled circle of that diameter instead; with tsp=True the tour
     through all of them, split where it would cross light paper (see the module's text)."""
     gamma = 2.0 if tsp else 1.0
-    seen = picture                                        # the tone the dots are fitted to
+    if fit and not tsp:
+        if not spacing_mm > 0:
+            raise ConfigError(f"error: stipple spacing must be > 0 mm (got {spacing_mm})")
+        pts = chosen(picture, spacing_mm, pen_mm, seed, dots)[1]
+        if len(pts) == 0:
+            return []
+        pts = pts[np.argsort(_hilbert_points(pts, picture, spacing_mm / 2), kind="stable")]
+        if dot_mm is not None and dot_mm > pen_mm:
+            return _circles(pts, picture, dot_mm, pen_mm)
+        return [Stroke(p[None, :].copy()) for p in pts]
     if dots is None and spacing_mm > CAP_PENS * pen_mm:   # as many dots, on the darker tones
         dots = _dot_count(picture, spacing_mm, gamma)
         if dots <= 0:
             return []
-        g = tone_gamma(picture, spacing_mm, pen_mm, tsp, dots)
+        g = _cap_gamma(picture, spacing_mm, pen_mm, tsp, dots)
         picture = Picture(tone.curve(picture.darkness, g), picture.width_mm,
                           picture.height_mm, picture.name)
         spacing_mm = _black_spacing(picture, spacing_mm, dots, gamma)
@@ -92,8 +102,6 @@ def strokes(picture: Picture, spacing_mm: float, pen_mm: float, tsp: bool = Fals
     if tsp:
         path = pts[tour(pts)]
         return [Stroke(p) for p in split(path, picture, spacing_mm, gamma)]
-    if fit:
-        pts = stipple_fit.fit(pts, seen.darkness, seen.width_mm, seen.height_mm)
     pts = pts[np.argsort(_hilbert_points(pts, picture, spacing_mm / 2), kind="stable")]
     if dot_mm is not None and dot_mm > pen_mm:
         return _circles(pts, picture, dot_mm, pen_mm)
@@ -116,7 +124,60 @@ def _black_spacing(picture: Picture, spacing_mm: float, dots: int, gamma: float)
     return max(math.sqrt(_ink_area(picture, spacing_mm, gamma) / max(dots, 1)), 1e-3)
 
 
+def chosen(picture: Picture, spacing_mm: float, pen_mm: float, seed: int = 0,
+           dots: int | None = None) -> tuple[float, np.ndarray, float]:
+    """(gamma, the dots, their correlation) of the tone curve d^gamma that draws `picture`
+    best with the dots `spacing_mm` asks for (or `dots`): each curve tried places them (Lloyd
+    over the curve's density, the spacing in black from the count as in `strokes`), moves them
+    with `stipple_fit` to follow the picture's own tone as seen, and is judged by the
+    correlation that reaches. A walk over gamma in factors of CHOICE_STEP from the spacing's
+    own exponent / CHOICE_STEP (`_cap_gamma`; at least 1, at most GAMMA_MAX): that one and its
+    two neighbours, then on while a neighbour gains. A pure function of its arguments (the last
+    answer is remembered: `describe` asks again for the spacing the budget chose)."""
+    n = _dot_count(picture, spacing_mm, 1.0) if dots is None else int(dots)
+    key = (spacing_mm, pen_mm, seed, n)
+    if _memo and _memo[0] is picture and _memo[1] == key:
+        return _memo[2]
+    if n <= 0:
+        return 1.0, np.zeros((0, 2)), 0.0
+    tried: dict[int, tuple[float, np.ndarray, float]] = {}
+
+    def at(k: int) -> float:
+        if k not in tried:
+            g = min(CHOICE_STEP ** k, GAMMA_MAX)
+            q = picture if k == 0 else Picture(tone.curve(picture.darkness, g),
+                                               picture.width_mm, picture.height_mm)
+            pts = points(q, _black_spacing(q, spacing_mm, n, 1.0), seed=seed, dots=n)
+            pts = stipple_fit.fit(pts, picture.darkness, picture.width_mm, picture.height_mm)
+            tried[k] = (g, pts, stipple_fit.correlation(pts, picture.darkness,
+                                                        picture.width_mm, picture.height_mm))
+        return tried[k][2]
+
+    top = int(math.ceil(math.log(GAMMA_MAX) / math.log(CHOICE_STEP) - 1e-9))
+    g0 = _cap_gamma(picture, spacing_mm, pen_mm, False, n)
+    k = min(max(int(round(math.log(g0) / math.log(CHOICE_STEP))) - 1, 0), top)
+    for way in (-1, 1):                              # on while a neighbour gains
+        while 0 <= k + way <= top and at(k + way) > at(k):
+            k += way
+    best = tried[max(tried, key=lambda j: (tried[j][2], -j))]
+    _memo[:] = [picture, key, best]
+    return best
+
+
+_memo: list = []              # [picture, key, answer] of the last `chosen`
+CHOICE_STEP = 2.0             # the curves `chosen` tries: gamma 1, 2, 4 ... GAMMA_MAX
+
+
 def tone_gamma(picture: Picture, spacing_mm: float, pen_mm: float, tsp: bool = False,
+               dots: int | None = None) -> float:
+    """The tone curve's exponent the stipples take: the dots' `chosen` one; the tour's the
+    spacing's own (`_cap_gamma`)."""
+    if tsp:
+        return _cap_gamma(picture, spacing_mm, pen_mm, True, dots)
+    return chosen(picture, spacing_mm, pen_mm, dots=dots)[0]
+
+
+def _cap_gamma(picture: Picture, spacing_mm: float, pen_mm: float, tsp: bool = False,
                dots: int | None = None) -> float:
     """The tone curve's exponent: 1 up to CAP_PENS pen widths; coarser, the smallest from
     FLOOR_GAMMA to GAMMA_MAX that brings the dots the spacing asks for to CAP_PENS pen widths

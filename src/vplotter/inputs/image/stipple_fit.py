@@ -36,14 +36,22 @@ def fit(pts: np.ndarray, darkness, width_mm: float, height_mm: float,
         rounds: int = ROUNDS, step_mm: float = STEP_MM) -> np.ndarray:
     """The dots `pts` (N, 2), G-code mm, moved to raise the correlation of their blurred ink
     with `darkness` (a (H, W) array over the picture, row 0 at the top; blurred or not)."""
+    return fitted(pts, darkness, width_mm, height_mm, rounds, step_mm)[0]
+
+
+def fitted(pts: np.ndarray, darkness, width_mm: float, height_mm: float,
+           rounds: int = ROUNDS, step_mm: float = STEP_MM,
+           cell_mm: float = CELL_MM) -> tuple[np.ndarray, float]:
+    """(the dots moved as `fit` moves them, the correlation they reached: on the fitting
+    grid, the last round's, 0.0 when nothing could be fitted)."""
     from PIL import Image
     from scipy.ndimage import gaussian_filter
 
     n = len(pts)
-    if n < 2 or rounds <= 0:
-        return pts
-    cols = max(2, round(width_mm / CELL_MM))
-    rows = max(2, round(height_mm / CELL_MM))
+    if n < 2:
+        return pts, 0.0
+    cols = max(2, round(width_mm / cell_mm))
+    rows = max(2, round(height_mm / cell_mm))
     cw, ch = width_mm / cols, height_mm / rows
     sig = (SIGMA_MM / ch, SIGMA_MM / cw)
 
@@ -56,10 +64,11 @@ def fit(pts: np.ndarray, darkness, width_mm: float, height_mm: float,
     dc = dc - dc.mean()
     nd = float(np.sqrt((dc * dc).sum()))
     if not nd > 0:
-        return pts
+        return pts, 0.0
     pts = np.array(pts, dtype=np.float64)
     hi = np.array([width_mm, height_mm]) - INSET
-    for k in range(rounds):
+    r = 0.0
+    for k in range(rounds + 1):
         x = pts[:, 0] / cw - 0.5
         y = (height_mm - pts[:, 1]) / ch - 0.5
         x0 = np.clip(np.floor(x).astype(np.intp), 0, cols - 2)
@@ -75,6 +84,8 @@ def fit(pts: np.ndarray, darkness, width_mm: float, height_mm: float,
         if not ni > 0:
             break
         r = float((ic * dc).sum()) / (ni * nd)
+        if k == rounds:
+            break
         field = blur((dc / (ni * nd) - r * ic / (ni * ni)).astype(np.float32))
         gy, gx = np.gradient(field)
 
@@ -91,4 +102,12 @@ def fit(pts: np.ndarray, darkness, width_mm: float, height_mm: float,
         longest = np.hypot(*move.T)
         move *= np.minimum(1.0, step / np.maximum(longest, 1e-12))[:, None]
         pts = np.clip(pts + move, INSET, hi)
-    return pts
+    return pts, r
+
+
+def correlation(pts: np.ndarray, darkness, width_mm: float, height_mm: float,
+                cell_mm: float = 0.5) -> float:
+    """The correlation the dots `pts` draw `darkness` with, as `fitted` measures it but on
+    cells of cell_mm (finer: closer to the bench's rendering, which the 1 mm grid flatters
+    where dots are close)."""
+    return fitted(pts, darkness, width_mm, height_mm, rounds=0, cell_mm=cell_mm)[1]
