@@ -159,13 +159,17 @@ def chosen(picture: Picture, spacing_mm: float, pen_mm: float, seed: int = 0,
     for way in (-1, 1):                              # on while a neighbour gains
         while 0 <= k + way <= top and at(k + way) > at(k):
             k += way
-    best = tried[max(tried, key=lambda j: (tried[j][2], -j))]
+    g, pts, r = tried[max(tried, key=lambda j: (tried[j][2], -j))]
+    pts, r = stipple_fit.fitted(pts, picture.darkness, picture.width_mm, picture.height_mm,
+                                FINE_ROUNDS, FINE_STEP_MM, FINE_CELL_MM)     # the winner, finer
+    best = (g, pts, r)
     _memo[:] = [picture, key, best]
     return best
 
 
 _memo: list = []              # [picture, key, answer] of the last `chosen`
 CHOICE_STEP = 2.0             # the curves `chosen` tries: gamma 1, 2, 4 ... GAMMA_MAX
+FINE_ROUNDS, FINE_STEP_MM, FINE_CELL_MM = 40, 0.2, 0.5   # the chosen dots' last rounds
 
 
 def tone_gamma(picture: Picture, spacing_mm: float, pen_mm: float, tsp: bool = False,
