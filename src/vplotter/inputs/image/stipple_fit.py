@@ -30,6 +30,10 @@ SIGMA_MM = 1.0     # the viewing blur (score.SIGMA_MM)
 ROUNDS = 100
 STEP_MM = 0.4
 INSET = 1e-6
+JUMP_EVERY = 10    # every this many rounds (in the first JUMP_UNTIL of them) JUMP_SHARE of the
+JUMP_UNTIL = 0.7   # ... dots, where the field wants ink least, jump to its highest peaks (one
+JUMP_SHARE = 0.02  # ... per PEAK_MM square), kept if r rises (else half as many are tried)
+PEAK_MM = 5.0
 
 
 def fit(pts: np.ndarray, darkness, width_mm: float, height_mm: float,
@@ -40,12 +44,12 @@ def fit(pts: np.ndarray, darkness, width_mm: float, height_mm: float,
 
 
 def fitted(pts: np.ndarray, darkness, width_mm: float, height_mm: float,
-           rounds: int = ROUNDS, step_mm: float = STEP_MM,
-           cell_mm: float = CELL_MM) -> tuple[np.ndarray, float]:
+           rounds: int = ROUNDS, step_mm: float = STEP_MM, cell_mm: float = CELL_MM,
+           teleport: bool = True, stay: np.ndarray | None = None) -> tuple[np.ndarray, float]:
     """(the dots moved as `fit` moves them, the correlation they reached: on the fitting
     grid, the last round's, 0.0 when nothing could be fitted)."""
     from PIL import Image
-    from scipy.ndimage import gaussian_filter
+    from scipy.ndimage import gaussian_filter, maximum_filter
 
     n = len(pts)
     if n < 2:
@@ -67,8 +71,8 @@ def fitted(pts: np.ndarray, darkness, width_mm: float, height_mm: float,
         return pts, 0.0
     pts = np.array(pts, dtype=np.float64)
     hi = np.array([width_mm, height_mm]) - INSET
-    r = 0.0
-    for k in range(rounds + 1):
+    def state(pts):
+        """(r, the field dr/dI blurred, the dots' cells and bilinear weights)."""
         x = pts[:, 0] / cw - 0.5
         y = (height_mm - pts[:, 1]) / ch - 0.5
         x0 = np.clip(np.floor(x).astype(np.intp), 0, cols - 2)
@@ -82,15 +86,41 @@ def fitted(pts: np.ndarray, darkness, width_mm: float, height_mm: float,
         ic = ink - ink.mean()
         ni = float(np.sqrt((ic * ic).sum()))
         if not ni > 0:
-            break
+            return 0.0, None, cells, w
         r = float((ic * dc).sum()) / (ni * nd)
-        if k == rounds:
+        return r, blur((dc / (ni * nd) - r * ic / (ni * ni)).astype(np.float32)), cells, w
+
+    peak = max(3, 2 * round(PEAK_MM / 2 / cell_mm) + 1)
+    r = 0.0
+    for k in range(rounds + 1):
+        r, field, cells, w = state(pts)
+        if field is None or k == rounds:
             break
-        field = blur((dc / (ni * nd) - r * ic / (ni * ni)).astype(np.float32))
-        gy, gx = np.gradient(field)
 
         def at(a):
             return sum(a.ravel()[c] * wt for c, wt in zip(cells, w))
+
+        if teleport and k % JUMP_EVERY == JUMP_EVERY - 1 and k < JUMP_UNTIL * rounds:
+            # the dots where ink is least wanted to the places where it is most wanted
+            top = np.flatnonzero(((field == maximum_filter(field, size=peak)) &
+                                  (field > 0)).ravel())
+            top = top[np.argsort(-field.ravel()[top], kind="stable")]
+            worst = np.argsort(at(field), kind="stable")
+            if stay is not None:                     # these dots only move, never jump
+                worst = worst[~stay[worst]]
+            m = min(len(top), len(worst), max(1, int(JUMP_SHARE * n)))
+            while m >= 1:
+                row, col = np.divmod(top[:m], cols)
+                new = pts.copy()
+                new[worst[:m]] = np.column_stack([(col + 0.5) * cw, height_mm - (row + 0.5) * ch])
+                new = np.clip(new, INSET, hi)
+                got = state(new)
+                if got[0] > r:
+                    pts = new
+                    r, field, cells, w = got
+                    break
+                m //= 2
+        gy, gx = np.gradient(field)
 
         g = np.column_stack([at(gx) / cw, -at(gy) / ch])
         size = np.hypot(*g.T)
@@ -110,4 +140,5 @@ def correlation(pts: np.ndarray, darkness, width_mm: float, height_mm: float,
     """The correlation the dots `pts` draw `darkness` with, as `fitted` measures it but on
     cells of cell_mm (finer: closer to the bench's rendering, which the 1 mm grid flatters
     where dots are close)."""
-    return fitted(pts, darkness, width_mm, height_mm, rounds=0, cell_mm=cell_mm)[1]
+    return fitted(pts, darkness, width_mm, height_mm, rounds=0, cell_mm=cell_mm,
+                  teleport=False)[1]
