@@ -16,9 +16,19 @@ impulses at the dots), K the Gaussian of SIGMA_MM (the viewing blur, and the pen
 on a grid of CELL_MM cells (the dots splatted bilinearly; the blur a separable Gaussian,
 SciPy's ndimage). Each round moves every dot along its gradient, the 90th percentile of the
 moves STEP_MM long (step shrinking linearly to a fifth over the rounds) and none longer,
-clipped into the picture. A dot is never created or removed, so the plot time (the number of
-taps and the travel between them) barely changes; deterministic (no random numbers). ROUNDS
-rounds cost a few tenths of a second for 5,000 dots on a 300 mm picture.
+clipped into the picture. Gradient steps only move a dot locally; so every JUMP_EVERY rounds
+(in the first JUMP_UNTIL of them) JUMP_SHARE of the dots, those where K * dr/dI is lowest (where
+their ink is least wanted), jump to its highest local maxima (one per PEAK_MM square, where
+ink is most wanted), kept if r rises, else half as many are tried (a direct-binary-search
+swap, Analoui and Allebach 1992, on the continuous positions). Dots marked `stay` move but
+never jump (the caller's floor per tone). A dot is never created or removed, so the plot time
+(the number of taps and the travel between them) barely changes; deterministic (no random
+numbers). ROUNDS rounds cost a few tenths of a second for 5,000 dots on a 300 mm picture.
+
+What they gave at the budget's count of dots (bench/photo_tone.py's measure, 300 mm):
+gradient steps alone camera 0.55 -> 0.60 at 1 h, coffee 0.50 -> 0.56, rocket 0.27 -> 0.31; the
+jumps on top (with the same curve) camera 0.616 -> 0.654 (1 h) and 0.891 -> 0.920 (3 h),
+coffee 0.563 -> 0.588 (1 h). More rounds, more or larger jumps, other peak sizes: within 0.003.
 """
 
 from __future__ import annotations
