@@ -23,12 +23,13 @@ ink is most wanted), kept if r rises, else half as many are tried (a direct-bina
 swap, Analoui and Allebach 1992, on the continuous positions). Dots marked `stay` move but
 never jump (the caller's floor per tone). A dot is never created or removed, so the plot time
 (the number of taps and the travel between them) barely changes; deterministic (no random
-numbers). ROUNDS rounds cost a few tenths of a second for 5,000 dots on a 300 mm picture.
+numbers). ROUNDS rounds cost about a tenth of a second for 6,000 dots on a 300 mm picture.
 
 What they gave at the budget's count of dots (bench/photo_tone.py's measure, 300 mm):
 gradient steps alone camera 0.55 -> 0.60 at 1 h, coffee 0.50 -> 0.56, rocket 0.27 -> 0.31; the
 jumps on top (with the same curve) camera 0.616 -> 0.654 (1 h) and 0.891 -> 0.920 (3 h),
-coffee 0.563 -> 0.588 (1 h). More rounds, more or larger jumps, other peak sizes: within 0.003.
+coffee 0.563 -> 0.588 (1 h). More rounds (100 or 150 against 50, jumps every 10 or 5),
+more or larger jumps, other peak sizes: within 0.003.
 """
 
 from __future__ import annotations
@@ -37,10 +38,10 @@ import numpy as np
 
 CELL_MM = 1.0      # the fitting grid
 SIGMA_MM = 1.0     # the viewing blur (score.SIGMA_MM)
-ROUNDS = 100
+ROUNDS = 50
 STEP_MM = 0.4
 INSET = 1e-6
-JUMP_EVERY = 10    # every this many rounds (in the first JUMP_UNTIL of them) JUMP_SHARE of the
+JUMP_EVERY = 5     # every this many rounds (in the first JUMP_UNTIL of them) JUMP_SHARE of the
 JUMP_UNTIL = 0.7   # ... dots, where the field wants ink least, jump to its highest peaks (one
 JUMP_SHARE = 0.02  # ... per PEAK_MM square), kept if r rises (else half as many are tried)
 PEAK_MM = 5.0
