@@ -201,3 +201,13 @@ def test_fit_alone():
     flat = np.full((20, 20), 0.5, dtype=np.float32)
     assert np.array_equal(stipple_fit.fit(pts, flat, 10.0, 10.0), pts)   # nothing to follow
     assert np.array_equal(stipple_fit.fit(pts[:1], flat, 10.0, 10.0), pts[:1])
+
+
+def test_chosen_curve_is_the_one_drawn_and_told():
+    pic = photo(300, 240)
+    g, pts, r = stipple.chosen(pic, 2.5, 0.5)
+    assert g in {2.0 ** k for k in range(7)} and 0 < r <= 1
+    assert stipple.tone_gamma(pic, 2.5, 0.5) == g                 # what `info` says
+    out = all_points(stipple.strokes(pic, 2.5, 0.5))
+    assert np.array_equal(np.unique(out, axis=0), np.unique(pts, axis=0))
+    assert len(out) == round(float(pic.darkness.sum()) * pic.mm_per_px ** 2 / 2.5 ** 2)
