@@ -166,3 +166,48 @@ def test_without_scipy_one_line(monkeypatch):
 def test_bad_spacing():
     with pytest.raises(ConfigError):
         stipple.strokes(photo(), 0.0, 0.5)
+
+
+def test_fit_follows_the_tone_as_seen():
+    """The dots moved by stipple_fit draw the tone better (the converter's own score) than
+    Lloyd left them, at a budget's sparse spacing; same count, all inside the picture."""
+    from vplotter.inputs.image import score
+
+    y, x = np.mgrid[0:200, 0:300] / 300.0
+    d = np.clip(0.1 + 0.5 * x + 0.4 * np.exp(-((x - 0.5) ** 2 + (y - 0.3) ** 2) / 0.005), 0, 1)
+    pic = picture(d, 90.0)
+    lloyd = stipple.strokes(pic, 3.5, 0.5, fit=False)
+    fitted = stipple.strokes(pic, 3.5, 0.5)
+    assert len(fitted) == len(lloyd) > 100
+    assert all(s.pts.shape == (1, 2) for s in fitted)
+    p = all_points(fitted)
+    assert np.all(p > 0) and np.all(p[:, 0] < pic.width_mm) and np.all(p[:, 1] < pic.height_mm)
+    assert (score.correlation(fitted, pic, 0.5) > score.correlation(lloyd, pic, 0.5) + 0.02)
+
+
+def test_fit_keeps_a_ramp_rising():
+    """Ink per area (dots per band) still rises band by band on a grey ramp after the fit."""
+    d = np.tile(np.linspace(0.05, 1.0, 400), (120, 1))
+    pic = picture(d, 120.0)
+    p = all_points(stipple.strokes(pic, 3.0, 0.5))
+    counts = np.histogram(p[:, 0], bins=5, range=(0, 120.0))[0]
+    assert np.all(np.diff(counts) > 0), counts
+
+
+def test_fit_alone():
+    from vplotter.inputs.image import stipple_fit
+
+    pts = np.array([[1.0, 1.0], [2.0, 2.0]])
+    flat = np.full((20, 20), 0.5, dtype=np.float32)
+    assert np.array_equal(stipple_fit.fit(pts, flat, 10.0, 10.0), pts)   # nothing to follow
+    assert np.array_equal(stipple_fit.fit(pts[:1], flat, 10.0, 10.0), pts[:1])
+
+
+def test_chosen_curve_is_the_one_drawn_and_told():
+    pic = photo(300, 240)
+    g, pts, r = stipple.chosen(pic, 2.5, 0.5)
+    assert g in {2.0 ** k for k in range(7)} and 0 < r <= 1
+    assert stipple.tone_gamma(pic, 2.5, 0.5) == g                 # what `info` says
+    out = all_points(stipple.strokes(pic, 2.5, 0.5))
+    assert np.array_equal(np.unique(out, axis=0), np.unique(pts, axis=0))
+    assert len(out) == round(float(pic.darkness.sum()) * pic.mm_per_px ** 2 / 2.5 ** 2)
