@@ -4,7 +4,7 @@ A synthetic picture 300 mm wide (1200 x 1600 px: gradients, discs, a soft shadow
 N in (5k, 20k, 50k) dots (spacing_mm chosen so that N = sum(darkness) px area / spacing²):
 - place: wall time of sampling + Lloyd (stipple.points), and the Lloyd rounds' evenness (the
   coefficient of variation of nearest-neighbour distances over the darkest quarter);
-- tour: wall time of the TSP tour (stipple.tour) for the tsp=True point set, its length against
+- tour: wall time of the TSP tour (stipple_tour.tour) for the tsp=True point set, its length against
   the nearest-neighbour path alone, the line drawn after the splits and the pen lifts;
 - tone: the dots (pen_mm discs) and the TSP strokes rendered with Pillow's ImageDraw at 10 px/mm,
   both the rendering and the darkness blurred (GaussianBlur, sigma 1 mm, and 2 x spacing: 1 mm
@@ -29,7 +29,7 @@ sys.path.insert(0, os.path.join(ROOT, "src"))
 
 from scipy.spatial import cKDTree  # noqa: E402
 
-from vplotter.inputs.image import stipple  # noqa: E402
+from vplotter.inputs.image import stipple, stipple_tour  # noqa: E402
 from vplotter.inputs.image.picture import Picture  # noqa: E402
 
 WIDTH_MM, PEN_MM, PX_MM = 300.0, 0.5, 10
@@ -112,14 +112,14 @@ def run() -> None:
         s2 = math.sqrt(dark2_area / n)
         tp = stipple.points(pic, s2, gamma=2.0)
         t0 = time.perf_counter()
-        order = stipple.tour(tp)
+        order = stipple_tour.tour(tp)
         t_tour = time.perf_counter() - t0
-        nn = stipple.nearest_neighbour(tp)
-        pieces = stipple.split(tp[order], pic, s2, 2.0)
+        nn = stipple_tour.nearest_neighbour(tp)
+        pieces = stipple_tour.split(tp[order], pic, s2, 2.0)
         ink = render(pic, None, pieces)
         c_line = correlation(pic, ink), correlation(pic, ink, 2 * s2)
         # the same tour made with rho = d (as the dots)
-        lines1 = stipple.split(pts[stipple.tour(pts)], pic, s, 1.0)
+        lines1 = stipple_tour.split(pts[stipple_tour.tour(pts)], pic, s, 1.0)
         c_line1 = correlation(pic, render(pic, None, lines1))
         print(f"| {len(pts)} | {s:.2f} | {t_place:.2f} | {cv0:.2f} -> {cv1:.2f} "
               f"| {c_dots[0]:.3f} / {c_dots[1]:.3f} "

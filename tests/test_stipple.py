@@ -7,7 +7,7 @@ import pytest
 
 from vplotter.errors import ConfigError
 from vplotter.inputs import image
-from vplotter.inputs.image import stipple
+from vplotter.inputs.image import stipple, stipple_tour
 from vplotter.inputs.image.picture import Picture
 
 pytest.importorskip("scipy")
@@ -116,19 +116,19 @@ def test_tour_visits_every_stipple_once_and_is_short():
     got = all_points(out)
     assert len(got) == len(pts)
     assert np.array_equal(np.unique(got, axis=0), np.unique(pts, axis=0))
-    t = stipple.tour(pts)
+    t = stipple_tour.tour(pts)
     assert np.array_equal(np.sort(t), np.arange(len(pts)))
 
     def length(p):
         return float(np.hypot(*np.diff(p, axis=0).T).sum())
 
     rand = pts[np.random.default_rng(0).permutation(len(pts))]
-    nn = pts[stipple.nearest_neighbour(pts)]
+    nn = pts[stipple_tour.nearest_neighbour(pts)]
     assert length(pts[t]) < 0.1 * length(rand)
     assert length(pts[t]) < 0.95 * length(nn)
     # split only at long edges: every drawn edge is at most MAX_EDGE spacings
     for s in out:
-        assert np.all(np.hypot(*np.diff(s.pts, axis=0).T) <= stipple.MAX_EDGE * 0.6 + 1e-9)
+        assert np.all(np.hypot(*np.diff(s.pts, axis=0).T) <= stipple_tour.MAX_EDGE * 0.6 + 1e-9)
 
 
 def test_tour_lifts_the_pen_over_white():

@@ -58,17 +58,13 @@ import numpy as np
 from vplotter.errors import ConfigError
 from vplotter.inputs.image import stipple_fit, tone
 from vplotter.inputs.image.picture import Picture
+from vplotter.inputs.image.stipple_tour import kdtree, split, tour
 from vplotter.inputs.strokes import Stroke
 
 PX_PER_SPACING = 4      # reduced grid: pixels per spacing_mm
 SAMPLES_PER_DOT = 8     # Lloyd: density samples per dot (the Voronoi cells are measured by them)
 MAX_ITER = 30           # Lloyd rounds at most
 STOP = 0.05             # ... or until the root-mean-square move is below STOP x spacing_mm
-K = 8                   # tour: neighbours looked at per point
-GAP = 3.0               # tour: an edge longer than GAP local spacings is a pen lift,
-MAX_EDGE = 5.0          # ... and so is one longer than MAX_EDGE x spacing_mm
-WHITE, WHITE_RUN = 0.02, 0.5    # ... or one over paper (darkness < WHITE) for WHITE_RUN spacings
-EDGE_SAMPLES = 7        # tour: darkness looked at along each edge
 INSET = 1e-6            # mm: points strictly inside the picture
 CAP_PENS = 5.0          # a coarser spacing: the same dots on the darker tones, this far apart in black
 GAMMA_MAX = 64.0        # ... by the tone curve d^gamma, gamma at most this
@@ -236,22 +232,13 @@ def _cap_gamma(picture: Picture, spacing_mm: float, pen_mm: float, tsp: bool = F
 
 
 # ------------------------------------------------------------------ placement
-def _kdtree():
-    try:
-        from scipy.spatial import cKDTree
-    except ImportError:
-        raise ConfigError("error: --style stipple needs SciPy: pip install scipy "
-                          "(Pi OS: sudo apt install python3-scipy)") from None
-    return cKDTree
-
-
 def points(picture: Picture, spacing_mm: float, seed: int = 0, dots: int | None = None,
            gamma: float = 1.0, iterations: int = MAX_ITER) -> np.ndarray:
     """(N, 2) stipple positions in G-code mm, strictly inside the picture (iterations=0: the
     initial sample, before Lloyd)."""
     if not spacing_mm > 0:
         raise ConfigError(f"error: stipple spacing must be > 0 mm (got {spacing_mm})")
-    cKDTree = _kdtree()
+    cKDTree = kdtree()
     rho, gx, gy = _grid(picture, spacing_mm)
     rho = np.clip(rho, 0.0, 1.0) ** gamma
     n = int(round(float(rho.sum()) * gx * gy / spacing_mm ** 2)) if dots is None else int(dots)
@@ -354,197 +341,3 @@ def _circles(pts: np.ndarray, picture: Picture, dot_mm: float, pen_mm: float) ->
         raise ConfigError(f"error: stipple dots of {dot_mm} mm do not fit the picture")
     pts = np.clip(pts, lo, hi)
     return [Stroke(p + shape) for p in pts]
-
-
-# ------------------------------------------------------------------ the tour
-def tour(pts: np.ndarray) -> np.ndarray:
-    """An open path through all points (indices, each once): nearest neighbour, then 2-opt
-    and or-opt among the K nearest neighbours (as a closed tour), cut at its longest edge."""
-    n = len(pts)
-    if n <= 3:
-        return np.arange(n)
-    nbr = _neighbours(pts)
-    t = nearest_neighbour(pts, nbr)
-    t = _improve(pts, t, nbr)
-    e = np.hypot(*(pts[t] - pts[np.roll(t, -1)]).T)
-    cut = int(np.argmax(e)) + 1
-    return np.roll(t, -cut)
-
-
-def _neighbours(pts: np.ndarray) -> np.ndarray:
-    k = min(K, len(pts) - 1)
-    _, nbr = _kdtree()(pts).query(pts, k=k + 1)
-    return nbr[:, 1:]
-
-
-def nearest_neighbour(pts: np.ndarray, nbr: np.ndarray | None = None) -> np.ndarray:
-    """Nearest-neighbour path from the point nearest (0, 0): the neighbour lists first, a k-d
-    tree of the points not yet visited (rebuilt as it empties) when all neighbours are."""
-    cKDTree = _kdtree()
-    n = len(pts)
-    if nbr is None:
-        nbr = _neighbours(pts)
-    near = nbr.tolist()
-    seen = np.zeros(n, dtype=bool)
-    seen_l = [False] * n
-    left = np.arange(n)
-    tree = cKDTree(pts)
-    cur = int(np.argmin(np.hypot(*pts.T)))
-    out = [cur]
-    seen[cur] = seen_l[cur] = True
-    for done in range(1, n):
-        nxt = -1
-        for j in near[cur]:
-            if not seen_l[j]:
-                nxt = j
-                break
-        if nxt < 0:
-            if 2 * (n - done) < len(left):
-                left = np.flatnonzero(~seen)
-                tree = cKDTree(pts[left])
-            k = 8
-            while nxt < 0:
-                k = min(k, len(left))
-                _, ii = tree.query(pts[cur], k=k)
-                for i in np.atleast_1d(ii).tolist():
-                    if not seen_l[left[i]]:
-                        nxt = int(left[i])
-                        break
-                k *= 4
-        out.append(nxt)
-        seen[nxt] = seen_l[nxt] = True
-        cur = nxt
-    return np.array(out, dtype=np.int64)
-
-
-def _improve(pts: np.ndarray, t: np.ndarray, nbr: np.ndarray, rounds: int = 30) -> np.ndarray:
-    """2-opt (a, next a) (b, next b) -> (a, b) (next a, next b), both ways round, and or-opt
-    (point a moved between b and its successor or predecessor) for b among a's neighbours, on
-    the closed tour t. Candidates are found vectorised; the moves are made one at a time in
-    order of gain (each checked again first), reversing the shorter side of the tour."""
-    n = len(t)
-    xs, ys = pts[:, 0].tolist(), pts[:, 1].tolist()
-    t = t.copy()
-    pos = np.empty(n, dtype=np.int64)
-    pos[t] = np.arange(n)
-
-    def d(a, b):
-        return math.hypot(xs[a] - xs[b], ys[a] - ys[b])
-
-    def reverse(i, j):                 # reverse positions i..j (cyclic, i <= j as positions)
-        ln = (j - i) % n + 1
-        if 2 * ln > n:                 # the other side instead: same tour, fewer to move
-            i, j = (j + 1) % n, (i - 1) % n
-            ln = n - ln
-        if ln < 2:
-            return
-        if i <= j:
-            seg = t[i:j + 1][::-1].copy()
-            t[i:j + 1] = seg
-            pos[seg] = np.arange(i, j + 1)
-        else:
-            idx = np.r_[i:n, 0:j + 1]
-            seg = t[idx][::-1].copy()
-            t[idx] = seg
-            pos[seg] = idx
-
-    X, Y = pts[:, 0], pts[:, 1]
-    A = np.repeat(np.arange(n), nbr.shape[1])
-    B = nbr.ravel()
-    dab = np.hypot(X[A] - X[B], Y[A] - Y[B])
-
-    def dv(p, q):
-        return np.hypot(X[p] - X[q], Y[p] - Y[q])
-
-    for _ in range(rounds):
-        succ, pred = np.empty_like(t), np.empty_like(t)
-        succ[t], pred[t] = np.roll(t, -1), np.roll(t, 1)
-        es, ep = dv(np.arange(n), succ), dv(np.arange(n), pred)
-        rem = es + ep - dv(pred, succ)            # saved by taking a point out
-        kinds, cands, gains = [], [], []
-        # a 2-opt move gains only if one of its new edges (a, b) is shorter than the old
-        # edge at a: from a's successor side, or from its predecessor side
-        for kd, (near, fn) in enumerate(((es, succ), (ep, pred))):
-            c = np.flatnonzero(dab < near[A])
-            a, b = A[c], B[c]
-            g = near[a] + near[b] - dab[c] - dv(fn[a], fn[b])
-            kinds.append(np.full(len(c), kd)), cands.append(c), gains.append(g)
-        c = np.flatnonzero(dab < rem[A])
-        a, b = A[c], B[c]
-        for kd, (near, fn) in ((2, (es, succ)), (3, (ep, pred))):
-            g = rem[a] - dab[c] + near[b] - dv(a, fn[b])
-            kinds.append(np.full(len(c), kd)), cands.append(c), gains.append(g)
-        kind, c, g = np.concatenate(kinds), np.concatenate(cands), np.concatenate(gains)
-        keep = g > 1e-9
-        if not keep.any():
-            break
-        kind, c, g = kind[keep], c[keep], g[keep]
-        sel = np.argsort(-g, kind="stable")
-        a, b = A, B
-        made = 0
-        for kd, ci in zip(kind[sel].tolist(), c[sel].tolist()):
-            x, y = int(a[ci]), int(b[ci])
-            i, j = int(pos[x]), int(pos[y])
-            if kd == 0:                # (x, sx) (y, sy) -> (x, y) (sx, sy)
-                sx, sy = int(t[(i + 1) % n]), int(t[(j + 1) % n])
-                if sx == y or sy == x:
-                    continue
-                if d(x, sx) + d(y, sy) - d(x, y) - d(sx, sy) > 1e-9:
-                    reverse((i + 1) % n, j)
-                    made += 1
-            elif kd == 1:              # (px, x) (py, y) -> (x, y) (px, py)
-                px, py = int(t[(i - 1) % n]), int(t[(j - 1) % n])
-                if px == y or py == x:
-                    continue
-                if d(x, px) + d(y, py) - d(x, y) - d(px, py) > 1e-9:
-                    reverse(j, (i - 1) % n)
-                    made += 1
-            else:                      # x moved between y and its successor/predecessor
-                px, sx = int(t[(i - 1) % n]), int(t[(i + 1) % n])
-                z = int(t[(j + 1) % n]) if kd == 2 else int(t[(j - 1) % n])
-                if x in (y, z) or n < 4:
-                    continue
-                g = d(px, x) + d(x, sx) - d(px, sx) + d(y, z) - d(y, x) - d(x, z)
-                if g > 1e-9:
-                    _move(t, pos, i, j if kd == 2 else (j - 1) % n, n)
-                    made += 1
-        if made == 0:
-            break
-    return t
-
-
-def _move(t: np.ndarray, pos: np.ndarray, i: int, j: int, n: int) -> None:
-    """Move the point at position i to just after position j (cyclic), shifting those between."""
-    x = t[i]
-    if (j - i) % n <= (i - j) % n:     # forwards: i+1..j shift back one
-        idx = (np.arange(i, i + (j - i) % n) % n)
-        src = (idx + 1) % n
-        last = (i + (j - i) % n) % n
-    else:                              # backwards: j+1..i-1 shift on one
-        idx = (np.arange(i, i - (i - j) % n + 1, -1) % n)
-        src = (idx - 1) % n
-        last = (j + 1) % n
-    t[idx] = t[src]
-    t[last] = x
-    pos[t[idx]] = idx
-    pos[x] = last
-
-
-def split(path: np.ndarray, picture: Picture, spacing_mm: float, gamma: float) -> list[np.ndarray]:
-    """The path cut into pieces at its long edges: an edge longer than GAP x the local spacing
-    (spacing_mm / sqrt(rho), rho = darkness ** gamma) at the lighter of its ends, or than
-    MAX_EDGE x spacing_mm, or that runs over paper (darkness under WHITE) for more than
-    WHITE_RUN x spacing_mm (judged at EDGE_SAMPLES points along it)."""
-    if len(path) < 2:
-        return [path]
-    a, b = path[:-1], path[1:]
-    length = np.hypot(*(b - a).T)
-    rho_ends = np.minimum(picture.at(a), picture.at(b)).clip(0.0, 1.0) ** gamma
-    with np.errstate(divide="ignore"):
-        allowed = np.minimum(GAP * spacing_mm / np.sqrt(rho_ends), MAX_EDGE * spacing_mm)
-    f = (np.arange(EDGE_SAMPLES) + 0.5) / EDGE_SAMPLES
-    along = a[:, None, :] + (b - a)[:, None, :] * f[None, :, None]
-    dark = picture.at(along.reshape(-1, 2)).reshape(len(a), EDGE_SAMPLES)
-    white = np.mean(dark < WHITE, axis=1) * length
-    cuts = np.flatnonzero((length > allowed) | (white > WHITE_RUN * spacing_mm)) + 1
-    return np.split(path, cuts)
