@@ -199,8 +199,8 @@ def test_fit_alone():
 
     pts = np.array([[1.0, 1.0], [2.0, 2.0]])
     flat = np.full((20, 20), 0.5, dtype=np.float32)
-    assert np.array_equal(stipple_fit.fit(pts, flat, 10.0, 10.0), pts)   # nothing to follow
-    assert np.array_equal(stipple_fit.fit(pts[:1], flat, 10.0, 10.0), pts[:1])
+    assert np.array_equal(stipple_fit.fitted(pts, flat, 10.0, 10.0)[0], pts)   # nothing to follow
+    assert np.array_equal(stipple_fit.fitted(pts[:1], flat, 10.0, 10.0)[0], pts[:1])
 
 
 def test_chosen_curve_is_the_one_drawn_and_told():

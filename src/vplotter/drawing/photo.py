@@ -34,7 +34,6 @@ CURVE_STEP = 1.6          # the curves tried: the spacing's own exponent, / and 
 CURVE_MAX = 16.0
 CURVE_TRIES = 3           # drawings made per other curve (from the spacing already found)
 FITTED_TRIES = 5          # ... for the fitted curve (the likely winner: use the whole budget)
-CURVE_MORE = 0            # further steps where an end curve wins (the fitted curves do better)
 
 
 @dataclass(frozen=True)
@@ -175,9 +174,8 @@ def default_gamma(style: str, spacing_mm: float, pen_mm: float) -> float:
 def pick_curve(picture, opts: PhotoOptions, draw, make, timed, budget_s: float, lo: float,
                hi: float, raw, drawn, choice):
     """The tone curve that draws this picture best within the budget. First exponents: the
-    spacing's own g0, g0 / CURVE_STEP and g0 x CURVE_STEP, and when one of those two wins one
-    step further that way (at most CURVE_MORE more; within 1..CURVE_MAX), each fitted to the
-    budget (a few tries from the spacing already found). Then curves fitted to the best
+    spacing's own g0, g0 / CURVE_STEP and g0 x CURVE_STEP (within 1..CURVE_MAX), each fitted
+    to the budget (a few tries from the spacing already found). Then curves fitted to the best
     drawing's measured response (`calibrate.py`: ink rising straight with darkness above a
     threshold): a few thresholds drawn at that drawing's spacing (`calibrate.search`), the
     best of them fitted to the budget. Every drawing is scored
@@ -211,31 +209,24 @@ def pick_curve(picture, opts: PhotoOptions, draw, make, timed, budget_s: float, 
 
     for step in (1 / CURVE_STEP, CURVE_STEP):
         g = min(max(g0 * step, 1.0), CURVE_MAX)
-        if abs(g - g0) < 1e-6:
-            continue
-        if attempt(g):
-            for _ in range(CURVE_MORE):       # the best at an end: one step further
-                g2 = min(max(g * step, 1.0), CURVE_MAX)
-                if abs(g2 - g) < 1e-6 or not attempt(g2):
-                    break
-                g = g2
+        if abs(g - g0) > 1e-6:
+            attempt(g)
     if dark.std() > 0:                        # curves fitted to the best drawing's response
         _, g, _, c, made = best
         ink = score.ink(made, picture, opts.pen_mm)
-        resp = calibrate.response(g, ink, dark)
+        resp, mean = calibrate.response(g, ink, dark), float(ink.mean())
+        scored: dict[tuple, float] = {}       # the same curve (a picture mostly white: one
+                                              # threshold for many q) drawn once
 
-        tables: dict[float, tone.Table] = {}
-        scored: dict[tuple, float] = {}           # the same curve (a picture mostly white:
-                                                  # the same threshold for many q) drawn once
         def fitted(q: float) -> float:
             """The score of the curve for threshold q, drawn at the measured drawing's spacing."""
-            t = tables[q] = calibrate.table(resp, dark, float(ink.mean()), q)
+            t = calibrate.table(resp, dark, mean, q)
             if t.values not in scored:
                 made = draw(c.spacing_mm, t)
                 scored[t.values] = score.correlation(made, picture, opts.pen_mm, dark)
             return scored[t.values]
 
-        attempt(tables[calibrate.search(fitted)], FITTED_TRIES)
+        attempt(calibrate.table(resp, dark, mean, calibrate.search(fitted)), FITTED_TRIES)
     r, g, placed, c, _ = best
     c = replace(c, tries=made_tries)          # every drawing made counts
     note = (f"tone curve {tone.name(g)} chosen for this picture (correlation of ink with "

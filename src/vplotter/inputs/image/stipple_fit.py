@@ -47,18 +47,13 @@ JUMP_SHARE = 0.02  # ... per PEAK_MM square), kept if r rises (else half as many
 PEAK_MM = 5.0
 
 
-def fit(pts: np.ndarray, darkness, width_mm: float, height_mm: float,
-        rounds: int = ROUNDS, step_mm: float = STEP_MM) -> np.ndarray:
-    """The dots `pts` (N, 2), G-code mm, moved to raise the correlation of their blurred ink
-    with `darkness` (a (H, W) array over the picture, row 0 at the top; blurred or not)."""
-    return fitted(pts, darkness, width_mm, height_mm, rounds, step_mm)[0]
-
-
 def fitted(pts: np.ndarray, darkness, width_mm: float, height_mm: float,
            rounds: int = ROUNDS, step_mm: float = STEP_MM, cell_mm: float = CELL_MM,
            teleport: bool = True, stay: np.ndarray | None = None) -> tuple[np.ndarray, float]:
-    """(the dots moved as `fit` moves them, the correlation they reached: on the fitting
-    grid, the last round's, 0.0 when nothing could be fitted)."""
+    """(the dots `pts` (N, 2), G-code mm, moved to raise the correlation of their blurred ink
+    with `darkness` (a (H, W) array over the picture, row 0 at the top; blurred or not), the
+    correlation they reached: on the fitting grid, the last round's, 0.0 when nothing could
+    be fitted)."""
     from PIL import Image
     from scipy.ndimage import gaussian_filter, maximum_filter
 
