@@ -4,13 +4,13 @@ plot-time budget.
 The picture is sized first (--width, --height, or the largest size inside the page less
 --margin, aspect kept), because the line spacing only means something at the final size; it
 is loaded once at the resolution the pen can show; then `budget.fit` tries densities of the
-style, each placed on the page, put in a quick (greedy) order and timed by the caller's
-planner, and keeps the densest that fits; then (`pick_curve`) the same for other tone
+style, each placed on the page, put in a quick order (greedy; the stipples' own tour) and
+timed by the caller's planner, and keeps the densest that fits; then (`pick_curve`) the same for other tone
 curves (exponents either side, and curves fitted to the drawing's own measured response:
 `inputs/image/calibrate.py`), each drawing scored against the picture
 (`inputs/image/score.py`), the best kept.
 The caller orders the result as asked (best by
-default) and that order never takes longer than the greedy one it was timed in.
+default) and that order never takes longer than the quick one it was timed in.
 """
 
 from __future__ import annotations
@@ -125,11 +125,14 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
         return style(picture, spacing, opts.pen_mm, **extra,
                      **({} if curve is None else {"curve": curve}))
 
+    # the dots come in the order of their tour (`stipple._dots`), better than any other
+    how = "keep" if opts.style == "stipple" and not opts.tsp else "greedy"
+
     def make(spacing: float, curve=None):
-        """(placed strokes in a greedy order, the style's own strokes in picture mm)."""
+        """(placed strokes in a quick order, the style's own strokes in picture mm)."""
         made = draw(spacing, curve)
         moved = [replace(s, pts=s.pts + shift, line=i + 1) for i, s in enumerate(made)]
-        return order.order(place.place(moved, put, page), "greedy", start_xy), made
+        return order.order(place.place(moved, put, page), how, start_xy), made
 
     notes = [f"photo: {opts.style}, {w:.0f} x {h:.0f} mm, pen {opts.pen_mm:g} mm"]
     if layers is not None:
