@@ -76,3 +76,57 @@ def test_the_search_makes_at_most_what_it_is_allowed():
     drawing, choice = budget.fit(make, lambda s: 3600.0 / s, 1800.0, 20.0, 0.5, 50.0, most=2)
     assert len(made) == 2 and len(choice.tries) == 2
     assert 3600.0 / drawing <= 1800.0
+
+
+@settings(max_examples=60, deadline=None)
+@given(a=st.floats(0, 600), b=st.floats(50, 1e5), p=st.floats(0.7, 2.3),
+       hours=st.floats(0.5, 4), gain=st.floats(0.85, 1.0), noise=st.sampled_from([0.0, 0.02]))
+def test_fill_spends_what_the_final_order_saves(a, b, p, hours, gain, noise):
+    """The search times a quick order; the final order takes `gain` of that. `fill` lands the
+    final drawing within FILL_UNDER of the budget (a smooth power law) and never over it."""
+    B = 3600 * hours
+
+    def quick_time(s):
+        return a + b / s ** p * (1 + noise * math.sin(37 * s))
+
+    lo, hi = 0.2, 200.0
+    try:
+        made, choice = budget.fit(lambda s: ("quick", s), lambda d: quick_time(d[1]), B, 5.0,
+                                  lo, hi, power=1.0)
+    except ConfigError:
+        return
+    timed = []
+
+    def plot_time(d):
+        timed.append(d)
+        return quick_time(d[1]) * (gain if d[0] == "final" else 1.0)
+
+    drawn, c = budget.fill(made, choice, lambda s: ("quick", s),
+                           lambda d: ("final", d[1]), plot_time, B, lo, power=1.0)
+    assert c.time_s <= B and c.time_s == plot_time(drawn)
+    assert drawn[0] == "final"
+    assert c.time_s >= gain * choice.time_s * (1 - 1e-12)     # never less than it had
+    assert c.spacing_mm <= choice.spacing_mm
+    assert len(c.tries) - len(choice.tries) <= budget.FILL_TRIES
+    if noise == 0 and c.spacing_mm > lo * 1.0001:
+        assert c.time_s >= budget.FILL_UNDER * B
+
+
+def test_fill_keeps_the_quick_order_when_the_final_one_is_longer():
+    choice = budget.Choice(2.0, 3580.0, 3600.0, [(2.0, 3580.0)])
+    drawn, c = budget.fill("quick", choice, lambda s: 1 / 0, lambda d: "final",
+                           lambda d: 3590.0, 3600.0, 0.5, 1.0)
+    assert drawn == "quick" and c.time_s == 3580.0 and c.spacing_mm == 2.0
+
+
+def test_fill_keeps_the_longest_drawing_when_denser_ones_take_less():
+    # a spiral whose tracks turn dashed: a denser spacing can take less time
+    times = {2.0: 3400.0}
+
+    def plot_time(s):
+        return times.get(s, 3000.0 if s > 1.5 else 4000.0)
+
+    choice = budget.Choice(2.0, 3400.0, 3600.0, [(2.0, 3400.0)])
+    drawn, c = budget.fill(2.0, choice, lambda s: s, lambda d: d, plot_time, 3600.0, 0.5, 1.0)
+    assert drawn == 2.0 and c.time_s == 3400.0
+    assert "closest try" in c.text()

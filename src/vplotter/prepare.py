@@ -242,7 +242,6 @@ class Prepared:
     dialect: object = None        # config.toml [gcode] pen dialect, when the config has one
     warn: Callable[[str], None] = _stderr
     notes: list[str] = field(default_factory=list)    # what was chosen and why (a photo)
-    timed_s: float | None = None  # a photo: the plot time its budget search measured
     fill: object = None           # SVG: inputs.fill.FillOptions (--fill, --fill-spacing ...)
     refill_mm: float | None = None    # --refill-every: a fresh pen after this much drawn
     owned: tuple = ()             # config.toml [pens]: the pens owned (drawing/pens.py)
@@ -428,13 +427,12 @@ def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
         placed = place.place(drawing.strokes, place_opts, page)
     placed = pens.resolve(placed, prep.owned, warn, path)
     t0 = time.perf_counter()
-    prep._strokes = pens.arrange(placed, pen_order or "light-to-dark",
-                                 lambda group, at: order.order(group, method, at), start_xy)
+    if kind == "image":                        # ordered as timed (`photo.strokes`)
+        prep._strokes = pens.arrange(placed, pen_order or "light-to-dark")
+    else:
+        prep._strokes = pens.arrange(placed, pen_order or "light-to-dark",
+                                     lambda group, at: order.order(group, method, at), start_xy)
     prep.order_s = time.perf_counter() - t0
-    if prep.timed_s is not None and method != "keep" and placed:
-        # the budget timed the quick order; never let another order take longer
-        if _timed(prep, prep._strokes, plot_time) > prep.timed_s:
-            prep._strokes = pens.arrange(placed, pen_order or "light-to-dark")
     return prep
 
 
@@ -457,9 +455,10 @@ def _photo(prep: Prepared, args, page, place_opts, plot_time) -> list:
     def timed(strokes: list) -> float:
         return _timed(prep, strokes, plot_time)
 
-    placed, prep.notes, prep.timed_s = photo.strokes(
+    placed, prep.notes, _ = photo.strokes(
         prep.path, photo_options(args), page, _replace(place_opts, width_mm=None, height_mm=None),
-        timed if plot_time is not None else None, prep.start_xy)
+        timed if plot_time is not None else None, prep.start_xy,
+        getattr(args, "order", None) or "best")
     prep._drawing = Drawing(prep.path, placed)
     return placed
 
