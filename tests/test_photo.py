@@ -225,3 +225,23 @@ def test_a_chosen_curve_keeps_ink_rising_with_darkness(capsys, config_path, tmp_
         mid = (p[1:, 0] + p[:-1, 0]) / 2
         ink += np.bincount(np.clip(((mid - x0) / 30).astype(int), 0, bands - 1), seg, bands)
     assert ink[0] > 0 and np.all(np.diff(ink) > 0), (ink, err)
+
+
+def test_a_dot_is_a_move_in_the_gcode(capsys, config_path, photo, tmp_path):
+    """Each stipple is pen down, a G1 to where the pen is, pen up: a reader that keeps only
+    the pen-down moves (as many previewers do) still sees every dot."""
+    out = tmp_path / "dots.ngc"
+    code, _, err = run(capsys, ["--config", config_path, "convert", photo, "-o", out,
+                                "--style", "stipple", "--width", 150, "--spacing", 4])
+    assert code == 0, err
+    down, dots, moved = False, 0, []
+    for line in out.read_text().splitlines():
+        if line.startswith("G1 Z-"):
+            down, dots = True, dots + 1
+            moved.append(0)
+        elif line.startswith("G0 Z"):
+            down = False
+        elif down and line.startswith("G1 X"):
+            moved[-1] += 1
+    assert dots > 50 and moved == [1] * dots
+    assert len(tc.reference_path(str(out))) == dots

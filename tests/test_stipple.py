@@ -59,6 +59,22 @@ def test_dots_are_one_point_strokes():
     assert all(s.pts.shape == (1, 2) for s in out)
 
 
+def test_dots_come_in_a_short_order():
+    """The pen hops from dot to dot in the order of their tour: shorter than the greedy order
+    the drawing's ordering would give, and no longer than its best."""
+    from vplotter.drawing import order
+
+    out = stipple.strokes(photo(), 0.8, 0.5)
+    hops = float(np.hypot(*np.diff(all_points(out), axis=0).T).sum())
+
+    def travel(strokes):
+        return order.travel_mm(strokes, start_xy=strokes[0].pts[0])
+
+    assert hops == pytest.approx(travel(out))
+    assert hops < 0.97 * travel(order.order(out, "greedy", out[0].pts[0]))
+    assert hops <= travel(order.order(out, "best", out[0].pts[0])) * 1.001
+
+
 def test_discs_are_small_closed_spirals():
     pts = stipple.points(photo(), 1.5)
     out = stipple.strokes(photo(), 1.5, 0.5, dot_mm=1.5)

@@ -261,14 +261,14 @@ def write_gcode(prep, cfg, f) -> None:
             f.write(f"G0 {xy[0]}\n{pen_down}\n")
             at = xy[0]
         lines = []
-        for i, w in enumerate(xy):      # no zero-length moves: they would not read back
-            if w != at:
-                lines.append(f"G1 {w}")
+        for i, w in enumerate(xy):      # no zero-length moves: they would not read back,
+            if w != at or len(xy) == 1:  # but a dot's (the pen taps): readers that keep only
+                lines.append(f"G1 {w}")  # moves see it as a point
                 at = w
             if i in cuts:
                 lines += [pen_up, _m0(cuts[i], pen, st.colour), pen_down]
         want = st.feed_mm_s if st.feed_mm_s is not None else cfg.motion.draw_speed_mm_s
-        if feeds and lines and lines[0].startswith("G1") and want != feed:
+        if feeds and lines and len(xy) > 1 and lines[0].startswith("G1") and want != feed:
             lines[0] += f" F{_num(want * 60)}"
             feed = want
         if lines:
