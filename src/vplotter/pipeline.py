@@ -147,7 +147,7 @@ def _schedule(cfg, ops, counts, ref_mm, emit: bool, summary: Summary,
                 rows = None             # not kept alive while the player plays it
             continue
         elif kind == "pen":
-            rows = sched.pen(op[1], op[2])
+            rows = sched.pen(op[1], op[2], emit)
         elif kind == "dwell":
             rows = sched.dwell(op[1], op[2])
         elif kind == "turn":

@@ -96,10 +96,13 @@ class LineScheduler(Scheduler):
     def _settle(self) -> str:
         return f"G4P{self.cfg.pen.settle_s:g}"
 
-    def pen(self, down: bool, line: int = 0) -> Lines | None:
-        if super().pen(down, line) is None:
+    def pen(self, down: bool, line: int = 0, emit: bool = True) -> Lines | None:
+        changed = down != self.pen_down
+        super().pen(down, line, emit=False)
+        if not changed:
             return None
-        return self._plain([self.ser.pen_down if down else self.ser.pen_up, self._settle()], line)
+        out = self._plain([self.ser.pen_down if down else self.ser.pen_up, self._settle()], line)
+        return out if emit else None                  # counted either way (lines_total)
 
     def dwell(self, seconds: float, line: int = 0) -> Lines | None:
         super().dwell(seconds, line)

@@ -153,17 +153,19 @@ class Scheduler:
         self.pen_us = 0
         return Rows.concat(rows)
 
-    def pen(self, down: bool, line: int = 0) -> Rows | None:
+    def pen(self, down: bool, line: int = 0, emit: bool = True) -> Rows | None:
+        """The pen's pulse and its settle; with emit=False only the clock advances."""
         if down == self.pen_down:
             return None
         self.line = line
         self.pen_down = down
+        t = self.t_us
+        self.t_us += self.settle_us
+        if not emit:
+            return None
         width = self.down_us if down else self.cfg.pen.up_us
         coils = self.drv.hold_word() if self.energized else self.idle
-        rows = [self._row(self.t_us, coils, width),
-                self._row(self.t_us + self.settle_us, coils, 0)]
-        self.t_us += self.settle_us
-        return Rows.concat(rows)
+        return Rows.concat([self._row(t, coils, width), self._row(t + self.settle_us, coils, 0)])
 
     def release(self) -> Rows | None:
         """Release the motors, from a one-coil phase: a motor in a two-coil phase first takes
