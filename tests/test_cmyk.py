@@ -15,6 +15,7 @@ from vplotter.cli import main
 from vplotter.drawing import photo
 from vplotter.drawing.place import Box, Placement
 from vplotter.inputs.image import cmyk
+from vplotter.inputs import colour as colours
 from vplotter.inputs.image.load import srgb_encode
 
 STYLES = ("hatch", "spiral", "squiggle", "stipple")
@@ -121,7 +122,7 @@ def test_convert_cmyk_fits_one_budget_and_ink_preview_is_coloured(tmp_path, caps
                  "--width", "90", "--max-time", "10m"])
     _, err = capsys.readouterr()
     assert code == 0, err
-    assert "cmyk: four pens" in err and "within 10:00" in err
+    assert "cmyk: 4 pens" in err and "within 10:00" in err
     assert main(["--config", str(config_path), "estimate", str(out)]) == 0
     t = float(re.search(r"\(([\d.]+) s\)", capsys.readouterr()[0]).group(1))
     assert t <= 600 * 1.01
@@ -142,3 +143,107 @@ def test_cmyk_on_a_drawing_is_an_error(capsys, config_path, tmp_path):
     code = main(["--config", str(config_path), "estimate", str(svg), "--cmyk"])
     err = capsys.readouterr()[1]
     assert code == 2 and "--cmyk is for photos" in err and "Traceback" not in err
+
+
+# ------------------------------------------------------------------ --colours: the pens owned
+PENS3 = [("black", "#000000"), ("red", "#ff0000"), ("blue", "#0000ff")]
+
+
+def test_inks_for_come_light_to_dark_each_at_its_own_angle():
+    inks = cmyk.inks_for(PENS3)
+    assert [i[0] for i in inks] == ["red", "blue", "black"]      # L* 53, 32, 0
+    assert inks[-1][2] == 45.0 and len({i[2] for i in inks}) == 3
+
+
+def test_pen_colours_and_grey_separate_into_their_own_pens():
+    inks = cmyk.inks_for(PENS3)
+    px = np.array([[1, 0, 0], [0, 0, 1], [0.5, 0.5, 0.5], [1, 1, 1]], dtype=np.float32)
+    red, blue, black = cmyk.separate_pens(px.T[:, :, None], inks)[:, :, 0]
+    assert red[0] > 0.95 and blue[0] < 0.02 and black[0] < 0.02        # red: the red pen
+    assert blue[1] > 0.95 and red[1] < 0.02 and black[1] < 0.02
+    assert black[2] == pytest.approx(0.5, abs=0.03) and max(red[2], blue[2]) < 0.02
+    assert red[3] == blue[3] == black[3] == 0                           # white: nothing
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 255), st.integers(0, 255), st.integers(0, 255)),
+                min_size=2, max_size=5, unique=True),
+       st.lists(st.floats(0, 1), min_size=5, max_size=5))
+def test_a_mix_the_pens_can_make_comes_back(pen_rgb, share):
+    """Coverages that give a colour the pens can make (absorptions add) give it back: the
+    absorption of the coverages found is within a few per cent of the one asked for, and every
+    coverage is within 0..1."""
+    pens = [(f"p{i}", "#%02x%02x%02x" % c) for i, c in enumerate(pen_rgb)]
+    inks = cmyk.inks_for(pens)
+    u = np.array([[1 - c for c in colours.linear_rgb(colour)] for _, colour, _ in inks])
+    a = np.array(share[:len(inks)]) / len(inks)
+    want = np.clip(a @ u, 0, 1)
+    got = cmyk.separate_pens((1 - want).astype(np.float32)[:, None, None], inks)[:, 0, 0]
+    assert np.all((got >= 0) & (got <= 1))
+    assert np.abs(got @ u - want).max() < 0.05
+
+
+def test_convert_in_the_pens_owned_asks_for_each_light_to_dark(tmp_path, capsys, config_path):
+    rgb = np.ones((60, 90, 3))
+    rgb[:, :30] = [1, 0, 0]                           # red, blue, grey
+    rgb[:, 30:60] = [0, 0, 1]
+    rgb[:, 60:] = [0.2, 0.2, 0.2]
+    path = save(tmp_path, rgb)
+    out = tmp_path / "c.ngc"
+    code = main(["--config", str(config_path), "convert", str(path), "-o", str(out),
+                 "--colours", "black,red,blue", "--width", "90", "--max-time", "10m"])
+    err = capsys.readouterr()[1]
+    assert code == 0, err
+    assert "colours: 3 pens" in err and "within 10:00" in err
+    text = out.read_text()
+    asks = re.findall(r"M0 \(pen: (\w+)\)", text)
+    assert asks == ["red", "blue", "black"]
+    # each pen draws its own third of the picture (x in mm about the page's centre)
+    where = {}
+    pen = None
+    for line in text.splitlines():
+        m = re.match(r"M0 \(pen: (\w+)\)", line)
+        if m:
+            pen = m.group(1)
+        m = re.match(r"G1 X(-?[\d.]+)", line)
+        if m and pen:
+            where.setdefault(pen, []).append(float(m.group(1)))
+    assert np.median(where["red"]) < -10 and abs(np.median(where["blue"])) < 10
+    assert np.median(where["black"]) > 10
+
+
+def test_colours_name_pens_in_the_config(tmp_path, capsys, config_path):
+    cfg = tmp_path / "pens.toml"
+    cfg.write_text(config_path.read_text() + '\n[pens.sepia]\ncolour = "#704214"\n'
+                   '[pens.ink]\ncolour = "#101010"\n')
+    rgb = np.ones((40, 40, 3)) * 0.3
+    path = save(tmp_path, rgb)
+    out = tmp_path / "c.ngc"
+    assert main(["--config", str(cfg), "convert", str(path), "-o", str(out), "--colours",
+                 "sepia,ink", "--width", "40", "--spacing", "2"]) == 0
+    assert set(re.findall(r"M0 \(pen: (\w+)\)", out.read_text())) <= {"sepia", "ink"}
+    capsys.readouterr()
+    code = main(["--config", str(cfg), "estimate", str(path), "--colours", "sepia,inkk"])
+    err = capsys.readouterr()[1]
+    assert code == 2 and len([x for x in err.splitlines() if "error" in x]) == 1
+    assert "'inkk' is neither a pen in [pens] nor a colour ([pens]: sepia, ink)" in err
+
+
+@pytest.mark.parametrize("given, said", [
+    ("black,white", "white: it draws nothing"),
+    ("black,red,#000", "#000 is given twice"),
+    ("black,reddish", "'reddish' is neither a pen in [pens] nor a colour"),
+])
+def test_colours_that_cannot_be_drawn_are_one_line(tmp_path, capsys, config_path, given, said):
+    path = save(tmp_path, np.ones((20, 20, 3)) * 0.5)
+    code = main(["--config", str(config_path), "estimate", str(path), "--colours", given])
+    err = capsys.readouterr()[1]
+    assert code == 2 and said in err and "Traceback" not in err
+    assert len([x for x in err.splitlines() if "error" in x]) == 1
+
+
+def test_cmyk_and_colours_together_is_an_error(tmp_path, capsys, config_path):
+    path = save(tmp_path, np.ones((20, 20, 3)) * 0.5)
+    code = main(["--config", str(config_path), "estimate", str(path), "--cmyk", "--colours",
+                 "black"])
+    assert code == 2 and "--cmyk or --colours, not both" in capsys.readouterr()[1]

@@ -111,6 +111,9 @@ def add_file_options(p: argparse.ArgumentParser) -> None:
     ph.add_argument("--cmyk", action="store_true",
                     help="a colour photo in four pens: yellow, cyan, magenta and black layers, "
                          "within one budget")
+    ph.add_argument("--colours", metavar="PENS",
+                    help="a colour photo in the pens you own: names from [pens] or colours, "
+                         "comma-separated (black,red,#2050c0), within one budget")
     fl = p.add_argument_group("fills (SVG)")
     fl.add_argument("--fill", choices=("none", "outline", "hatch"),
                     help="filled shapes: none (only what has a stroke is drawn), outline (every "
@@ -458,13 +461,14 @@ def _photo(prep: Prepared, args, page, place_opts, plot_time) -> list:
     placed, prep.notes, _ = photo.strokes(
         prep.path, photo_options(args), page, _replace(place_opts, width_mm=None, height_mm=None),
         timed if plot_time is not None else None, prep.start_xy,
-        getattr(args, "order", None) or "best")
+        getattr(args, "order", None) or "best", prep.owned)
     prep._drawing = Drawing(prep.path, placed)
     return placed
 
 
 def _no_photo_options(args, path: str) -> None:
-    given = [name for name in ("style", "max_time", "spacing", "tsp", "invert", "cmyk")
+    given = [name for name in ("style", "max_time", "spacing", "tsp", "invert", "cmyk",
+                               "colours")
              if getattr(args, name, None)]
     if given:
         flag = "--" + given[0].replace("_", "-")

@@ -47,6 +47,7 @@ class PhotoOptions:
     invert: bool = False
     tsp: bool = False
     cmyk: bool = False                   # four pens: yellow, cyan, magenta, black layers
+    colours: tuple[str, ...] = ()        # --colours: pens by name ([pens]) or colour
     width_mm: float | None = None
     height_mm: float | None = None
 
@@ -63,6 +64,8 @@ class PhotoOptions:
                    invert=bool(getattr(args, "invert", False)),
                    tsp=bool(getattr(args, "tsp", False)),
                    cmyk=bool(getattr(args, "cmyk", False)),
+                   colours=tuple(c.strip() for c in (getattr(args, "colours", None) or "")
+                                 .split(",") if c.strip()),
                    width_mm=getattr(args, "width", None),
                    height_mm=getattr(args, "height", None))
 
@@ -86,13 +89,14 @@ def size_mm(aspect: float, opts: PhotoOptions, page: place.Box, margin_mm: float
 
 def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Placement,
             plot_time: Callable[[list[Stroke]], float] | None, start_xy=(0.0, 0.0),
-            method: str = "best"):
+            method: str = "best", owned: tuple = ()):
     """(placed strokes in their drawing order from start_xy, notes for the person, their
     plot time: None with a fixed --spacing).
     plot_time(strokes) -> s times an ordered drawing with the draw's own planner (None: no
     budget, only with a fixed --spacing). method: "best" improves the quick order the budget
     was searched in (`order.py`; the stipples' tour is already their best) and fills the time
-    that saves (`fill`); "greedy" and "keep" leave the quick order."""
+    that saves (`fill`); "greedy" and "keep" leave the quick order. owned: the pens in
+    config.toml, which --colours may name."""
     from vplotter.inputs import image
     from vplotter.inputs.image import load
 
@@ -109,11 +113,15 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
     tone = dict(pen_mm=opts.pen_mm, contrast=opts.contrast, brightness=opts.brightness,
                 invert=opts.invert)
     layers = None
-    if opts.cmyk:
+    if opts.cmyk and opts.colours:
+        raise ConfigError("error: give --cmyk or --colours, not both")
+    if opts.cmyk or opts.colours:
         from vplotter.inputs.image import cmyk
 
-        layers = cmyk.layers(load.load_rgb(path, w, h, **tone), w, h, os.path.basename(path))
-        picture = layers[-1]                          # the black layer: for the notes
+        inks = cmyk.INKS if opts.cmyk else cmyk.inks_for(pens_of(opts.colours, owned))
+        layers = cmyk.layers(load.load_rgb(path, w, h, **tone), w, h, os.path.basename(path),
+                             inks)
+        picture = layers[-1]                          # the darkest pen's layer: for the notes
     else:
         picture = load.load(path, w, h, **tone)
     # the picture's centre on the page's centre, then rotate, align and offset as asked
@@ -124,7 +132,7 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
     def draw(spacing: float, curve=None):
         """The style's own strokes in picture mm (curve: the tone curve, None: the style's)."""
         if layers is not None:                        # every pen's layer: one budget
-            return cmyk.strokes(style, opts.style, layers, spacing, opts.pen_mm, **extra)
+            return cmyk.strokes(style, opts.style, layers, spacing, opts.pen_mm, inks, **extra)
         return style(picture, spacing, opts.pen_mm, **extra,
                      **({} if curve is None else {"curve": curve}))
 
@@ -144,8 +152,8 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
 
     notes = [f"photo: {opts.style}, {w:.0f} x {h:.0f} mm, pen {opts.pen_mm:g} mm"]
     if layers is not None:
-        notes.append(f"cmyk: four pens, light to dark, ink asked for (mean coverage): "
-                     f"{cmyk.shares(layers)}")
+        notes.append(f"{'cmyk' if opts.cmyk else 'colours'}: {len(inks)} pens, light to dark, "
+                     f"ink asked for (mean coverage): {cmyk.shares(layers, inks)}")
     if opts.spacing_mm is not None:
         if opts.max_time_s is not None:
             raise ConfigError("error: give --spacing or --max-time, not both")
@@ -174,6 +182,36 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
         notes.append(f"no --max-time: the budget for a photo is {budget.clock_text(budget_s)} "
                      f"by default")
     return drawn, notes, choice.time_s
+
+
+def pens_of(names: tuple[str, ...], owned: tuple = ()) -> list[tuple[str, str]]:
+    """--colours: [(pen, '#rrggbb')], each name a pen in [pens] (its colour) or a colour (a
+    pen of that name)."""
+    from vplotter.drawing import pens
+    from vplotter.inputs import colour as colours
+
+    out: list[tuple[str, str]] = []
+    for name in names:
+        spec = pens.by_name(owned, name)
+        if spec is not None:
+            pen = (spec.name, spec.colour)
+        else:
+            try:
+                c = colours.parse(name)
+            except ValueError:
+                c = None
+            if c is None:
+                known = f" ([pens]: {', '.join(p.name for p in owned)})" if owned else ""
+                raise ConfigError(f"error: --colours: {name!r} is neither a pen in [pens] nor a "
+                                  f"colour{known}")
+            pen = (name, c)
+        if colours.lightness(pen[1]) > 99.0:
+            raise ConfigError(f"error: --colours: {name} is white: it draws nothing on white "
+                              f"paper")
+        if any(pen[0] == p[0] or pen[1] == p[1] for p in out):
+            raise ConfigError(f"error: --colours: {name} is given twice")
+        out.append(pen)
+    return out
 
 
 def default_gamma(style: str, spacing_mm: float, pen_mm: float) -> float:
