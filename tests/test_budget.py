@@ -130,3 +130,10 @@ def test_fill_keeps_the_longest_drawing_when_denser_ones_take_less():
     drawn, c = budget.fill(2.0, choice, lambda s: s, lambda d: d, plot_time, 3600.0, 0.5, 1.0)
     assert drawn == 2.0 and c.time_s == 3400.0
     assert "closest try" in c.text()
+
+
+def test_fill_of_a_drawing_that_takes_no_time_leaves_it():
+    """An all-white picture draws nothing at any spacing: nothing to fill, no error."""
+    choice = budget.Choice(3.0, 0.0, 3600.0, [(3.0, 0.0)])
+    drawn, c = budget.fill([], choice, lambda s: [], lambda d: d, lambda d: 0.0, 3600.0, 0.5, 1)
+    assert drawn == [] and c.time_s == 0.0 and c.spacing_mm == 3.0

@@ -137,7 +137,7 @@ def fill(quick, choice: Choice, remake, final, plot_time,
     over = None                                       # (spacing, time) of the sparsest over
     aim = budget_s * (1 + FILL_UNDER) / 2
     for _ in range(FILL_TRIES):
-        if t >= FILL_UNDER * budget_s or s <= lo * 1.0001:
+        if t >= FILL_UNDER * budget_s or s <= lo * 1.0001 or t <= 0:
             break
         slope = -power
         if over is not None and over[1] != t and over[0] != s:
