@@ -167,8 +167,24 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
     lo = opts.pen_mm * (1.2 if opts.style == "stipple" else 1.0)
     hi = max(w, h) / 4
     timed = lambda made: plot_time(made[0])                    # noqa: E731
-    (drawn, raw), choice = budget.fit(make, timed, budget_s, start, lo, hi, POWER[opts.style])
     curve = None
+    dots = opts.style == "stipple" and not opts.tsp and layers is None
+    if dots:                                  # one curve while the budget is searched
+        from vplotter.inputs.image import stipple
+
+        curve = stipple.tone_gamma(picture, start, opts.pen_mm)
+    (drawn, raw), choice = budget.fit(lambda sp: make(sp, curve), timed, budget_s, start, lo,
+                                      hi, POWER[opts.style])
+    if dots:                                  # the curve the spacing found asks for
+        g = stipple.tone_gamma(picture, choice.spacing_mm, opts.pen_mm)
+        if g != curve:
+            try:
+                (drawn, raw), again = budget.fit(lambda sp: make(sp, g), timed, budget_s,
+                                                 choice.spacing_mm, lo, hi, POWER[opts.style],
+                                                 most=CURVE_TRIES)
+                choice, curve = replace(again, tries=choice.tries + again.tries), g
+            except ConfigError:
+                pass
     if opts.style in CURVES and layers is None:
         drawn, choice, curve, said = pick_curve(picture, opts, draw, make, timed, budget_s, lo,
                                                 hi, raw, drawn, choice)

@@ -43,7 +43,9 @@ def describe(name: str, spacing_mm: float, pen_mm: float, picture=None, **extra)
                 f"dashed, in the lightest tones), tone curve {tone.name(g)}")
     if name == "stipple":
         from vplotter.inputs.image import stipple
-        g = stipple.tone_gamma(picture, spacing_mm, pen_mm, bool(extra.get("tsp"))) if picture else 1.0
+        g = (chosen if chosen is not None else
+             stipple.tone_gamma(picture, spacing_mm, pen_mm, bool(extra.get("tsp")))
+             if picture else 1.0)
         return (f"as many dots as a spacing of {spacing_mm:.2f} mm spreads evenly, tone curve "
                 f"d^{g:.1f}")
     return f"tone curve {tone.name(chosen if chosen is not None else tone.gamma(spacing_mm, pen_mm))}"

@@ -73,18 +73,18 @@ FLOOR_GAMMA = 8.0       # ... and at least this
 
 def strokes(picture: Picture, spacing_mm: float, pen_mm: float, tsp: bool = False,
             seed: int = 0, dots: int | None = None, dot_mm: float | None = None,
-            fit: bool = True, **_) -> list[Stroke]:
+            fit: bool = True, curve: float | None = None, **_) -> list[Stroke]:
     """Stipples of `picture`: one 1-point stroke (a dot: the pen taps) per stipple, on the
-    tone curve that draws this picture best and moved to draw its tone best as seen
-    (`chosen`; fit=False: the spacing's own curve, as Lloyd left them); with
+    tone curve that draws this picture best (or d^curve) and moved to draw its tone best as
+    seen (`chosen`; fit=False: the spacing's own curve, as Lloyd left them); with
     dot_mm > pen_mm a small filled circle of that diameter instead; with tsp=True the tour
     through all of them, split where it would cross light paper (see the module's text)."""
     gamma = 2.0 if tsp else 1.0
     if fit and not tsp:
         if not spacing_mm > 0:
             raise ConfigError(f"error: stipple spacing must be > 0 mm (got {spacing_mm})")
-        return _dots(chosen(picture, spacing_mm, pen_mm, seed, dots)[1], picture, pen_mm,
-                     dot_mm)
+        return _dots(chosen(picture, spacing_mm, pen_mm, seed, dots, curve)[1], picture,
+                     pen_mm, dot_mm)
     if dots is None and spacing_mm > CAP_PENS * pen_mm:   # as many dots, on the darker tones
         dots = _dot_count(picture, spacing_mm, gamma)
         if dots <= 0:
@@ -132,18 +132,21 @@ def _black_spacing(picture: Picture, spacing_mm: float, dots: int, gamma: float)
 
 
 def chosen(picture: Picture, spacing_mm: float, pen_mm: float, seed: int = 0,
-           dots: int | None = None) -> tuple[float, np.ndarray, float]:
+           dots: int | None = None, gamma: float | None = None
+           ) -> tuple[float, np.ndarray, float]:
     """(gamma, the dots, their correlation) of the tone curve d^gamma that draws `picture`
     best with the dots `spacing_mm` asks for (or `dots`): each curve tried places them (Lloyd
     over the curve's density, the spacing in black from the count as in `strokes`), moves them
     with `stipple_fit` to follow the picture's own tone as seen, and is judged by the
     correlation that reaches. A walk over gamma in factors of CHOICE_STEP from the spacing's
     own exponent / CHOICE_STEP (`_cap_gamma`; at least 1, at most GAMMA_MAX): that one and its
-    two neighbours, then on while a neighbour gains. A pure function of its arguments (the last
+    two neighbours, then on while a neighbour gains; `gamma` given: that curve alone (the
+    budget's search keeps one curve, so that the plot time does not jump with the spacing
+    where the walk would change its mind). A pure function of its arguments (the last
     answers for a picture are remembered: `describe` asks again for the spacing the budget
     chose)."""
     n = _dot_count(picture, spacing_mm, 1.0) if dots is None else int(dots)
-    key = (spacing_mm, pen_mm, seed, n)
+    key = (spacing_mm, pen_mm, seed, n, gamma)
     for pic, k, answer in _memo:
         if pic is picture and k == key:
             return answer
@@ -151,25 +154,30 @@ def chosen(picture: Picture, spacing_mm: float, pen_mm: float, seed: int = 0,
         return 1.0, np.zeros((0, 2)), 0.0
     tried: dict[int, tuple[float, np.ndarray, float]] = {}
 
+    def placed(g: float) -> tuple[float, np.ndarray, float]:
+        q = picture if g == 1 else Picture(tone.curve(picture.darkness, g),
+                                           picture.width_mm, picture.height_mm)
+        pts = points(q, _black_spacing(q, spacing_mm, n, 1.0), seed=seed, dots=n)
+        pts = stipple_fit.fitted(pts, picture.darkness, picture.width_mm,
+                                 picture.height_mm, stay=_floor(pts, picture, g))[0]
+        return g, pts, stipple_fit.correlation(pts, picture.darkness, picture.width_mm,
+                                               picture.height_mm)
+
     def at(k: int) -> float:
         if k not in tried:
-            g = min(CHOICE_STEP ** k, GAMMA_MAX)
-            q = picture if k == 0 else Picture(tone.curve(picture.darkness, g),
-                                               picture.width_mm, picture.height_mm)
-            pts = points(q, _black_spacing(q, spacing_mm, n, 1.0), seed=seed, dots=n)
-            pts = stipple_fit.fitted(pts, picture.darkness, picture.width_mm,
-                                     picture.height_mm, stay=_floor(pts, picture, g))[0]
-            tried[k] = (g, pts, stipple_fit.correlation(pts, picture.darkness,
-                                                        picture.width_mm, picture.height_mm))
+            tried[k] = placed(min(CHOICE_STEP ** k, GAMMA_MAX))
         return tried[k][2]
 
-    top = int(math.ceil(math.log(GAMMA_MAX) / math.log(CHOICE_STEP) - 1e-9))
-    g0 = _cap_gamma(picture, spacing_mm, pen_mm, False, n)
-    k = min(max(int(round(math.log(g0) / math.log(CHOICE_STEP))) - 1, 0), top)
-    for way in (-1, 1):                              # on while a neighbour gains
-        while 0 <= k + way <= top and at(k + way) > at(k):
-            k += way
-    g, pts, r = tried[max(tried, key=lambda j: (tried[j][2], -j))]
+    if gamma is not None:
+        g, pts, r = placed(float(gamma))
+    else:
+        top = int(math.ceil(math.log(GAMMA_MAX) / math.log(CHOICE_STEP) - 1e-9))
+        g0 = _cap_gamma(picture, spacing_mm, pen_mm, False, n)
+        k = min(max(int(round(math.log(g0) / math.log(CHOICE_STEP))) - 1, 0), top)
+        for way in (-1, 1):                              # on while a neighbour gains
+            while 0 <= k + way <= top and at(k + way) > at(k):
+                k += way
+        g, pts, r = tried[max(tried, key=lambda j: (tried[j][2], -j))]
     pts, r = stipple_fit.fitted(pts, picture.darkness, picture.width_mm, picture.height_mm,
                                 FINE_ROUNDS, FINE_STEP_MM, FINE_CELL_MM, teleport=False)
     best = (g, pts, r)
