@@ -31,6 +31,15 @@ def save(tmp_path, linear_rgb, name="c.png"):
     return path
 
 
+def thirds(tmp_path, middle):
+    """A 90 x 60 px picture in three bands, left to right: red, `middle`, dark grey."""
+    rgb = np.ones((60, 90, 3))
+    rgb[:, :30] = [1, 0, 0]
+    rgb[:, 30:60] = middle
+    rgb[:, 60:] = [0.2, 0.2, 0.2]
+    return save(tmp_path, rgb)
+
+
 def layered(path, style="hatch", spacing=1.5, width=80.0):
     """{pen: drawn mm} and the strokes of --cmyk at a fixed spacing."""
     drawn, _, _ = photo.strokes(str(path), photo.PhotoOptions(style=style, spacing_mm=spacing,
@@ -112,11 +121,7 @@ def test_each_layer_follows_its_separation(tmp_path, style):
 
 def test_convert_cmyk_fits_one_budget_and_ink_preview_is_coloured(tmp_path, capsys,
                                                                    config_path):
-    rgb = np.ones((60, 90, 3))
-    rgb[:, :30] = [1, 0, 0]                           # red, green, grey
-    rgb[:, 30:60] = [0, 1, 0]
-    rgb[:, 60:] = [0.2, 0.2, 0.2]
-    path = save(tmp_path, rgb)
+    path = thirds(tmp_path, [0, 1, 0])                 # red, green, grey
     out = tmp_path / "c.ngc"
     code = main(["--config", str(config_path), "convert", str(path), "-o", str(out), "--cmyk",
                  "--width", "90", "--max-time", "10m"])
@@ -184,11 +189,7 @@ def test_a_mix_the_pens_can_make_comes_back(pen_rgb, share):
 
 
 def test_convert_in_the_pens_owned_asks_for_each_light_to_dark(tmp_path, capsys, config_path):
-    rgb = np.ones((60, 90, 3))
-    rgb[:, :30] = [1, 0, 0]                           # red, blue, grey
-    rgb[:, 30:60] = [0, 0, 1]
-    rgb[:, 60:] = [0.2, 0.2, 0.2]
-    path = save(tmp_path, rgb)
+    path = thirds(tmp_path, [0, 0, 1])                 # red, blue, grey
     out = tmp_path / "c.ngc"
     code = main(["--config", str(config_path), "convert", str(path), "-o", str(out),
                  "--colours", "black,red,blue", "--width", "90", "--max-time", "10m"])
