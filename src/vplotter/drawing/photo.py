@@ -27,7 +27,7 @@ from vplotter.errors import ConfigError
 from vplotter.inputs.strokes import Stroke
 
 # the first spacing tried, per style, in pen widths; time ~ spacing^-POWER
-START_PENS = {"hatch": 3.0, "spiral": 3.0, "squiggle": 3.0, "stipple": 4.0}
+START_PENS = {"hatch": 3.0, "spiral": 3.0, "squiggle": 3.0, "stipple": 8.0}
 POWER = {"hatch": 1.0, "spiral": 1.0, "squiggle": 1.0, "stipple": 2.0}
 CURVES = ("hatch", "spiral", "squiggle")   # the styles whose tone curve is chosen per picture
 CURVE_STEP = 1.6          # the curves tried: the spacing's own exponent, / and x this
@@ -169,22 +169,26 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
     timed = lambda made: plot_time(made[0])                    # noqa: E731
     curve = None
     dots = opts.style == "stipple" and not opts.tsp and layers is None
-    if dots:                                  # one curve while the budget is searched
+    if dots:           # the search on each spacing's own curve (no walk: smooth in spacing)
         from vplotter.inputs.image import stipple
 
-        curve = stipple.tone_gamma(picture, start, opts.pen_mm)
-    (drawn, raw), choice = budget.fit(lambda sp: make(sp, curve), timed, budget_s, start, lo,
-                                      hi, POWER[opts.style])
-    if dots:                                  # the curve the spacing found asks for
-        g = stipple.tone_gamma(picture, choice.spacing_mm, opts.pen_mm)
-        if g != curve:
-            try:
-                (drawn, raw), again = budget.fit(lambda sp: make(sp, g), timed, budget_s,
-                                                 choice.spacing_mm, lo, hi, POWER[opts.style],
-                                                 most=CURVE_TRIES)
-                choice, curve = replace(again, tries=choice.tries + again.tries), g
-            except ConfigError:
-                pass
+        def own(sp: float) -> float:
+            return stipple.own_gamma(picture, sp, opts.pen_mm)
+
+        (drawn, raw), choice = budget.fit(lambda sp: make(sp, own(sp)), timed, budget_s, start,
+                                          lo, hi, POWER[opts.style])
+        curve = own(choice.spacing_mm)
+        g = stipple.tone_gamma(picture, choice.spacing_mm, opts.pen_mm)   # the walk, once
+        try:
+            (drawn, raw), again = budget.fit(lambda sp: make(sp, g), timed, budget_s,
+                                             choice.spacing_mm, lo, hi, POWER[opts.style],
+                                             most=CURVE_TRIES)
+            choice, curve = replace(again, tries=choice.tries + again.tries), g
+        except ConfigError:                   # the walk's curve takes longer even sparser
+            pass
+    else:
+        (drawn, raw), choice = budget.fit(make, timed, budget_s, start, lo, hi,
+                                          POWER[opts.style])
     if opts.style in CURVES and layers is None:
         drawn, choice, curve, said = pick_curve(picture, opts, draw, make, timed, budget_s, lo,
                                                 hi, raw, drawn, choice)

@@ -218,6 +218,12 @@ def tone_gamma(picture: Picture, spacing_mm: float, pen_mm: float, tsp: bool = F
     return chosen(picture, spacing_mm, pen_mm, dots=dots)[0]
 
 
+def own_gamma(picture: Picture, spacing_mm: float, pen_mm: float) -> float:
+    """The dots' curve that follows from the spacing alone (no walk: cheap, and it changes
+    smoothly with the spacing, which the budget's search needs)."""
+    return _cap_gamma(picture, spacing_mm, pen_mm)
+
+
 def _cap_gamma(picture: Picture, spacing_mm: float, pen_mm: float, tsp: bool = False,
                dots: int | None = None) -> float:
     """The tone curve's exponent: 1 up to CAP_PENS pen widths; coarser, the smallest from
