@@ -8,9 +8,11 @@ style, each placed on the page, put in a quick order (greedy; the stipples' own 
 timed by the caller's planner, and keeps the densest that fits; then (`pick_curve`) the same for other tone
 curves (exponents either side, and curves fitted to the drawing's own measured response:
 `inputs/image/calibrate.py`), each drawing scored against the picture
-(`inputs/image/score.py`), the best kept.
-The caller orders the result as asked (best by
-default) and that order never takes longer than the quick one it was timed in.
+(`inputs/image/score.py`), the best kept. Stipples search on each spacing's own curve
+(smooth in spacing), then choose their curve once, at the spacing found, and search again
+with it. Last, `budget.fill` puts the drawing in its final order (--order best: `order.py`'s;
+the stipples keep their tour; never longer than the quick order) and spends the time that
+saves on a denser spacing.
 """
 
 from __future__ import annotations
@@ -193,8 +195,8 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
         drawn, choice, curve, said = pick_curve(picture, opts, draw, make, timed, budget_s, lo,
                                                 hi, raw, drawn, choice)
         notes.append(said)
-    drawn, choice = budget.fill(drawn, choice, lambda sp: make(sp, curve)[0], final, plot_time,
-                         budget_s, lo, POWER[opts.style])
+    drawn, choice = budget.fill(drawn, choice, lambda sp: make(sp, curve)[0], final,
+                                plot_time, budget_s, lo, POWER[opts.style])
     notes.append(choice.text())
     notes.append(image.describe(opts.style, choice.spacing_mm, opts.pen_mm, picture, **extra,
                                 **({} if curve is None else {"curve": curve})))
