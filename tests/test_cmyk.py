@@ -234,6 +234,7 @@ def test_colours_name_pens_in_the_config(tmp_path, capsys, config_path):
     ("black,white", "white: it draws nothing"),
     ("black,red,#000", "#000 is given twice"),
     ("black,reddish", "'reddish' is neither a pen in [pens] nor a colour"),
+    (" , ", "give the pens"),
 ])
 def test_colours_that_cannot_be_drawn_are_one_line(tmp_path, capsys, config_path, given, said):
     path = save(tmp_path, np.ones((20, 20, 3)) * 0.5)

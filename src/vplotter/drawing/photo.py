@@ -57,6 +57,10 @@ class PhotoOptions:
     def from_args(cls, args) -> "PhotoOptions":
         """The photo options of a command line (argparse namespace; absent ones default)."""
         limit = getattr(args, "max_time", None)
+        colours = getattr(args, "colours", None)
+        names = tuple(c.strip() for c in (colours or "").split(",") if c.strip())
+        if colours is not None and not names:
+            raise ConfigError("error: --colours: give the pens, e.g. --colours black,red,blue")
         return cls(style=getattr(args, "style", None) or "hatch",
                    max_time_s=budget.parse_duration(limit) if limit else None,
                    spacing_mm=getattr(args, "spacing", None),
@@ -66,8 +70,7 @@ class PhotoOptions:
                    invert=bool(getattr(args, "invert", False)),
                    tsp=bool(getattr(args, "tsp", False)),
                    cmyk=bool(getattr(args, "cmyk", False)),
-                   colours=tuple(c.strip() for c in (getattr(args, "colours", None) or "")
-                                 .split(",") if c.strip()),
+                   colours=names,
                    width_mm=getattr(args, "width", None),
                    height_mm=getattr(args, "height", None))
 
