@@ -42,7 +42,7 @@ def thirds(tmp_path, middle):
 
 def layered(path, style="hatch", spacing=1.5, width=80.0):
     """{pen: drawn mm} and the strokes of --cmyk at a fixed spacing."""
-    drawn, _, _ = photo.strokes(str(path), photo.PhotoOptions(style=style, spacing_mm=spacing,
+    drawn, _ = photo.strokes(str(path), photo.PhotoOptions(style=style, spacing_mm=spacing,
                                                               cmyk=True, width_mm=width),
                                 PAGE, Placement(), None)
     per = {}

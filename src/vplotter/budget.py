@@ -113,11 +113,15 @@ def fit(make: Callable[[float], object], plot_time: Callable[[object], float], b
                           f"even at the widest spacing ({s_max:.2f} mm) it takes {clock_text(t_max)}; "
                           f"give more time or a smaller --width")
     s, drawing, t = best
-    limit = ""
-    if t < UNDER * budget_s:
-        limit = ("as dense as the pen can show (spacing at its minimum)" if s <= min_mm * 1.0001
-                 else "the closest try under the budget")
-    return drawing, Choice(s, t, budget_s, tries, limit)
+    return drawing, Choice(s, t, budget_s, tries, _short(s, t, budget_s, min_mm, UNDER))
+
+
+def _short(s: float, t: float, budget_s: float, min_mm: float, share: float) -> str:
+    """Why a choice takes less than `share` of the budget ("" if it does not)."""
+    if t >= share * budget_s:
+        return ""
+    return ("as dense as the pen can show (spacing at its minimum)" if s <= min_mm * 1.0001
+            else "the closest try under the budget")
 
 
 def fill(quick, choice: Choice, remake, final, plot_time,
@@ -152,10 +156,8 @@ def fill(quick, choice: Choice, remake, final, plot_time,
             over = (guess, t2) if over is None or guess > over[0] else over
         elif t2 > t:                                  # (a spiral's time can fall as it
             drawn, t, s = placed, t2, guess           # gets denser: its tracks are dashed)
-    limit = choice.limit if s == choice.spacing_mm else ""
-    if t < FILL_UNDER * budget_s and not limit:
-        limit = ("as dense as the pen can show (spacing at its minimum)" if s <= lo * 1.0001
-                 else "the closest try under the budget")
+    limit = (choice.limit if s == choice.spacing_mm else "") or _short(s, t, budget_s, lo,
+                                                                        FILL_UNDER)
     return drawn, replace(choice, spacing_mm=s, time_s=t, tries=tries, limit=limit)
 
 

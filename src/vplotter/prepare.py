@@ -458,7 +458,7 @@ def _photo(prep: Prepared, args, page, place_opts, plot_time) -> list:
     def timed(strokes: list) -> float:
         return _timed(prep, strokes, plot_time)
 
-    placed, prep.notes, _ = photo.strokes(
+    placed, prep.notes = photo.strokes(
         prep.path, photo_options(args), page, _replace(place_opts, width_mm=None, height_mm=None),
         timed if plot_time is not None else None, prep.start_xy,
         getattr(args, "order", None) or "best", prep.owned)

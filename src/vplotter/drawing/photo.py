@@ -95,8 +95,7 @@ def size_mm(aspect: float, opts: PhotoOptions, page: place.Box, margin_mm: float
 def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Placement,
             plot_time: Callable[[list[Stroke]], float] | None, start_xy=(0.0, 0.0),
             method: str = "best", owned: tuple = ()):
-    """(placed strokes in their drawing order from start_xy, notes for the person, their
-    plot time: None with a fixed --spacing).
+    """(placed strokes in their drawing order from start_xy, notes for the person).
     plot_time(strokes) -> s times an ordered drawing with the draw's own planner (None: no
     budget, only with a fixed --spacing). method: "best" improves the quick order the budget
     was searched in (`order.py`; the stipples' tour is already their best) and fills the time
@@ -164,7 +163,7 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
             raise ConfigError("error: give --spacing or --max-time, not both")
         what = image.describe(opts.style, opts.spacing_mm, opts.pen_mm, picture, **extra)
         return (final(make(opts.spacing_mm)[0]),
-                notes + [f"spacing {opts.spacing_mm:g} mm (--spacing)", what], None)
+                notes + [f"spacing {opts.spacing_mm:g} mm (--spacing)", what])
     if plot_time is None:
         raise ConfigError("error: a photo needs --spacing here (no planner to time a budget)")
     budget_s = opts.max_time_s or budget.DEFAULT_S
@@ -178,12 +177,12 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
         from vplotter.inputs.image import stipple
 
         def own(sp: float) -> float:
-            return stipple.own_gamma(picture, sp, opts.pen_mm)
-
-        (drawn, raw), choice = budget.fit(lambda sp: make(sp, own(sp)), timed, budget_s, start,
-                                          lo, hi, POWER[opts.style])
+            return stipple.cap_gamma(picture, sp, opts.pen_mm)
+    (drawn, raw), choice = budget.fit((lambda sp: make(sp, own(sp))) if dots else make, timed,
+                                      budget_s, start, lo, hi, POWER[opts.style])
+    if dots:           # then the walk once, at the spacing found, and a refit on its curve
         curve = own(choice.spacing_mm)
-        g = stipple.tone_gamma(picture, choice.spacing_mm, opts.pen_mm)   # the walk, once
+        g = stipple.tone_gamma(picture, choice.spacing_mm, opts.pen_mm)
         try:
             (drawn, raw), again = budget.fit(lambda sp: make(sp, g), timed, budget_s,
                                              choice.spacing_mm, lo, hi, POWER[opts.style],
@@ -191,9 +190,6 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
             choice, curve = replace(again, tries=choice.tries + again.tries), g
         except ConfigError:                   # the walk's curve takes longer even sparser
             pass
-    else:
-        (drawn, raw), choice = budget.fit(make, timed, budget_s, start, lo, hi,
-                                          POWER[opts.style])
     if opts.style in CURVES and layers is None:
         drawn, choice, curve, said = pick_curve(picture, opts, draw, make, timed, budget_s, lo,
                                                 hi, raw, drawn, choice)
@@ -206,7 +202,7 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
     if opts.max_time_s is None:
         notes.append(f"no --max-time: the budget for a photo is {budget.clock_text(budget_s)} "
                      f"by default")
-    return drawn, notes, choice.time_s
+    return drawn, notes
 
 
 def pens_of(names: tuple[str, ...], owned: tuple = ()) -> list[tuple[str, str]]:
@@ -230,7 +226,7 @@ def pens_of(names: tuple[str, ...], owned: tuple = ()) -> list[tuple[str, str]]:
                 raise ConfigError(f"error: --colours: {name!r} is neither a pen in [pens] nor a "
                                   f"colour{known}")
             pen = (name, c)
-        if colours.lightness(pen[1]) > 99.0:
+        if colours.lightness(pen[1]) >= pens.WHITE_L:
             raise ConfigError(f"error: --colours: {name} is white: it draws nothing on white "
                               f"paper")
         if any(pen[0] == p[0] or pen[1] == p[1] for p in out):
