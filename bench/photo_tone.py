@@ -249,7 +249,8 @@ def ours(photo: str, style: str, budget: str, out: str, config: str):
     import tracecheck
 
     t0 = time.perf_counter()
-    r = vplotter("convert", photo, "-o", out, "--style", style, "--width", f"{WIDTH_MM:g}",
+    how = ("--style", "stipple", "--tsp") if style == "tsp" else ("--style", style)
+    r = vplotter("convert", photo, "-o", out, *how, "--width", f"{WIDTH_MM:g}",
                  "--max-time", budget, config=config)
     wall = time.perf_counter() - t0
     if r.returncode:

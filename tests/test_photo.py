@@ -186,12 +186,12 @@ def test_ink_preview_is_dark_where_the_photo_is(capsys, config_path, photo, tmp_
     assert grey.min() < 80                        # black ink is there
 
 
-@pytest.mark.parametrize("style", ["squiggle", "hatch"])
+@pytest.mark.parametrize("style", ["squiggle", "hatch", "stipple --tsp"])
 def test_info_says_which_tone_curve_the_picture_got(capsys, config_path, photo, style):
     """The tone curve is chosen per picture: info names the curves tried with their scores,
     the one drawn scored best, and the drawing still fits the budget."""
     code, out, _ = run(capsys, ["--config", config_path, "info", photo, "--json",
-                                "--width", 100, "--style", style, "--max-time", "20m"])
+                                "--width", 100, "--style", *style.split(), "--max-time", "20m"])
     assert code == 0
     info = json.loads(out)
     note = next(n for n in info["notes"] if "chosen for this picture" in n)
@@ -200,11 +200,12 @@ def test_info_says_which_tone_curve_the_picture_got(capsys, config_path, photo, 
     tried = {g: float(r) for g, r in re.findall(rf"({curve}) (-?[0-9.]+)", note.split(": ", 1)[1])}
     assert len(tried) >= 3 and tried[chosen] == max(tried.values())
     assert any("fitted" in g for g in tried)           # the measured response was tried too
-    assert any(f"tone curve {chosen}" in n and "pitch" in n for n in info["notes"])
+    assert any(f"tone curve {chosen}" in n and re.search("pitch|as many dots", n)
+               for n in info["notes"])
     assert info["time_s"]["best"] <= 1200
 
 
-@pytest.mark.parametrize("style", ["hatch", "spiral", "squiggle"])
+@pytest.mark.parametrize("style", ["hatch", "spiral", "squiggle", "stipple --tsp"])
 @pytest.mark.parametrize("limit", ["15m", "45m"])
 def test_a_chosen_curve_keeps_ink_rising_with_darkness(capsys, config_path, tmp_path, style, limit):
     """Five grey bands (linear darkness 0.2 to 1.0) through the whole budget search, the
@@ -216,14 +217,17 @@ def test_a_chosen_curve_keeps_ink_rising_with_darkness(capsys, config_path, tmp_
     src, out = tmp_path / "bands.png", tmp_path / "bands.ngc"
     img.save(src)
     code, _, err = run(capsys, ["--config", config_path, "convert", src, "-o", out, "--style",
-                                style, "--width", 150, "--max-time", limit])
+                                *style.split(), "--width", 150, "--max-time", limit])
     assert code == 0, err
     x0 = PAGE_CENTRE[0] - 75
     ink = np.zeros(bands)
     for p in tc.reference_path(str(out)):
-        seg = np.hypot(*np.diff(p, axis=0).T)
-        mid = (p[1:, 0] + p[:-1, 0]) / 2
-        ink += np.bincount(np.clip(((mid - x0) / 30).astype(int), 0, bands - 1), seg, bands)
+        if len(p) == 1:                           # a dot (a tour's lone stipple): pen-wide
+            p, seg = p, np.array([0.5])
+        else:
+            seg = np.hypot(*np.diff(p, axis=0).T)
+            p = (p[1:] + p[:-1]) / 2
+        ink += np.bincount(np.clip(((p[:, 0] - x0) / 30).astype(int), 0, bands - 1), seg, bands)
     assert ink[0] > 0 and np.all(np.diff(ink) > 0), (ink, err)
 
 

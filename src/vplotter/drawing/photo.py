@@ -29,8 +29,8 @@ from vplotter.errors import ConfigError
 from vplotter.inputs.strokes import Stroke
 
 # the first spacing tried, per style, in pen widths; time ~ spacing^-POWER
-START_PENS = {"hatch": 3.0, "spiral": 3.0, "squiggle": 3.0, "stipple": 8.0}
-POWER = {"hatch": 1.0, "spiral": 1.0, "squiggle": 1.0, "stipple": 2.0}
+START_PENS = {"hatch": 3.0, "spiral": 3.0, "squiggle": 3.0, "stipple": 8.0, "tsp": 5.0}
+POWER = {"hatch": 1.0, "spiral": 1.0, "squiggle": 1.0, "stipple": 2.0, "tsp": 1.0}
 CURVES = ("hatch", "spiral", "squiggle")   # the styles whose tone curve is chosen per picture
 CURVE_STEP = 1.6          # the curves tried: the spacing's own exponent, / and x this
 CURVE_MAX = 16.0
@@ -52,6 +52,11 @@ class PhotoOptions:
     colours: tuple[str, ...] = ()        # --colours: pens by name ([pens]) or colour
     width_mm: float | None = None
     height_mm: float | None = None
+
+    @property
+    def kind(self) -> str:
+        """The style as the budget sees it: the tour's line takes time ~ 1 / spacing."""
+        return "tsp" if self.tsp else self.style
 
     @classmethod
     def from_args(cls, args) -> "PhotoOptions":
@@ -167,7 +172,8 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
     if plot_time is None:
         raise ConfigError("error: a photo needs --spacing here (no planner to time a budget)")
     budget_s = opts.max_time_s or budget.DEFAULT_S
-    start = START_PENS[opts.style] * opts.pen_mm
+    kind = opts.kind
+    start = START_PENS[kind] * opts.pen_mm
     lo = opts.pen_mm * (1.2 if opts.style == "stipple" else 1.0)
     hi = max(w, h) / 4
     timed = lambda made: plot_time(made[0])                    # noqa: E731
@@ -179,23 +185,23 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
         def own(sp: float) -> float:
             return stipple.cap_gamma(picture, sp, opts.pen_mm)
     (drawn, raw), choice = budget.fit((lambda sp: make(sp, own(sp))) if dots else make, timed,
-                                      budget_s, start, lo, hi, POWER[opts.style])
+                                      budget_s, start, lo, hi, POWER[kind])
     if dots:           # then the walk once, at the spacing found, and a refit on its curve
         curve = own(choice.spacing_mm)
         g = stipple.tone_gamma(picture, choice.spacing_mm, opts.pen_mm)
         try:
             (drawn, raw), again = budget.fit(lambda sp: make(sp, g), timed, budget_s,
-                                             choice.spacing_mm, lo, hi, POWER[opts.style],
+                                             choice.spacing_mm, lo, hi, POWER[kind],
                                              most=CURVE_TRIES)
             choice, curve = replace(again, tries=choice.tries + again.tries), g
         except ConfigError:                   # the walk's curve takes longer even sparser
             pass
-    if opts.style in CURVES and layers is None:
+    if (opts.style in CURVES or opts.tsp) and layers is None:
         drawn, choice, curve, said = pick_curve(picture, opts, draw, make, timed, budget_s, lo,
                                                 hi, raw, drawn, choice)
         notes.append(said)
     drawn, choice = budget.fill(drawn, choice, lambda sp: make(sp, curve)[0], final,
-                                plot_time, budget_s, lo, POWER[opts.style])
+                                plot_time, budget_s, lo, POWER[kind])
     notes.append(choice.text())
     notes.append(image.describe(opts.style, choice.spacing_mm, opts.pen_mm, picture, **extra,
                                 **({} if curve is None else {"curve": curve})))
@@ -235,10 +241,13 @@ def pens_of(names: tuple[str, ...], owned: tuple = ()) -> list[tuple[str, str]]:
     return out
 
 
-def default_gamma(style: str, spacing_mm: float, pen_mm: float) -> float:
-    """The tone curve's exponent a style takes from the spacing alone."""
-    from vplotter.inputs.image import hatch, squiggle
+def default_gamma(style: str, spacing_mm: float, pen_mm: float, picture=None,
+                  tsp: bool = False) -> float:
+    """The tone curve's exponent a style takes from the spacing (the tour: and the picture)."""
+    from vplotter.inputs.image import hatch, squiggle, stipple
 
+    if tsp:
+        return stipple.cap_gamma(picture, spacing_mm, pen_mm, True)
     if style == "hatch":
         return hatch.tone_gamma(spacing_mm, pen_mm)
     return squiggle.tone_gamma(spacing_mm, pen_mm)
@@ -257,7 +266,7 @@ def pick_curve(picture, opts: PhotoOptions, draw, make, timed, budget_s: float, 
     from vplotter.inputs.image import calibrate, score, tone
 
     dark = score.darkness(picture)
-    g0 = default_gamma(opts.style, choice.spacing_mm, opts.pen_mm)
+    g0 = default_gamma(opts.style, choice.spacing_mm, opts.pen_mm, picture, opts.tsp)
     best = (score.correlation(raw, picture, opts.pen_mm, dark), g0, drawn, choice, raw)
     said = [f"{tone.name(g0)} {best[0]:.3f}"]
     made_tries = list(choice.tries)
@@ -268,7 +277,7 @@ def pick_curve(picture, opts: PhotoOptions, draw, make, timed, budget_s: float, 
         nonlocal best
         try:
             (placed, made), c = budget.fit(lambda sp: make(sp, g), timed, budget_s,
-                                           best[3].spacing_mm, lo, hi, POWER[opts.style],
+                                           best[3].spacing_mm, lo, hi, POWER[opts.kind],
                                            most=most)
         except ConfigError:                   # even the widest spacing is too long
             return False

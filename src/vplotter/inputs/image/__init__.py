@@ -46,6 +46,7 @@ def describe(name: str, spacing_mm: float, pen_mm: float, picture=None, **extra)
         g = (chosen if chosen is not None else
              stipple.tone_gamma(picture, spacing_mm, pen_mm, bool(extra.get("tsp")))
              if picture else 1.0)
-        return (f"as many dots as a spacing of {spacing_mm:.2f} mm spreads evenly, tone curve "
-                f"d^{g:.1f}")
+        tour = "a tour through " if extra.get("tsp") else ""
+        return (f"{tour}as many dots as a spacing of {spacing_mm:.2f} mm spreads evenly, tone "
+                f"curve {tone.name(g)}")
     return f"tone curve {tone.name(chosen if chosen is not None else tone.gamma(spacing_mm, pen_mm))}"

@@ -51,6 +51,7 @@ camera 0.56 -> 0.65, coffee 0.49 -> 0.59, rocket 0.27 -> 0.36; 3 h: camera 0.83 
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -85,12 +86,13 @@ def strokes(picture: Picture, spacing_mm: float, pen_mm: float, tsp: bool = Fals
             raise ConfigError(f"error: stipple spacing must be > 0 mm (got {spacing_mm})")
         return _dots(chosen(picture, spacing_mm, pen_mm, seed, dots, curve)[1], picture,
                      pen_mm, dot_mm)
-    if dots is None and spacing_mm > CAP_PENS * pen_mm:   # as many dots, on the darker tones
-        dots = _dot_count(picture, spacing_mm, gamma)
-        if dots <= 0:
+    if curve is None and dots is None and spacing_mm > CAP_PENS * pen_mm:
+        curve = cap_gamma(picture, spacing_mm, pen_mm, tsp)      # on the darker tones
+    if curve is not None and not (isinstance(curve, (int, float)) and curve <= 1):
+        dots = _dot_count(picture, spacing_mm, gamma) if dots is None else dots
+        if dots <= 0:                     # as many dots as the spacing asks for, on the curve
             return []
-        g = cap_gamma(picture, spacing_mm, pen_mm, tsp, dots)
-        picture = Picture(tone.curve(picture.darkness, g), picture.width_mm,
+        picture = Picture(tone.curve(picture.darkness, curve), picture.width_mm,
                           picture.height_mm, picture.name)
         spacing_mm = _black_spacing(picture, spacing_mm, dots, gamma)
     pts = points(picture, spacing_mm, seed=seed, dots=dots, gamma=gamma)
@@ -304,9 +306,8 @@ class _Cdf:
 
     def __init__(self, rho: np.ndarray, gx: float, gy: float, height_mm: float):
         h, w = rho.shape
-        pix = np.flatnonzero(rho.ravel() > 0)
-        r, c = np.divmod(pix, w)
-        self.order = pix[np.argsort(_hilbert(c, r, max(h, w)), kind="stable")]
+        every = _pixel_order(h, w)
+        self.order = every[rho.ravel()[every] > 0]
         self.cum = np.cumsum(rho.ravel()[self.order], dtype=np.float64)
         self.w, self.gx, self.gy, self.top = w, gx, gy, height_mm
 
@@ -316,6 +317,16 @@ class _Cdf:
         r, c = np.divmod(self.order[k], self.w)
         u = rng.random((m, 2))
         return np.column_stack([(c + u[:, 0]) * self.gx, self.top - (r + u[:, 1]) * self.gy])
+
+
+@functools.lru_cache(maxsize=3)
+def _pixel_order(h: int, w: int) -> np.ndarray:
+    """The flat indices of an (h, w) grid's pixels along a Hilbert curve (the budget's tries
+    and the tone curves tried draw on the same grid: computed once)."""
+    r, c = np.divmod(np.arange(h * w), w)
+    out = np.argsort(_hilbert(c, r, max(h, w)), kind="stable").astype(np.int32)
+    out.flags.writeable = False
+    return out
 
 
 def _hilbert(x: np.ndarray, y: np.ndarray, size: int) -> np.ndarray:
