@@ -7,7 +7,7 @@ import pytest
 
 from vplotter.errors import ConfigError
 from vplotter.inputs import image
-from vplotter.inputs.image import stipple, stipple_tour
+from vplotter.inputs.image import stipple, stipple_tour, tone
 from vplotter.inputs.image.picture import Picture
 
 pytest.importorskip("scipy")
@@ -157,6 +157,26 @@ def test_tour_lifts_the_pen_over_white():
     for s in out:
         x = s.pts[:, 0]
         assert not (x.min() < lo and x.max() > hi), "a line crosses the white band"
+
+
+@pytest.mark.parametrize("curve", [8.0, "table"])
+def test_a_steep_tone_curve_keeps_the_tour_a_line(curve):
+    """A grey picture whose darkest tones are two thin lines: a steep curve gathers the
+    stipples there, the spacing in black shrinks to a fraction of the one asked for, and the
+    tour through the grey between is still a line (its long-edge caps are on the spacing
+    asked for), not a scatter of dots; it still lifts over white paper."""
+    d = np.full((120, 120), 0.6)
+    d[30:32, :] = d[:, 80:82] = 1.0
+    d[:, :15] = 0.0                                # white paper down the left
+    pic = picture(d, 60.0)
+    if curve == "table":                           # a fitted curve: ink from 0.5 up, small
+        xs = np.linspace(0, 1, 33)
+        curve = tone.Table(tuple(0.01 * xs + 0.3 * np.maximum(xs - 0.5, 0)))
+    out = stipple.strokes(pic, 2.0, 0.5, tsp=True, curve=curve)
+    pts = all_points(out)
+    assert len(pts) > 100
+    assert sum(len(s.pts) for s in out if len(s.pts) > 1) > 0.8 * len(pts)
+    assert np.all(pts[:, 0] > 15 * pic.mm_per_px)
 
 
 def test_deterministic():

@@ -80,7 +80,7 @@ def strokes(picture: Picture, spacing_mm: float, pen_mm: float, tsp: bool = Fals
     seen (`chosen`; fit=False: the spacing's own curve, as Lloyd left them); with
     dot_mm > pen_mm a small filled circle of that diameter instead; with tsp=True the tour
     through all of them, split where it would cross light paper (see the module's text)."""
-    gamma = 2.0 if tsp else 1.0
+    gamma, given, asked = (2.0 if tsp else 1.0), picture, spacing_mm
     if fit and not tsp:
         if not spacing_mm > 0:
             raise ConfigError(f"error: stipple spacing must be > 0 mm (got {spacing_mm})")
@@ -100,7 +100,7 @@ def strokes(picture: Picture, spacing_mm: float, pen_mm: float, tsp: bool = Fals
         return []
     if tsp:
         path = pts[tour(pts)]
-        return [Stroke(p) for p in split(path, picture, spacing_mm, gamma)]
+        return [Stroke(p) for p in split(path, picture, spacing_mm, gamma, given, asked)]
     return _dots(pts, picture, pen_mm, dot_mm)
 
 
