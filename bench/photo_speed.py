@@ -14,7 +14,7 @@ zlib: 900 MB of pixels if decoded), an empty file, a text file named .png and a 
 half: exit status, the one line it printed, the time.
 
 Run (from the repository root, in vplotter's venv): python bench/photo_speed.py
-    [--budgets 1h,3h] [--styles hatch,spiral,squiggle,stipple]
+    [--budgets 1h,3h] [--styles hatch,spiral,squiggle,stipple,tsp]   (tsp: stipple --tsp)
 """
 
 from __future__ import annotations
@@ -116,7 +116,8 @@ def main() -> None:
                 budget = {"h": 3600, "m": 60}[b[-1]] * float(b[:-1])
                 for s in args.styles.split(","):
                     out = os.path.join(tmp, "out.ngc")
-                    code, err, wall, rss = run([*cfg, "convert", pic, "-o", out, "--style", s,
+                    how = ["--style", "stipple", "--tsp"] if s == "tsp" else ["--style", s]
+                    code, err, wall, rss = run([*cfg, "convert", pic, "-o", out, *how,
                                                 "--width", "300", "--max-time", b])
                     if code:
                         print(f"{os.path.basename(pic):22} {s:9} {b:6} failed: {err.strip()}")

@@ -27,6 +27,8 @@ For every image in a folder, every style (hatch, spiral, squiggle, stipple) and 
 - a picture whose name starts with "ramp" (a grey ramp, dark to the right) is also cut into 5
   bands across: the ink per area in each band must rise with darkness, in every style.
 
+Style "tsp" is `--style stipple --tsp` (TSP art: a line, compared at the same drawn length).
+
 Output: per image a table (style, budget, drawn m, our plot time, ours corr, hatched corr at the
 same length, ratio, SSIM both, mean ink both, hatched pitch and plot time), then the smallest
 ratio per style over the photographs (names starting with "photo"; line art and the ramp are
@@ -36,7 +38,7 @@ Test pictures (nothing downloaded: scikit-image bundles its sample photographs; 
 python that has it, e.g. a throwaway venv, and keep them out of the repo):
     /tmp/venv-skimage/bin/python bench/photo_tone.py --make /tmp/photos
 Run (from the repository root, in vplotter's venv):
-    python bench/photo_tone.py /tmp/photos [--budgets 1h,3h] [--styles hatch,spiral]
+    python bench/photo_tone.py /tmp/photos [--budgets 1h,3h] [--styles hatch,spiral,tsp]
         [--hatched-python /tmp/venv-hatched/bin/python] [--keep DIR] [--jobs 2]
 """
 
