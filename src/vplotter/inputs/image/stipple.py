@@ -38,8 +38,9 @@ as many dots, placed on the curve's density). This is the dots' curve with fit=F
 `chosen` starts for the dots, and where the tour's choice starts: the tour's curve is chosen
 per picture as the line styles' are (`drawing/photo.py`: this exponent, / and x 1.6, then
 curves fitted to the tour's own measured response, each fitted to the budget and scored),
-which raised its correlation at 3 h from 0.39-0.80 to 0.67-0.94 (bench/photo_tone.py, 300 mm:
-the camera 0.72 -> 0.94, the retina 0.39 -> 0.87) and put it ahead of `hatched` there.
+which put it ahead of `hatched` at 3 h (bench/photo_tone.py, 300 mm, 3 h: the camera 0.725 ->
+0.936, the Hubble deep field 0.233 -> 0.519; by the converter's own score the retina 0.39 ->
+0.88: a tour at its linear curve is far from linear in ink).
 
 The dots (not the tour; `chosen`) are then fitted to the picture per picture, as it is seen:
 each of a few tone curves d^gamma (gamma 1, 2, 4 ... 64, walked from the spacing's own / 2

@@ -222,7 +222,7 @@ def split(path: np.ndarray, picture: Picture, spacing_mm: float, gamma: float,
         allowed = np.minimum(GAP * spacing_mm / np.sqrt(rho_ends), MAX_EDGE * asked)
     f = (np.arange(EDGE_SAMPLES) + 0.5) / EDGE_SAMPLES
     along = a[:, None, :] + (b - a)[:, None, :] * f[None, :, None]
-    dark = (paper or picture).at(along.reshape(-1, 2)).reshape(len(a), EDGE_SAMPLES)
+    dark = (picture if paper is None else paper).at(along.reshape(-1, 2)).reshape(len(a), EDGE_SAMPLES)
     white = np.mean(dark < WHITE, axis=1) * length
     cuts = np.flatnonzero((length > allowed) | (white > WHITE_RUN * asked)) + 1
     return np.split(path, cuts)
