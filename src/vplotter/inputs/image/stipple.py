@@ -40,7 +40,7 @@ per picture as the line styles' are (`drawing/photo.py`: this exponent, / and x 
 curves fitted to the tour's own measured response, each fitted to the budget and scored),
 which put it ahead of `hatched` at 3 h (bench/photo_tone.py, 300 mm, 3 h: the camera 0.725 ->
 0.936, the Hubble deep field 0.233 -> 0.519; by the converter's own score the retina 0.39 ->
-0.88: a tour at its linear curve is far from linear in ink).
+0.88).
 
 The dots (not the tour; `chosen`) are then fitted to the picture per picture, as it is seen:
 each of a few tone curves d^gamma (gamma 1, 2, 4 ... 64, walked from the spacing's own / 2
