@@ -48,11 +48,11 @@ def estimate_s(capsys, config, path) -> float:
     return float(re.search(r"\(([\d.]+) s\)", out).group(1))
 
 
-@pytest.mark.parametrize("style", STYLES)
+@pytest.mark.parametrize("style", STYLES + ("stipple --tsp",))
 def test_convert_fits_the_budget_and_the_picture(capsys, config_path, photo, tmp_path, style):
-    out = tmp_path / f"{style}.ngc"
+    out = tmp_path / f"{style.split()[-1]}.ngc"
     code, _, err = run(capsys, ["--config", config_path, "convert", photo, "-o", out,
-                                "--style", style, "--width", 150, "--max-time", "10m"])
+                                "--style", *style.split(), "--width", 150, "--max-time", "10m"])
     assert code == 0, err
     assert "within 10:00" in err                              # says what it chose
     t = estimate_s(capsys, config_path, out)
