@@ -125,8 +125,9 @@ def rigid_error(dec, gfile) -> float:
         if done:
             break
     drawn = [p @ rot.T + shift for p in tc.drawn_polylines(dec)]
-    there = tc.distances_to_polylines(down @ rot.T + shift, ideal).max()
-    back = tc.distances_to_polylines(ref_pts, drawn).max()
+    # segments of 0.05 mm: within 0.025 mm of exact, against limits of 0.5 and 2 mm
+    there = tc.distances_to_polylines(down @ rot.T + shift, ideal, spacing=0.05).max()
+    back = tc.distances_to_polylines(ref_pts, drawn, spacing=0.05).max()
     return float(max(there, back))
 
 
@@ -204,7 +205,8 @@ def draw_and_check(w, name: str, placed: list | None = None) -> float:
     dec = tc.decode(tc.read_trace(trace), w["true"], w["start"])
     assert not dec.problems
     if placed is not None:      # without any move: G-code X0 Y0 is where the pen was calibrated
-        placed.append(max(tc.accuracy(dec, tc.reference_path(w["gfile"], spacing=0.05))))
+        placed.append(max(tc.accuracy(dec, tc.reference_path(w["gfile"], spacing=0.05),
+                                      spacing=0.05)))
     return rigid_error(dec, w["gfile"])
 
 
