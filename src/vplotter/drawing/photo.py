@@ -36,6 +36,7 @@ CURVE_STEP = 1.6          # the curves tried: the spacing's own exponent, / and 
 CURVE_MAX = 16.0
 CURVE_TRIES = 3           # drawings made per other curve (from the spacing already found)
 FITTED_TRIES = 5          # ... for the fitted curve (the likely winner: use the whole budget)
+DRAWN_KEPT = 8            # drawings remembered (by spacing and curve): the fitted curve's search
 
 
 @dataclass(frozen=True)
@@ -138,12 +139,23 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
     shift = page.centre - np.array([w / 2, h / 2])
     extra = {"tsp": True} if opts.tsp else {}
 
+    drawn_last: dict = {}      # the last drawings made: the fitted curve's first try is one
+                               # its search already drew (1 of about 19 drawings; a tour's: 1 s)
+
     def draw(spacing: float, curve=None):
         """The style's own strokes in picture mm (curve: the tone curve, None: the style's)."""
-        if layers is not None:                        # every pen's layer: one budget
-            return cmyk.strokes(style, opts.style, layers, spacing, opts.pen_mm, inks, **extra)
-        return style(picture, spacing, opts.pen_mm, **extra,
-                     **({} if curve is None else {"curve": curve}))
+        key = (spacing, curve)
+        if key not in drawn_last:
+            if layers is not None:                    # every pen's layer: one budget
+                made = cmyk.strokes(style, opts.style, layers, spacing, opts.pen_mm, inks,
+                                    **extra)
+            else:
+                made = style(picture, spacing, opts.pen_mm, **extra,
+                             **({} if curve is None else {"curve": curve}))
+            while len(drawn_last) >= DRAWN_KEPT:
+                drawn_last.pop(next(iter(drawn_last)))
+            drawn_last[key] = made
+        return drawn_last[key]
 
     # the dots come in the order of their tour (`stipple._dots`), better than any other
     how = "keep" if opts.style == "stipple" and not opts.tsp else "greedy"
