@@ -69,6 +69,40 @@ def test_fit_is_inside_the_page_and_as_large_as_possible(ss, page, margin, deg):
     assert np.allclose(box.centre, page.centre, atol=eps)
 
 
+@given(strokes(), pages, st.floats(10, 300), coord, coord, st.floats(0, 5))
+def test_fit_on_a_polar_machine_keeps_the_corners_in_reach(ss, page, r, dx, dy, margin):
+    """A page with a reach (the disc a polar arm covers): the fitted extent's corners lie
+    inside both, and it is as large as that allows (a corner on the circle or an edge on
+    the page)."""
+    x, y = page.centre[0] + dx / 4, page.centre[1] + dy / 4
+    disc = Box(page.x_min, page.y_min, page.x_max, page.y_max, (x, y, r))
+    if math.hypot(*(disc.centre - (x, y))) >= r - margin:
+        return                                      # the page's centre is out of reach
+    out = place.place(ss, Placement(fit=True, margin_mm=margin), disc)
+    box = place.extent(out)
+    eps = 1e-6 * (1 + abs(page.x_max) + abs(page.y_max) + r)
+    corners = np.array([[box.x_min, box.y_min], [box.x_max, box.y_min],
+                        [box.x_min, box.y_max], [box.x_max, box.y_max]])
+    far = np.hypot(corners[:, 0] - x, corners[:, 1] - y).max()
+    assert far <= r - margin + eps
+    assert box.x_min >= page.x_min + margin - eps and box.x_max <= page.x_max - margin + eps
+    assert box.y_min >= page.y_min + margin - eps and box.y_max <= page.y_max - margin + eps
+    room = page.size - 2 * margin
+    if box.size.max() > 1e-9:
+        edge = max(box.size[0] / room[0], box.size[1] / room[1])
+        assert edge == pytest.approx(1, rel=1e-6) or far == pytest.approx(
+            r - margin - place.REACH_IN_MM, rel=1e-6)
+    assert place.outside(corners, Box(page.x_min, page.y_min, page.x_max, page.y_max,
+                                      (x, y, r))) == -1
+
+
+def test_outside_names_the_first_point_off_the_page_or_out_of_reach():
+    disc = Box(-100, -100, 100, 100, (0.0, 0.0, 50.0))
+    assert place.outside(np.array([[0, 0], [30, 30], [40, 40], [200, 0]]), disc) == 2
+    assert place.outside(np.array([[0, 0], [0, 150]]), PAGE) == -1
+    assert place.outside(np.array([[0, 0], [0, 350]]), PAGE) == 1
+
+
 @given(strokes(), pages)
 def test_fit_keeps_the_aspect(ss, page):
     before = place.extent(ss)

@@ -361,3 +361,44 @@ def test_random_strokes_across_the_pole(pts):
             f.write(buf.getvalue())
         probs = tc.verify(tc.read_trace(f"{d}/t.csv"), g, tc.load_config(POLAR))
     assert probs == []
+
+
+# ------------------------------------------------------------------ placement in reach
+def test_a_photo_and_a_fitted_svg_fill_the_disc_the_arm_reaches(tmp_path, capsys):
+    """Without --width a photo is the largest inside the reach (not the square around it),
+    and --fit puts an SVG there too: every pen-down point within radius_max_mm."""
+    from PIL import Image
+
+    photo = tmp_path / "p.png"
+    g = np.linspace(0, 255, 160, dtype=np.uint8)[None, :].repeat(120, 0)
+    Image.fromarray(g).save(photo)
+    out = tmp_path / "p.ngc"
+    cfg = str(POLAR)
+    assert main(["--config", cfg, "convert", str(photo), "-o", str(out), "--style", "hatch",
+                 "--max-time", "10m"]) == 0
+    err = capsys.readouterr().err
+    assert "photo: hatch, 104 x 78 mm" in err                 # 130 mm across: 4:3 in the disc
+    pts = np.concatenate(tc.reference_path(str(out)))
+    assert np.hypot(pts[:, 0], pts[:, 1]).max() <= 65 + 1e-6
+    svg = tmp_path / "s.svg"
+    svg.write_text('<svg xmlns="http://www.w3.org/2000/svg" width="200mm" height="100mm" '
+                   'viewBox="0 0 200 100"><rect x="0" y="0" width="200" height="100" '
+                   'fill="none" stroke="black"/></svg>')
+    out2 = tmp_path / "s.ngc"
+    assert main(["--config", cfg, "convert", str(svg), "-o", str(out2), "--fit"]) == 0
+    pts = np.concatenate(tc.reference_path(str(out2)))
+    r = np.hypot(pts[:, 0], pts[:, 1])
+    assert r.max() <= 65 and r.max() > 64.99                      # its corners on the circle
+    assert main(["--config", cfg, "estimate", str(out2)]) == 0    # and the file draws as written
+
+
+def test_a_photo_too_big_for_the_reach_is_one_line(tmp_path, capsys):
+    from PIL import Image
+
+    photo = tmp_path / "p.png"
+    Image.new("L", (40, 30), 90).save(photo)
+    code = main(["--config", str(POLAR), "convert", str(photo), "-o", str(tmp_path / "o.ngc"),
+                 "--width", "120", "--max-time", "10m"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and "Traceback" not in "".join(err)
+    assert "the picture (120 x 90 mm) reaches" in err[-1] and "within 65 mm of X0 Y0" in err[-1]

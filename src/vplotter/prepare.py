@@ -393,8 +393,7 @@ def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
         return prep
     from vplotter.drawing import order, pens, place
 
-    pg = cfg.page
-    page = place.Box(pg.x_min_mm, pg.y_min_mm, pg.x_max_mm, pg.y_max_mm)
+    page = page_of(cfg)
     if kind == "image":
         placed = _photo(prep, args, page, place_opts, plot_time)
     else:
@@ -437,6 +436,16 @@ def prepare(path: str, cfg, args, warn: Callable[[str], None] = _stderr,
                                      lambda group, at: order.order(group, method, at), start_xy)
     prep.order_s = time.perf_counter() - t0
     return prep
+
+
+def page_of(cfg):
+    """The page drawings are placed on (`place.Box`): [page], and on a polar machine the disc
+    its arm reaches."""
+    from vplotter.drawing import place
+
+    pg, pol = cfg.page, getattr(cfg, "polar", None)
+    reach = None if pol is None else (pol.centre_x_mm, pol.centre_y_mm, pol.radius_max_mm)
+    return place.Box(pg.x_min_mm, pg.y_min_mm, pg.x_max_mm, pg.y_max_mm, reach)
 
 
 def _timed(prep: Prepared, strokes: list, plot_time) -> float:

@@ -90,10 +90,11 @@ def size_mm(aspect: float, opts: PhotoOptions, page: place.Box, margin_mm: float
         return float(opts.width_mm), float(opts.width_mm / aspect)
     elif opts.height_mm:
         return float(opts.height_mm * aspect), float(opts.height_mm)
-    else:
-        box = page.size - 2 * margin_mm
-        if (box <= 0).any():
+    else:                          # the largest inside the page (a polar machine: its reach)
+        k = place.largest((aspect, 1.0), page, margin_mm)
+        if (page.size - 2 * margin_mm <= 0).any() or not k > 0:
             raise ConfigError(f"error: --margin {margin_mm:g} leaves no room on the page")
+        return float(k * aspect), float(k)
     k = min(box[0] / aspect, box[1])
     return float(k * aspect), float(k)
 
@@ -134,9 +135,21 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
         picture = layers[-1]                          # the darkest pen's layer: for the notes
     else:
         picture = load.load(path, w, h, **tone)
-    # the picture's centre on the page's centre, then rotate, align and offset as asked
+    # the picture's centre on the page's centre, then rotate, align and offset as asked: the
+    # picture's frame is placed (the same for every density), and must lie on the page
     put = replace(placement, fit=False)
     shift = page.centre - np.array([w / 2, h / 2])
+    frame = np.array([[0.0, 0.0], [w, 0.0], [w, h], [0.0, h]]) + shift
+    A, b = place.matrix(put, frame, page)
+    off = place.outside(frame @ A.T + b, page)
+    if off >= 0:
+        x, y = frame[off] @ A.T + b
+        reach = ("" if page.reach is None else
+                 f", within {page.reach[2]:g} mm of X{page.reach[0]:g} Y{page.reach[1]:g}")
+        raise ConfigError(f"error: the picture ({w:.0f} x {h:.0f} mm) reaches X{x:.1f} Y{y:.1f}, "
+                          f"off the page (X {page.x_min:g}..{page.x_max:g}, Y {page.y_min:g}.."
+                          f"{page.y_max:g}{reach}): give a smaller --width or --height, or "
+                          f"move it (--offset, --align)")
     extra = {"tsp": True} if opts.tsp else {}
 
     drawn_last: dict = {}      # the last drawings made: the fitted curve's first try is one
@@ -169,7 +182,9 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
         """(placed strokes in a quick order, the style's own strokes in picture mm)."""
         made = draw(spacing, curve)
         moved = [replace(s, pts=s.pts + shift, line=i + 1) for i, s in enumerate(made)]
-        return order.order(place.place(moved, put, page), how, start_xy), made
+        if not put.identity:
+            moved = place.apply(moved, A, b)
+        return order.order(moved, how, start_xy), made
 
     notes = [f"photo: {opts.style}, {w:.0f} x {h:.0f} mm, pen {opts.pen_mm:g} mm"]
     if layers is not None:

@@ -5,7 +5,8 @@ Pure geometry on strokes in G-code millimetres (+Y up). The map is built in this
      the drawing's extent;
   2. --width/--height: the uniform scale that makes the extent that wide or high (both: the
      largest inside that box), about its centre; or --fit: the largest uniform scale that puts
-     the extent inside the page (less --margin), centred on the page;
+     the extent inside the page (less --margin), centred on the page, and on a polar machine
+     its corners inside the disc the arm reaches (`Box.reach`);
   3. --align left|center|right, --valign top|middle|bottom: that edge (or centre) of the
      extent on the page's edge (or centre), --margin in from the edge;
   4. --offset X Y, last.
@@ -24,6 +25,8 @@ from vplotter.inputs.strokes import Stroke
 
 
 EDGE_MM = 1e-9      # a drawing put on the page's edge stays this far in (rounding never crosses)
+REACH_IN_MM = 1e-3  # ... and this far inside a polar arm's reach (a circle: G-code's 4 decimals
+                    # could put a corner on it up to 0.00007 mm out)
 
 
 @dataclass(frozen=True)
@@ -49,6 +52,8 @@ class Box:
     y_min: float
     x_max: float
     y_max: float
+    reach: tuple[float, float, float] | None = None   # (x, y, r): the disc the pen reaches
+                                                      # (a polar machine), beside the page
 
     @property
     def centre(self) -> np.ndarray:
@@ -57,6 +62,35 @@ class Box:
     @property
     def size(self) -> np.ndarray:
         return np.array([self.x_max - self.x_min, self.y_max - self.y_min])
+
+
+def largest(size, page: Box, margin_mm: float) -> float:
+    """The largest scale of an extent `size` (w, h) centred on the page's centre that keeps it
+    inside the page less margin_mm and, on a polar machine, its corners inside the reach less
+    margin_mm (inf for an extent of no size; 0 or less: no room)."""
+    w, h = (float(v) for v in size)
+    room = page.size - 2 * margin_mm
+    k = min([room[i] / v for i, v in enumerate((w, h)) if v > 1e-12] or [math.inf])
+    if page.reach is not None and (w > 1e-12 or h > 1e-12):
+        x, y, r = page.reach
+        r -= margin_mm + REACH_IN_MM
+        dx, dy = abs(page.centre[0] - x), abs(page.centre[1] - y)
+        # the far corner (dx + k w / 2, dy + k h / 2) on the circle: a k^2 + b k + c = 0
+        qa, qb, qc = (w * w + h * h) / 4, dx * w + dy * h, dx * dx + dy * dy - r * r
+        k = min(k, (-qb + math.sqrt(qb * qb - 4 * qa * qc)) / (2 * qa) if qc < 0 else 0.0)
+    return k
+
+
+def outside(pts: np.ndarray, page: Box) -> int:
+    """Index of the first point off the page or beyond the reach (a polar machine), or -1."""
+    p = np.asarray(pts, dtype=float).reshape(-1, 2)
+    bad = ((p[:, 0] < page.x_min - 1e-9) | (p[:, 0] > page.x_max + 1e-9) |
+           (p[:, 1] < page.y_min - 1e-9) | (p[:, 1] > page.y_max + 1e-9))
+    if page.reach is not None:
+        x, y, r = page.reach
+        bad |= np.hypot(p[:, 0] - x, p[:, 1] - y) > r + 1e-9
+    idx = np.flatnonzero(bad)
+    return int(idx[0]) if idx.size else -1
 
 
 def extent(strokes: list[Stroke]) -> Box | None:
@@ -95,13 +129,12 @@ def matrix(p: Placement, pts: np.ndarray, page: Box) -> tuple[np.ndarray, np.nda
         now = _box_of(pts @ A.T + b)
     room = page.size - 2 * p.margin_mm
     if p.fit or p.align or p.valign:
-        if (room <= 0).any():
+        if (room <= 0).any() or (p.fit and not largest(now.size, page, p.margin_mm) > 0):
             raise ConfigError(f"error: --margin {p.margin_mm:g} leaves no room on the page "
                               f"({page.size[0]:g} x {page.size[1]:g} mm)")
     if p.fit:
-        size = now.size
-        k = [room[i] / size[i] for i in (0, 1) if size[i] > 1e-12]
-        s = (min(k) if k else 1.0) * (1 - 1e-12)   # rounding must not put it over the edge
+        k = largest(now.size, page, p.margin_mm)
+        s = (k if math.isfinite(k) else 1.0) * (1 - 1e-12)   # rounding must not cross the edge
         # scale about the extent's centre, then move that centre to the page's centre
         A, b = s * A, s * (b - now.centre) + page.centre
         now = _box_of(pts @ A.T + b)
