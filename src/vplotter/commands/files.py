@@ -23,16 +23,17 @@ def prepare_file(args, cfg, pos, warn=None, start_xy=None, say_notes=True, **cha
     xy = jog.pen_xy(cfg, pos, pos.counts) if start_xy is None else start_xy
     extra = {"warn": warn} if warn is not None else {}
     prep = prepare(args.file, cfg, args, start_xy=(float(xy[0]), float(xy[1])),
-                   plot_time=_plot_time(cfg, pos, xy), **extra)
+                   plot_time=_plot_time(cfg, pos, xy, args.file), **extra)
     if say_notes:
         for note in prep.notes:
             eprint(f"note: {note}")
     return prep
 
 
-def _plot_time(cfg, pos, xy):
+def _plot_time(cfg, pos, xy, path: str):
     """records -> plot time with the draw's planner, from the pen at G-code point xy (the
-    motors' counts follow from xy, so a resumed draw times and chooses as the first did)."""
+    motors' counts follow from xy, so a resumed draw times and chooses as the first did); a
+    problem is told as the file's (path:stroke:0, as a draw of it would)."""
     import numpy as np
 
     from vplotter import kinematics, pipeline
@@ -45,7 +46,7 @@ def _plot_time(cfg, pos, xy):
             q = kin.inverse(kin.to_machine(np.asarray(xy, dtype=float).reshape(1, 2)))[0]
             counts.extend(int(c) for c in np.rint((q - np.asarray(pos.ref_mm)) *
                                                   np.asarray(cfg.motors.steps_per_unit)))
-        return pipeline.validate(cfg, records, tuple(counts), pos.ref_mm, "budget").time_s
+        return pipeline.validate(cfg, records, tuple(counts), pos.ref_mm, path).time_s
 
     return plot_time
 
