@@ -1,6 +1,6 @@
 """SVG file -> Drawing: the outline of every visible shape as strokes in G-code millimetres.
 
-The XML is walked here (expat: it gives each element's line and column for messages); path
+The XML is walked here (parsed by `svg_tree.py`, expat: each element's line and column for messages); path
 data and transform lists are parsed by svgelements; units, viewBox and the display/visibility
 cascade are in `svg_style.py`, curves in `svg_geom.py`. The rules (README, section "SVG"):
 
@@ -28,20 +28,11 @@ from typing import Callable
 
 from vplotter.errors import InputError
 from vplotter.inputs import svg_paint
-from vplotter.inputs import xml_guard
 from vplotter.inputs.strokes import Drawing, Stroke
+from vplotter.inputs.svg_tree import Node, load_tree
 
-SVG_NS = "http://www.w3.org/2000/svg"
-PREFIXES = {"http://www.inkscape.org/namespaces/inkscape": "inkscape:",
-            "http://www.w3.org/1999/xlink": "xlink:",
-            "http://sodipodi.sourceforge.net/DTD/sodipodi-0.dtd": "sodipodi:",
-            "http://www.w3.org/XML/1998/namespace": "xml:"}
 SHAPES = {"path", "rect", "circle", "ellipse", "line", "polyline", "polygon"}
 TEXT = {"text", "flowRoot"}
-# elements whose character data is text to draw: their Node.text holds strings and child Nodes
-# in document order
-TEXT_CONTENT = {"text", "tspan", "textPath", "a", "flowRoot", "flowPara", "flowSpan",
-                "flowDiv", "flowLine"}
 CONTAINERS = {"g", "a", "svg", "switch"}
 # Not drawn where they stand (only a <use> can place a symbol or what sits in defs).
 NOT_RENDERED = {"defs", "symbol", "clipPath", "mask", "marker", "pattern", "style", "script",
@@ -57,108 +48,6 @@ def _stderr(msg: str) -> None:
     import sys
 
     print(msg, file=sys.stderr)
-
-
-class Node:
-    __slots__ = ("tag", "svg", "attrs", "children", "text", "line", "col", "num")
-
-    def __init__(self, tag, svg, attrs, line, col, num):
-        self.tag, self.svg, self.attrs = tag, svg, attrs
-        self.children: list[Node] = []
-        self.text: list[str] = []
-        self.line, self.col, self.num = line, col, num
-
-    def src(self) -> str:
-        return self.attrs.get("id") or f"{self.tag}#{self.num}"
-
-
-def _qualify(name: str) -> tuple[str, str]:
-    """'uri local' (expat with a namespace separator) -> (uri, local)."""
-    uri, _, local = name.rpartition(" ")
-    return uri, local
-
-
-def load_tree(path: str) -> tuple[Node, dict[str, Node]]:
-    """Parse the file into Nodes (every element numbered 1, 2, ... in document order) and the
-    id table (the first element with an id wins)."""
-    import gzip
-    import zlib
-    from xml.parsers import expat
-
-    parser = expat.ParserCreate(namespace_separator=" ")
-    stack: list[Node] = []
-    ids: dict[str, Node] = {}
-    holder: list[Node] = []
-    root_uri: list[str] = []
-    numbered: list[Node] = []
-
-    def start(name, attrs):
-        uri, tag = _qualify(name)
-        if not stack:
-            root_uri.append(uri)
-        # a file without xmlns is taken as SVG throughout; otherwise only the SVG namespace
-        svg = uri == SVG_NS or (uri == "" and root_uri[0] == "")
-        plain = {}
-        for key, value in attrs.items():
-            kuri, local = _qualify(key)
-            plain[PREFIXES.get(kuri, f"{{{kuri}}}" if kuri else "") + local] = value
-        numbered.append(node := Node(tag, svg, plain, parser.CurrentLineNumber,
-                                     parser.CurrentColumnNumber + 1, len(numbered) + 1))
-        if stack:
-            stack[-1].children.append(node)
-            if stack[-1].tag in TEXT_CONTENT:
-                stack[-1].text.append(node)
-        else:
-            holder.append(node)
-        stack.append(node)
-        ident = plain.get("id")
-        if ident and ident not in ids:
-            ids[ident] = node
-
-    def end(name):
-        stack.pop()
-
-    written = [0]                     # characters of text, spaces aside (a bound, checked
-                                      # before any layout: 200,000 took 8 s to refuse)
-
-    def chars(data):
-        if stack and (stack[-1].tag == "style" or stack[-1].tag in TEXT_CONTENT):
-            stack[-1].text.append(data)
-            if stack[-1].tag != "style":
-                written[0] += len(data) - sum(map(data.count, " \t\n\r"))
-
-    parser.StartElementHandler = start
-    parser.EndElementHandler = end
-    parser.CharacterDataHandler = chars
-    xml_guard.guard_entities(parser, path)      # refuses external and exploding entities
-    try:
-        with open(path, "rb") as f:
-            if f.read(2) == b"\x1f\x8b":              # .svgz: gzip-compressed SVG
-                f.seek(0)
-                with gzip.GzipFile(fileobj=f) as z:
-                    parser.ParseFile(xml_guard.Bounded(z, path))
-            else:
-                f.seek(0)
-                parser.ParseFile(f)
-    except (gzip.BadGzipFile, EOFError, zlib.error) as e:
-        raise InputError(f"{path}: error: not a valid gzip-compressed SVG (.svgz): {e}") from None
-    except expat.ExpatError as e:
-        raise InputError(f"{path}:{e.lineno}:{e.offset + 1}: error: not well-formed XML: "
-                         f"{expat.ErrorString(e.code)}") from None
-    except FileNotFoundError:
-        raise InputError(f"{path}: error: no such file") from None
-    except IsADirectoryError:
-        raise InputError(f"{path}: error: is a directory, not an SVG file") from None
-    except OSError as e:
-        raise InputError(f"{path}: error: cannot read: {e.strerror}") from None
-    root = holder[0]
-    if root.tag != "svg" or not root.svg:
-        raise InputError(f"{path}:{root.line}:{root.col}: error: not an SVG file (the root "
-                         f"element is <{root.tag}>, not <svg>)")
-    from vplotter.inputs import text
-
-    text.too_many(written[0], path)
-    return root, ids
 
 
 @dataclass(frozen=True)

@@ -1,5 +1,5 @@
 """Hostile XML: what an expat parser must refuse before it reads outside the file or expands
-entities without bound (an SVG's DOCTYPE; used by `svg.load_tree`).
+entities without bound (an SVG's DOCTYPE; used by `svg_tree.load_tree`).
 
 expat never loads an external DTD or entity unless given a loader, and none is given here; the
 handlers below turn every place where a file *asks* for one into an error naming it, and keep
