@@ -71,6 +71,25 @@ def test_convert_fits_the_budget_and_the_picture(capsys, config_path, photo, tmp
     assert left.sum() > 1.3 * right.sum()
 
 
+def test_the_pictures_frame_is_what_is_placed(capsys, config_path, photo, tmp_path):
+    """--align/--valign put the picture's frame (not its first ink) on the page's edge, less
+    --margin, the same for every density tried; a frame off the page is one line, exit 2."""
+    out = tmp_path / "a.ngc"
+    code, _, err = run(capsys, ["--config", config_path, "convert", photo, "-o", out,
+                                "--width", 90, "--align", "left", "--valign", "top",
+                                "--margin", 5, "--max-time", "5m"])
+    assert code == 0, err
+    pts = np.concatenate(tc.reference_path(str(out)))
+    x0, top = -200 + 5, 300 - 5                     # the seed page X -200..200, Y -250..300
+    assert pts[:, 0].min() >= x0 - 1e-3 and pts[:, 0].max() <= x0 + 90 + 1e-3
+    assert pts[:, 1].max() <= top + 1e-3 and pts[:, 1].min() >= top - 60 - 1e-3
+    assert pts[:, 0].min() < x0 + 10                # ink near the frame's left edge (dark side)
+    code, _, err = run(capsys, ["--config", config_path, "convert", photo, "-o", out,
+                                "--width", 300, "--offset", 150, 0, "--max-time", "5m"])
+    assert code == 2 and len(err.strip().splitlines()[-1:]) == 1
+    assert "the picture (300 x 200 mm) reaches X300.0" in err and "off the page" in err
+
+
 def test_a_longer_budget_draws_more(capsys, config_path, photo, tmp_path):
     lengths = []
     for limit in ("15m", "45m"):
