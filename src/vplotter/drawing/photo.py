@@ -153,7 +153,7 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
     extra = {"tsp": True} if opts.tsp else {}
 
     drawn_last: dict = {}      # the last drawings made: the fitted curve's first try is one
-                               # its search already drew (1 of about 19 drawings; a tour's: 1 s)
+                               # its search already drew, and so may be a search's repeat
 
     def draw(spacing: float, curve=None):
         """The style's own strokes in picture mm (curve: the tone curve, None: the style's)."""
@@ -199,8 +199,7 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
     if plot_time is None:
         raise ConfigError("error: a photo needs --spacing here (no planner to time a budget)")
     budget_s = opts.max_time_s or budget.DEFAULT_S
-    kind = opts.kind
-    start = START_PENS[kind] * opts.pen_mm
+    start = START_PENS[opts.kind] * opts.pen_mm
     lo = opts.pen_mm * (1.2 if opts.style == "stipple" else 1.0)
     hi = max(w, h) / 4
     timed = lambda made: plot_time(made[0])                    # noqa: E731
@@ -212,13 +211,13 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
         def own(sp: float) -> float:
             return stipple.cap_gamma(picture, sp, opts.pen_mm)
     (drawn, raw), choice = budget.fit((lambda sp: make(sp, own(sp))) if dots else make, timed,
-                                      budget_s, start, lo, hi, POWER[kind])
+                                      budget_s, start, lo, hi, POWER[opts.kind])
     if dots:           # then the walk once, at the spacing found, and a refit on its curve
         curve = own(choice.spacing_mm)
         g = stipple.tone_gamma(picture, choice.spacing_mm, opts.pen_mm)
         try:
             (drawn, raw), again = budget.fit(lambda sp: make(sp, g), timed, budget_s,
-                                             choice.spacing_mm, lo, hi, POWER[kind],
+                                             choice.spacing_mm, lo, hi, POWER[opts.kind],
                                              most=CURVE_TRIES)
             choice, curve = replace(again, tries=choice.tries + again.tries), g
         except ConfigError:                   # the walk's curve takes longer even sparser
@@ -228,7 +227,7 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
                                                 hi, raw, drawn, choice)
         notes.append(said)
     drawn, choice = budget.fill(drawn, choice, lambda sp: make(sp, curve)[0], final,
-                                plot_time, budget_s, lo, POWER[kind])
+                                plot_time, budget_s, lo, POWER[opts.kind])
     notes.append(choice.text())
     notes.append(image.describe(opts.style, choice.spacing_mm, opts.pen_mm, picture, **extra,
                                 **({} if curve is None else {"curve": curve})))
@@ -324,16 +323,12 @@ def pick_curve(picture, opts: PhotoOptions, draw, make, timed, budget_s: float, 
         _, g, _, c, made = best
         ink = score.ink(made, picture, opts.pen_mm)
         resp, mean = calibrate.response(g, ink, dark), float(ink.mean())
-        scored: dict[tuple, float] = {}       # the same curve (a picture mostly white: one
-                                              # threshold for many q) drawn once
 
         def fitted(q: float) -> float:
-            """The score of the curve for threshold q, drawn at the measured drawing's spacing."""
+            """The score of the curve for threshold q, drawn at the measured drawing's spacing
+            (`draw` remembers it: the same curve for several q, or the fit's first try)."""
             t = calibrate.table(resp, dark, mean, q)
-            if t.values not in scored:
-                made = draw(c.spacing_mm, t)
-                scored[t.values] = score.correlation(made, picture, opts.pen_mm, dark)
-            return scored[t.values]
+            return score.correlation(draw(c.spacing_mm, t), picture, opts.pen_mm, dark)
 
         attempt(calibrate.table(resp, dark, mean, calibrate.search(fitted)), FITTED_TRIES)
     r, g, placed, c, _ = best

@@ -80,9 +80,10 @@ FLOOR_GAMMA = 8.0       # ... and at least this
 
 def strokes(picture: Picture, spacing_mm: float, pen_mm: float, tsp: bool = False,
             seed: int = 0, dots: int | None = None, dot_mm: float | None = None,
-            fit: bool = True, curve: float | None = None, **_) -> list[Stroke]:
+            fit: bool = True, curve=None, **_) -> list[Stroke]:
     """Stipples of `picture`: one 1-point stroke (a dot: the pen taps) per stipple, on the
-    tone curve that draws this picture best (or d^curve) and moved to draw its tone best as
+    tone curve that draws this picture best (or d^curve; the tour and fit=False: an exponent
+    or a tone.Table, default the spacing's own, `cap_gamma`) and moved to draw its tone best as
     seen (`chosen`; fit=False: the spacing's own curve, as Lloyd left them); with
     dot_mm > pen_mm a small filled circle of that diameter instead; with tsp=True the tour
     through all of them, split where it would cross light paper (see the module's text)."""
