@@ -128,12 +128,11 @@ def matrix(p: Placement, pts: np.ndarray, page: Box) -> tuple[np.ndarray, np.nda
         A, b = s * A, s * (b - now.centre) + now.centre
         now = _box_of(pts @ A.T + b)
     room = page.size - 2 * p.margin_mm
-    if p.fit or p.align or p.valign:
-        if (room <= 0).any() or (p.fit and not largest(now.size, page, p.margin_mm) > 0):
-            raise ConfigError(f"error: --margin {p.margin_mm:g} leaves no room on the page "
-                              f"({page.size[0]:g} x {page.size[1]:g} mm)")
+    k = largest(now.size, page, p.margin_mm) if p.fit else math.inf
+    if (p.fit or p.align or p.valign) and ((room <= 0).any() or not k > 0):
+        raise ConfigError(f"error: --margin {p.margin_mm:g} leaves no room on the page "
+                          f"({page.size[0]:g} x {page.size[1]:g} mm)")
     if p.fit:
-        k = largest(now.size, page, p.margin_mm)
         s = (k if math.isfinite(k) else 1.0) * (1 - 1e-12)   # rounding must not cross the edge
         # scale about the extent's centre, then move that centre to the page's centre
         A, b = s * A, s * (b - now.centre) + page.centre
