@@ -5,9 +5,9 @@ The picture is sized first (--width, --height, or the largest size inside the pa
 --margin, aspect kept), because the line spacing only means something at the final size; it
 is loaded once at the resolution the pen can show; then `budget.fit` tries densities of the
 style, each placed on the page, put in a quick order (greedy; the stipples' own tour) and
-timed by the caller's planner, and keeps the densest that fits; then (`pick_curve`) the same for other tone
-curves (exponents either side, and curves fitted to the drawing's own measured response:
-`inputs/image/calibrate.py`), each drawing scored against the picture
+timed by the caller's planner, and keeps the densest that fits; then (`pick_curve`) the same
+for other tone curves (exponents either side, and curves fitted to the drawing's own measured
+response: `inputs/image/calibrate.py`), each drawing scored against the picture
 (`inputs/image/score.py`), the best kept. Stipples search on each spacing's own curve
 (smooth in spacing), then choose their curve once, at the spacing found, and search again
 with it. Last, `budget.fill` puts the drawing in its final order (--order best: `order.py`'s;

@@ -34,8 +34,8 @@ def describe(name: str, spacing_mm: float, pen_mm: float, picture=None, **extra)
         from vplotter.inputs.image.hatch import full_layers, tone_gamma
         g = tone_gamma(spacing_mm, pen_mm) if chosen is None else chosen
         return (f"finest pitch {spacing_mm:.2f} mm (the spacing; every {tone.TOP}th line, dashed, "
-                f"in the lightest tones, up to {full_layers(spacing_mm, pen_mm):.1f} crossed layers "
-                f"in black), tone curve {tone.name(g)}")
+                f"in the lightest tones, up to {full_layers(spacing_mm, pen_mm):.1f} crossed "
+                f"layers in black), tone curve {tone.name(g)}")
     if name in ("spiral", "squiggle"):
         from vplotter.inputs.image.squiggle import tone_gamma, track_pitch
         g = tone_gamma(spacing_mm, pen_mm) if chosen is None else chosen
@@ -49,4 +49,5 @@ def describe(name: str, spacing_mm: float, pen_mm: float, picture=None, **extra)
         tour = "a tour through " if extra.get("tsp") else ""
         return (f"{tour}as many dots as a spacing of {spacing_mm:.2f} mm spreads evenly, tone "
                 f"curve {tone.name(g)}")
-    return f"tone curve {tone.name(chosen if chosen is not None else tone.gamma(spacing_mm, pen_mm))}"
+    g = tone.gamma(spacing_mm, pen_mm) if chosen is None else chosen
+    return f"tone curve {tone.name(g)}"
