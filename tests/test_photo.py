@@ -157,6 +157,17 @@ def test_bad_images_are_one_line_and_exit_2(capsys, config_path, tmp_path, conte
     assert len(errors) == 1 and str(path) in errors[0] and what in errors[0]
 
 
+@pytest.mark.parametrize("command", ["estimate", "convert", "draw"])
+def test_a_missing_file_or_a_folder_is_the_same_line_in_every_command(capsys, config_path,
+                                                                     tmp_path, command):
+    for path, said in ((tmp_path / "gone.png", ": error: no such file"),
+                       (tmp_path, ": error: is a directory")):
+        extra = {"convert": ["-o", tmp_path / "o.ngc"], "draw": ["--dry-run"]}.get(command, [])
+        code, _, err = run(capsys, ["--config", config_path, command, path, *extra])
+        errors = [line for line in err.splitlines() if "error:" in line]
+        assert code == 2 and errors == [errors[0]] and errors[0].startswith(f"{path}{said}")
+
+
 def test_photo_options_on_other_files_are_errors(capsys, config_path):
     car = REPO / "gcode_samples" / "car.ngc"
     for extra in (["--style", "spiral"], ["--max-time", "1h"], ["--tsp"]):

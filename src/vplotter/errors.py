@@ -13,6 +13,18 @@ class InputError(VplotterError, ValueError):
     exit_code = 2
 
 
+def unreadable(path, e: OSError, what: str = "a drawing file") -> InputError:
+    """The one line for a file that cannot be opened: missing, a directory (not `what`), or
+    the system's reason."""
+    if isinstance(e, FileNotFoundError):
+        why = "no such file"
+    elif isinstance(e, IsADirectoryError):
+        why = f"is a directory, not {what}"
+    else:
+        why = f"cannot read: {e.strerror or e}"
+    return InputError(f"{path}: error: {why}")
+
+
 class ConfigError(VplotterError, ValueError):
     """Bad config.toml or command-line values."""
 

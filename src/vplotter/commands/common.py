@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from vplotter.errors import InputError, MachineError
+from vplotter.errors import MachineError, unreadable
 from vplotter.budget import clock_text
 
 
@@ -106,7 +106,7 @@ def file_hash(path: str) -> str:
             for block in iter(lambda: f.read(1 << 20), b""):
                 h.update(block)
     except OSError as e:
-        raise InputError(f"{path}: error: cannot read: {e.strerror}") from None
+        raise unreadable(path, e) from None
     return h.hexdigest()
 
 

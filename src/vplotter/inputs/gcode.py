@@ -13,7 +13,7 @@ import math
 from dataclasses import dataclass
 from typing import Callable, Iterable, Iterator
 
-from vplotter.errors import InputError
+from vplotter.errors import InputError, unreadable
 from vplotter.inputs.gcode_tools import (Tools, comment_pen, comment_text, pen_message,
                                          scan, tool_name)
 from vplotter.inputs.gcode_words import ALLOWED_LETTERS, _blank, tokenize  # noqa: F401
@@ -458,9 +458,5 @@ def read(path: str, strict: bool = False, warn: Warn = _stderr,
             tools = scan(f)
         with open(path, encoding="utf-8-sig", errors="replace") as f:
             yield from parse_lines(f, path, mode, strict, warn, dialect, tools)
-    except FileNotFoundError:
-        raise InputError(f"{path}: error: no such file") from None
-    except IsADirectoryError:
-        raise InputError(f"{path}: error: is a directory, not a G-code file") from None
     except OSError as e:
-        raise InputError(f"{path}: error: cannot read: {e.strerror}") from None
+        raise unreadable(path, e, "a G-code file") from None

@@ -4,7 +4,7 @@ to draw is counted as it is read, so that too much of it is refused before any l
 
 from __future__ import annotations
 
-from vplotter.errors import InputError
+from vplotter.errors import InputError, unreadable
 from vplotter.inputs import xml_guard
 
 SVG_NS = "http://www.w3.org/2000/svg"
@@ -104,12 +104,8 @@ def load_tree(path: str) -> tuple[Node, dict[str, Node]]:
     except expat.ExpatError as e:
         raise InputError(f"{path}:{e.lineno}:{e.offset + 1}: error: not well-formed XML: "
                          f"{expat.ErrorString(e.code)}") from None
-    except FileNotFoundError:
-        raise InputError(f"{path}: error: no such file") from None
-    except IsADirectoryError:
-        raise InputError(f"{path}: error: is a directory, not an SVG file") from None
     except OSError as e:
-        raise InputError(f"{path}: error: cannot read: {e.strerror}") from None
+        raise unreadable(path, e, "an SVG file") from None
     root = holder[0]
     if root.tag != "svg" or not root.svg:
         raise InputError(f"{path}:{root.line}:{root.col}: error: not an SVG file (the root "

@@ -159,7 +159,7 @@ def too_many(count: int, where: str) -> None:
     """An error once a drawing sets more than MAX_CHARS characters (memory and time stay
     bounded: a 5 MB one-line file would take gigabytes)."""
     if count > MAX_CHARS:
-        from vplotter.errors import InputError
+        from vplotter.errors import InputError, unreadable
 
         raise InputError(f"{where}: error: more than {MAX_CHARS:,} characters of text: too "
                          f"many to draw")
@@ -268,14 +268,10 @@ def read(path: str, warn) -> object:
     try:
         with open(path, encoding="utf-8") as f:
             text = f.read()
-    except FileNotFoundError:
-        raise InputError(f"{path}: error: no such file") from None
-    except IsADirectoryError:
-        raise InputError(f"{path}: error: is a directory, not a text file") from None
     except UnicodeDecodeError as e:
         raise InputError(f"{path}: error: not UTF-8 text (byte {e.start + 1})") from None
     except OSError as e:
-        raise InputError(f"{path}: error: cannot read: {e.strerror}") from None
+        raise unreadable(path, e, "a text file") from None
     d, shape = drawing(path, text)
     msg = missing_warning(path, shape.missing, shape.substituted, DEFAULT_FONT)
     if msg:
