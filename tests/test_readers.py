@@ -31,7 +31,8 @@ def _read_xy(path: str, ctx):
     return Drawing(path, [Stroke(np.array(pts), 1)])
 
 
-XY = Reader("xy", (".xy",), _read_xy, lambda path, stroke, k: f"{path}: point list {k + 1}")
+XY = Reader("xy", "point list", (".xy",), _read_xy,
+            lambda path, stroke, k: f"{path}: point list {k + 1}")
 
 
 @pytest.fixture

@@ -43,6 +43,7 @@ class Reader:
     """One file format.
 
     kind: its name ("svg", "gcode", ...: Prepared.kind, `file_kind`).
+    title: the format as people say it ("SVG", "G-code", "photo"; `vplotter info` names it).
     suffixes: the file names it takes, lower case (".svg", ...); a name with one of them is
         this reader's without a look inside, unless `weak_suffix`.
     sniff: head -> bool, on the first 256 bytes of a file whose name no reader takes.
@@ -60,6 +61,7 @@ class Reader:
     """
 
     kind: str
+    title: str
     suffixes: tuple[str, ...]
     read: Callable
     place: Callable

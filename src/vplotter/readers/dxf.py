@@ -21,4 +21,4 @@ def place(path: str, stroke, k: int) -> str:
     return f"{path}: entity {stroke.src}"
 
 
-READER = Reader("dxf", (".dxf",), read, place, sniff=_sniff, options=("layer",))
+READER = Reader("dxf", "DXF", (".dxf",), read, place, sniff=_sniff, options=("layer",))

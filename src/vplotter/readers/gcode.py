@@ -79,4 +79,5 @@ def place(path: str, stroke, k: int) -> str:
     return f"{path}:{stroke.line}:{stroke.col}"
 
 
-READER = Reader("gcode", (), read, place, sniff=lambda head: True, order="keep", streams=True)
+READER = Reader("gcode", "G-code", (), read, place, sniff=lambda head: True, order="keep",
+                streams=True)

@@ -31,4 +31,4 @@ def place(path: str, stroke, k: int) -> str:
     return f"{path}: stroke {k + 1}"
 
 
-READER = Reader("image", SUFFIXES, read, place, sniff=_sniff, options=("photo",))
+READER = Reader("image", "photo", SUFFIXES, read, place, sniff=_sniff, options=("photo",))

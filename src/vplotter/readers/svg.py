@@ -29,5 +29,5 @@ def place(path: str, stroke, k: int) -> str:
     return f"{path}: element {stroke.src}" if stroke.src else f"{path}: element {stroke.line}"
 
 
-READER = Reader("svg", (".svg", ".svgz"), read, place, sniff=_sniff, declares=_declares,
-                options=("layer", "fill"))
+READER = Reader("svg", "SVG", (".svg", ".svgz"), read, place, sniff=_sniff,
+                declares=_declares, options=("layer", "fill"))

@@ -16,4 +16,4 @@ def place(path: str, stroke, k: int) -> str:
     return f"{path}:{stroke.line}"
 
 
-READER = Reader("text", (".txt",), read, place, weak_suffix=True)
+READER = Reader("text", "text", (".txt",), read, place, weak_suffix=True)
