@@ -25,7 +25,8 @@ from vplotter.cli import main
 from vplotter.drawing import order
 from vplotter.inputs.gcode import Move, Pen
 from vplotter.inputs.strokes import Stroke
-from vplotter.prepare import Prepared, join_limit, prepare
+from vplotter.file_options import join_limit
+from vplotter.prepare import Prepared, prepare
 
 TOL = 0.0075            # the flattening tolerance of config.toml (0.75 x tolerance_mm 0.01)
 

@@ -22,7 +22,8 @@ from vplotter.inputs import gcode, gcode_tools
 from vplotter.inputs.gcode import Move, Pause, Pen
 from vplotter.inputs.strokes import Stroke
 from vplotter.pipeline import Summary
-from vplotter.prepare import Prepared, gcode_strokes
+from vplotter.prepare import Prepared
+from vplotter.readers.gcode import gcode_strokes
 
 OWNED = (PenSpec("black", "#000000"), PenSpec("red", "#d02020", speed_mm_s=2.0),
          PenSpec("yellow", "#ffff00"), PenSpec("blue", "#2030c0"))

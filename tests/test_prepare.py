@@ -21,7 +21,8 @@ from vplotter.cli import main
 from vplotter.commands.files import write_gcode
 from vplotter.inputs import gcode
 from vplotter.inputs.strokes import Drawing, Stroke
-from vplotter.prepare import Prepared, gcode_strokes
+from vplotter.prepare import Prepared
+from vplotter.readers.gcode import gcode_strokes
 
 CAR = REPO / "gcode_samples" / "car.ngc"
 

@@ -12,7 +12,7 @@ from vplotter.errors import ConfigError, MachineError
 
 
 def add_draw(p: argparse.ArgumentParser) -> None:
-    from vplotter.prepare import add_file_options
+    from vplotter.file_options import add_file_options
 
     p.add_argument("file", help="G-code (.ngc, .gcode, .nc) or SVG (.svg, .svgz) file")
     add_machine_options(p)
@@ -53,7 +53,7 @@ def start_at(args, pos):
     if file_hash(args.file) != info.get("sha256") and not args.force:
         raise MachineError(f"error: {args.file} changed since the draw was interrupted "
                            f"(--force to resume anyway, or --from-line N)")
-    from vplotter.prepare import options_key
+    from vplotter.file_options import options_key
 
     key = options_key(args.file, args)
     if info.get("options", key) != key and not args.force:
@@ -71,7 +71,7 @@ def cmd_draw(args, argv=None) -> int:
     from vplotter import kinematics, pipeline
     from vplotter.commands.files import prepare_file
     from vplotter.errors import Interrupted
-    from vplotter.prepare import options_key
+    from vplotter.file_options import options_key
 
     from vplotter.machine import live, notify
 
@@ -278,7 +278,7 @@ def cmd_estimate(args, argv=None) -> int:
 
 
 def add_estimate(p) -> None:
-    from vplotter.prepare import add_file_options
+    from vplotter.file_options import add_file_options
 
     p.add_argument("file", help="G-code or SVG file")
     p.add_argument("--strict", action="store_true", help="treat arc warnings as errors")

@@ -53,7 +53,7 @@ def _plot_time(cfg, pos, xy, path: str):
 
 # ------------------------------------------------------------------ info
 def add_info(p: argparse.ArgumentParser) -> None:
-    from vplotter.prepare import add_file_options
+    from vplotter.file_options import add_file_options
 
     p.add_argument("file", help="G-code or SVG file")
     p.add_argument("--json", action="store_true", help="print the figures as one JSON object")
@@ -84,7 +84,7 @@ def cmd_info(args, argv=None) -> int:
     pos = position(cfg, args, True)
     from dataclasses import replace
 
-    from vplotter.prepare import file_kind
+    from vplotter.readers import file_kind
 
     if file_kind(args.file) == "image":     # one budget search: its order is the file order
         best = prepare_file(args, cfg, pos, order="best", say_notes=False)
@@ -169,7 +169,7 @@ def _r(v):
 
 # ------------------------------------------------------------------ convert
 def add_convert(p: argparse.ArgumentParser) -> None:
-    from vplotter.prepare import add_file_options
+    from vplotter.file_options import add_file_options
 
     p.add_argument("file", help="G-code or SVG file")
     p.add_argument("-o", "--output", required=True, metavar="OUT.ngc",

@@ -24,7 +24,7 @@ def _check_picture_options(args) -> None:
 
 
 def add_preview(p: argparse.ArgumentParser) -> None:
-    from vplotter.prepare import add_file_options
+    from vplotter.file_options import add_file_options
 
     p.add_argument("file", help="drawing to preview (G-code or SVG)")
     _add_picture_options(p)

@@ -17,7 +17,7 @@ NAME = "text"           # how messages and the G-code header name the drawing
 
 
 def add_text(p: argparse.ArgumentParser) -> None:
-    from vplotter.prepare import _number, add_file_options
+    from vplotter.file_options import _number, add_file_options
 
     p.add_argument("text", help="the text; a newline or a literal \\n starts a new line")
     p.add_argument("-o", "--output", metavar="OUT.ngc",

@@ -17,6 +17,9 @@ Read with ezdxf (imported here only). The rules (docs/drawing-files.md, section 
   type (HATCH, DIMENSION, IMAGE, 3DFACE, POINT, ...), counted per type in one warning;
 - $INSUNITS scales to mm (unitless: mm); the drawing's extent is centred on X0 Y0, +Y up.
 
+This module walks the document (blocks, layers, colours, the strokes); `dxf_geom.py` cuts each
+entity into points.
+
 Refused with one line (InputError): what ezdxf cannot read (not a DXF file, a corrupt or
 truncated one, text or binary junk), a block that inserts itself (directly or through other
 blocks), and a drawing whose blocks expand to more than MAX_ENTITIES entities.
@@ -24,17 +27,17 @@ blocks), and a drawing whose blocks expand to more than MAX_ENTITIES entities.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
 
 from vplotter.errors import InputError
+from vplotter.inputs import dxf_geom
+from vplotter.inputs.dxf_geom import MAX_POINTS, first_line, local_tol, m44
 from vplotter.inputs.strokes import Drawing, Stroke
 
 MAX_ENTITIES = 500_000      # entities drawn once blocks are expanded (MINSERT grids included)
-MAX_POINTS = 10_000_000     # points of all strokes together (160 MB of coordinates)
 MAX_DEPTH = 100             # blocks nested in blocks
 HIDDEN_LAYERS = {"defpoints"}   # CAD programs never plot this layer
 CURVES = {"LINE", "LWPOLYLINE", "POLYLINE", "ARC", "CIRCLE", "ELLIPSE", "SPLINE"}
@@ -92,9 +95,9 @@ def _open(path: str):
     try:
         return ezdxf.readfile(path)
     except DXFError as e:
-        raise InputError(f"{path}: error: not a valid DXF file: {_first_line(e)}") from None
+        raise InputError(f"{path}: error: not a valid DXF file: {first_line(e)}") from None
     except (OSError, UnicodeError) as e:
-        what = e.strerror if isinstance(e, OSError) and e.strerror else _first_line(e)
+        what = e.strerror if isinstance(e, OSError) and e.strerror else first_line(e)
         if "not a DXF file" in str(e):
             what = "not a DXF file (no DXF section structure at its start)"
         raise InputError(f"{path}: error: {what}") from None
@@ -102,14 +105,7 @@ def _open(path: str):
         raise InputError(f"{path}: error: too large to read into memory") from None
     except Exception as e:      # noqa: BLE001 - ezdxf on truncated or garbled input raises
         # whatever its parsing met (IndexError, struct.error, ValueError, ...): one line
-        raise InputError(f"{path}: error: not a valid DXF file: {_first_line(e)}") from None
-
-
-def _first_line(e: BaseException) -> str:
-    if isinstance(e, (StopIteration, EOFError)):
-        return "it ends before its sections do (truncated?)"
-    text = str(e).strip().splitlines()
-    return (text[0] if text else type(e).__name__)[:200]
+        raise InputError(f"{path}: error: not a valid DXF file: {first_line(e)}") from None
 
 
 def _aci(aci: int) -> str:
@@ -117,76 +113,6 @@ def _aci(aci: int) -> str:
     from ezdxf import colors
 
     return "#000000" if aci == 7 else "#%02x%02x%02x" % tuple(colors.aci2rgb(aci))
-
-
-def _m44(m) -> np.ndarray:
-    """ezdxf Matrix44 (row vectors) -> numpy 4x4."""
-    return np.array([list(m.get_row(i)) for i in range(4)], dtype=float)
-
-
-def _local_tol(tol: float, m: np.ndarray) -> float:
-    """The chord tolerance in block coordinates (and in any OCS in them, a rotation): tol over
-    the largest stretch of m from there to G-code mm (X and Y): the largest singular value of
-    its 3x2 part, from the 2x2 Gram matrix."""
-    with np.errstate(all="ignore"):     # a huge scale: no finite stretch, add() refuses it
-        a = m[:3, :2] / max(float(np.abs(m[:3, :2]).max()), 1e-300)
-        g = a.T @ a
-        half = (g[0, 0] + g[1, 1]) / 2
-        top = half + math.sqrt(max(((g[0, 0] - g[1, 1]) / 2) ** 2 + g[0, 1] ** 2, 0.0))
-        stretch = math.sqrt(max(top, 0.0)) * float(np.abs(m[:3, :2]).max())
-    return tol / stretch if 1e-300 < stretch < math.inf else tol
-
-
-def _ocs(entity) -> np.ndarray:
-    """The entity's OCS -> WCS as a 4x4 (row vectors), from its extrusion."""
-    o = entity.ocs()
-    f = np.eye(4)
-    f[0, :3], f[1, :3], f[2, :3] = tuple(o.ux), tuple(o.uy), tuple(o.uz)
-    return f
-
-
-def _arc(cx: float, cy: float, r: float, a0: float, sweep: float, tol: float,
-         multiple: int = 1) -> np.ndarray:
-    """(K, 2) points along a circular arc from angle a0 (radians) through `sweep` (signed),
-    chords within tol of the arc (their number a multiple of `multiple`); both ends exact."""
-    if r <= 0:
-        return np.array([[cx, cy]])
-    step = 2 * math.acos(max(1 - tol / r, -1.0)) if tol < r else math.pi / 2
-    n = max(int(math.ceil(abs(sweep) / max(min(step, math.pi / 2), 1e-9))), 1)
-    n = -(-n // multiple) * multiple
-    if n > MAX_POINTS:
-        raise OverflowError
-    t = a0 + sweep / n * np.arange(n + 1.0)
-    return np.column_stack([cx + r * np.cos(t), cy + r * np.sin(t)])
-
-
-def _bulged(xy: np.ndarray, bulge: np.ndarray, closed: bool, tol: float) -> np.ndarray:
-    """A polyline's vertices (N, 2) with bulges (the bulge of vertex i bends the segment to
-    i + 1: tan(sweep / 4), positive counter-clockwise) -> points along its lines and arcs."""
-    n = len(xy)
-    if closed and n > 1:
-        xy = np.vstack([xy, xy[:1]])
-    b = np.zeros(max(len(xy) - 1, 0))
-    k = min(len(b), len(bulge))
-    b[:k] = bulge[:k]
-    chord = np.hypot(*np.diff(xy, axis=0).T)
-    out, start = [], 0
-    # straight segments are the vertices as they are: only the bulged ones are walked
-    for i in np.nonzero(~(np.abs(b) < 1e-12) & (chord != 0.0))[0].tolist():
-        p, q, c_len = xy[i], xy[i + 1], float(chord[i])
-        sweep = 4 * math.atan(float(b[i]))
-        r = c_len / (2 * abs(math.sin(sweep / 2)))
-        # the centre: off the chord's middle to the left of p->q by chord / (2 tan(sweep / 2))
-        # (to the right for a clockwise arc or one of more than 180 degrees)
-        d = (q - p) / c_len
-        c = (p + q) / 2 + np.array([-d[1], d[0]]) * c_len / (2 * math.tan(sweep / 2))
-        a0 = math.atan2(p[1] - c[1], p[0] - c[0])
-        pts = _arc(c[0], c[1], r, a0, sweep, tol)
-        pts[-1] = q
-        out += [xy[start:i + 1], pts[1:]]
-        start = i + 2
-    out.append(xy[start:])
-    return np.concatenate(out)
 
 
 class _Reader:
@@ -209,7 +135,7 @@ class _Reader:
         msp = self.doc.modelspace()
         self.check_blocks(msp)
         m = np.diag([self.unit_mm(), self.unit_mm(), self.unit_mm(), 1.0])
-        ctx = _Ctx(m, _local_tol(self.tol, m))
+        ctx = _Ctx(m, local_tol(self.tol, m))
         try:
             for k, e in enumerate(msp, 1):
                 self.entity(e, replace(ctx, top=k))
@@ -220,7 +146,7 @@ class _Reader:
             raise
         except Exception as ex:     # noqa: BLE001 - ezdxf on an entity with broken values
             raise InputError(f"{self.path}: error: {self.current}: cannot be drawn: "
-                             f"{_first_line(ex)}") from None
+                             f"{first_line(ex)}") from None
         self.check_layers()
         if self.text is not None:
             self.text.finish()
@@ -383,8 +309,8 @@ class _Reader:
         colour = self.colour_of(e, layer, ctx)
         refs = e.multi_insert() if e.mcount > 1 else [e]
         for ref in refs:
-            m = _m44(ref.matrix44()) @ ctx.m
-            inner = replace(ctx, m=m, tol=_local_tol(self.tol, m), layer=layer, colour=colour,
+            m = m44(ref.matrix44()) @ ctx.m
+            inner = replace(ctx, m=m, tol=local_tol(self.tol, m), layer=layer, colour=colour,
                             src=f"{ctx.src}INSERT {e.dxf.handle} > ")
             for child in block:
                 self.entity(child, inner)
@@ -392,86 +318,13 @@ class _Reader:
                 self.entity(attrib, replace(ctx, colour=colour))
 
     def curve(self, e, t: str, layer: str, ctx: _Ctx) -> None:
-        d = e.dxf
-        frame = np.eye(4)
-        z = 0.0
-        if t == "LINE":
-            polys = [np.array([list(d.start), list(d.end)])]
-        elif t in ("CIRCLE", "ARC"):
-            frame = _ocs(e)
-            tol = ctx.tol
-            c = d.center
-            z = c[2]
-            if t == "CIRCLE":           # a multiple of 4 chords: its extent is exact
-                pts = _arc(c[0], c[1], d.radius, 0.0, 2 * math.pi, tol, 4)
-                pts[-1] = pts[0]
-            else:
-                a0, a1 = math.radians(d.start_angle), math.radians(d.end_angle)
-                sweep = (a1 - a0) % (2 * math.pi) or 2 * math.pi
-                pts = _arc(c[0], c[1], d.radius, a0, sweep, tol)
-            polys = [pts]
-        elif t == "ELLIPSE":
-            polys = [self.ellipse(e, ctx.tol)]
-        elif t == "SPLINE":
-            tol = ctx.tol
-            try:
-                pts = [tuple(v) for v in e.construction_tool().flattening(tol, segments=4)]
-            except (ValueError, ZeroDivisionError, IndexError, ArithmeticError) as ex:
-                raise InputError(f"{self.path}: error: SPLINE {d.handle}: {_first_line(ex)}"
-                                 ) from None
-            polys = [np.array(pts)] if pts else []
-        elif t == "LWPOLYLINE":
-            frame = _ocs(e)
-            z = d.get("elevation", 0.0)
-            xyb = np.array(list(e.get_points("xyb")), dtype=float).reshape(-1, 3)
-            polys = [_bulged(xyb[:, :2], xyb[:, 2], e.closed, ctx.tol)]
-        else:
-            polys = self.polyline(e, ctx)
-            if polys is None:
-                return
-            frame, polys = polys
-        self.add(e, t, polys, frame, layer, ctx, z)
-
-    def ellipse(self, e, tol: float) -> np.ndarray:
-        d = e.dxf
-        major = np.array(list(d.major_axis), dtype=float)
-        minor = np.array(list(e.minor_axis), dtype=float)
-        c = np.array(list(d.center), dtype=float)
-        a = float(np.linalg.norm(major))
-        t0, t1 = d.get("start_param", 0.0), d.get("end_param", 2 * math.pi)
-        span = (t1 - t0) % (2 * math.pi)
-        full = span < 1e-12 or abs(span - 2 * math.pi) < 1e-12
-        span = 2 * math.pi if full else span
-        # a chord over a parameter step dt stays within a dt^2 / 8 of the curve (|p''| <= a)
-        step = math.sqrt(8 * tol / a) if a > 0 else span
-        n = max(int(math.ceil(span / min(step, math.pi / 4))), 1)
-        if n > MAX_POINTS:
-            raise OverflowError
-        t = t0 + span * np.linspace(0.0, 1.0, n + 1)
-        pts = c + np.cos(t)[:, None] * major + np.sin(t)[:, None] * minor
-        if full:
-            pts[-1] = pts[0]
-        return pts
-
-    def polyline(self, e, ctx: _Ctx):
-        """(frame, [points]) of a POLYLINE, None for a mesh (counted as not drawn)."""
-        if e.is_polygon_mesh or e.is_poly_face_mesh:
+        got = dxf_geom.curve(e, t, ctx.tol, self.path)
+        if got is None:                 # a polygon or poly-face mesh: not drawn
             self.skipped["other"] += 1
             self.other["POLYLINE (mesh)"] = self.other.get("POLYLINE (mesh)", 0) + 1
-            return None
-        verts = [v for v in e.vertices if not v.dxf.get("flags", 0) & 16]  # spline frame
-        if not verts:
-            return np.eye(4), []
-        loc = np.array([list(v.dxf.location) for v in verts], dtype=float)
-        if e.is_3d_polyline:
-            if e.is_closed and len(loc) > 1:
-                loc = np.vstack([loc, loc[:1]])
-            return np.eye(4), [loc]
-        frame = _ocs(e)
-        bulge = np.array([v.dxf.get("bulge", 0.0) for v in verts], dtype=float)
-        pts = _bulged(loc[:, :2], bulge, e.is_closed, ctx.tol)
-        z = float(e.dxf.get("elevation", (0, 0, 0))[2])
-        return frame, [np.column_stack([pts, np.full(len(pts), z)])]
+            return
+        frame, polys, z = got
+        self.add(e, t, polys, frame, layer, ctx, z)
 
     def add(self, e, t: str, polys, frame: np.ndarray, layer: str, ctx: _Ctx,
             z: float = 0.0) -> None:

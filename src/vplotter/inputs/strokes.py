@@ -43,7 +43,8 @@ class Stroke:
 
 @dataclass
 class Drawing:
-    """An input file read into strokes, with what a reader knows about it."""
+    """An input file read into strokes, with what a reader knows about it: what every reader
+    (`vplotter.readers`) returns."""
 
     name: str
     strokes: list[Stroke]
@@ -51,6 +52,10 @@ class Drawing:
     height_mm: float | None = None
     layers: list[dict] = field(default_factory=list)      # [{"id", "label", "visible"}]
     skipped: dict = field(default_factory=lambda: {"text": 0, "image": 0, "hidden": 0})
+    fills: list = field(default_factory=list)   # inputs.fill.Region: hatched once placed (SVG)
+    notes: list[str] = field(default_factory=list)        # what was chosen and why (a photo)
+    placed: bool = False                 # the strokes are on the page already (a photo)
+    ordered: bool = False                # ... and in their drawing order (a photo's, timed)
 
 
 def to_records(strokes: Iterable[Stroke]) -> Iterator[Record]:
