@@ -25,13 +25,14 @@ def add_status(p) -> None:
 
 def _snapshot(cfg):
     """(stored position or None, lock holder or None, running draw or None)."""
-    from vplotter.machine import job, live, lock, state
+    from vplotter.machine import live, lock, state
+    from vplotter.machine.position import check_machine
 
     holder = lock.holder()
     drawing = live.read(holder) if holder else None
     stored = state.load()
     if stored:
-        job.check_machine(cfg, stored)      # a polar position is no pair of cords
+        check_machine(cfg, stored)      # a polar position is no pair of cords
     pos = state.recovered(stored).rebased(cfg.motors.steps_per_unit) if stored else None
     return pos, holder, drawing
 
@@ -64,7 +65,8 @@ def _print_json(cfg, pos, holder, drawing) -> None:
 def status_object(cfg, pos=None, holder=None, drawing=None, snapshot: bool = True) -> dict:
     """What `status --json` prints (and the web page's GET /api/status answers): read now
     when snapshot is true, else from the given position, lock holder and running draw."""
-    from vplotter.machine import job, state
+    from vplotter.machine import state
+    from vplotter.machine.position import uncertainty_mm
     from vplotter.commands.machine import _pen_xy
 
     if snapshot:
@@ -80,7 +82,7 @@ def status_object(cfg, pos=None, holder=None, drawing=None, snapshot: bool = Tru
         # a process that holds the lock is moving the machine: its stop is still to come
         "clean": None if running else pos.clean,
         "last_stop": "running" if running else ("clean" if pos.clean else "unclean"),
-        "uncertainty_mm": round(job.uncertainty_mm(cfg, pos), 4),
+        "uncertainty_mm": round(uncertainty_mm(cfg, pos), 4),
         "resume": None if running else pos.extra.get("resume") or None, "state_file": str(state.state_path()),
         "pen_in": pos.extra.get("pen_in"),      # the pen put in last: {"pen", "index", "count"}
         "pen_change": None if running else pos.extra.get("pen_change"),   # stopped waiting
@@ -89,7 +91,8 @@ def status_object(cfg, pos=None, holder=None, drawing=None, snapshot: bool = Tru
 
 def _print_text(cfg, pos, holder, drawing) -> None:
     from vplotter.commands.machine import _describe
-    from vplotter.machine import job, state
+    from vplotter.machine import state
+    from vplotter.machine.position import uncertainty_mm
 
     if holder is not None:
         busy = _busy(holder)
@@ -109,14 +112,14 @@ def _print_text(cfg, pos, holder, drawing) -> None:
         print("position unknown: run `vplotter calibrate --at X Y`")
         return
     if holder is not None:
-        off = job.uncertainty_mm(cfg, pos)
+        off = uncertainty_mm(cfg, pos)
         print(f"{_describe(cfg, pos)}  (moving: where the journal had it, within {off:.2f} mm)")
     else:
         print(_describe(cfg, pos))
         if pos.clean:
             print("last stop: clean")
         else:
-            off = job.uncertainty_mm(cfg, pos)
+            off = uncertainty_mm(cfg, pos)
             print(f"last stop: UNCLEAN (crash or power cut): the position may be off by up to "
                   f"{off:.2f} mm; check it and run `vplotter calibrate`, or draw with "
                   f"--trust-position")
