@@ -18,7 +18,7 @@ from vplotter.inputs import gcode
 from vplotter.backends import create
 from vplotter.backends.realtime import Player
 from vplotter.errors import BackendError
-from vplotter.machine.job import _split
+from vplotter.machine.ahead import stretches as _split
 from vplotter.motion.schedule import Rows
 
 from conftest import REPO

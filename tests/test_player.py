@@ -21,7 +21,7 @@ from vplotter.machine import state
 from vplotter.backends import create
 from vplotter.backends.realtime import ORDER, Player, bit_order
 from vplotter.inputs import gcode
-from vplotter.machine.job import _split
+from vplotter.machine.ahead import stretches as _split
 from vplotter.motion.sequencer import TABLES
 
 from conftest import REPO

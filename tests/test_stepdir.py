@@ -21,7 +21,7 @@ from vplotter.backends import create
 from vplotter.cli import main
 from vplotter.errors import ConfigError
 from vplotter.inputs import gcode
-from vplotter.machine.job import _split
+from vplotter.machine.ahead import stretches as _split
 
 from conftest import REPO
 from test_safety import interrupt_after

@@ -1,11 +1,14 @@
-"""What the commands share: config, stored position, the session, printing that never fails."""
+"""What the commands share: config, stored position, the session, printing that never fails,
+and a command's result handed as a value to a caller that runs it in a subprocess."""
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
+from contextlib import contextmanager
 
-from vplotter.errors import MachineError, unreadable
+from vplotter.errors import BusyError, MachineError, VplotterError, unreadable
 from vplotter.budget import clock_text
 
 
@@ -37,7 +40,8 @@ def position(cfg, args, dry_run: bool):
     A dry run takes no lock; without a stored position it assumes X0 Y0, after an unclean stop
     it goes on but says how uncertain the stored position is."""
     from vplotter import kinematics
-    from vplotter.machine import job, lock, state
+    from vplotter.machine import lock, state
+    from vplotter.machine.position import load_position, uncertainty_mm
 
     if not dry_run:
         lock.acquire(lock_command(args))
@@ -46,7 +50,7 @@ def position(cfg, args, dry_run: bool):
         cords = kin.inverse(kin.to_machine([[0.0, 0.0]]))[0]
         eprint("note: no calibrated position stored; the dry run assumes the pen at X0 Y0")
         return state.Position.at_cords(cords[0], cords[1], cfg.motors.steps_per_unit)
-    pos = job.load_position(cfg, getattr(args, "trust_position", False), dry_run)
+    pos = load_position(cfg, getattr(args, "trust_position", False), dry_run)
     if dry_run and not pos.clean:
         holder = lock.holder()
         if holder is not None:
@@ -54,7 +58,7 @@ def position(cfg, args, dry_run: bool):
                    f"the plotter; the dry run starts from the position stored last")
         else:
             eprint(f"warning: the last stop was not clean (crash or power cut): the stored "
-                   f"position is uncertain by up to {job.uncertainty_mm(cfg, pos):.2f} mm; the "
+                   f"position is uncertain by up to {uncertainty_mm(cfg, pos):.2f} mm; the "
                    f"dry run starts from it (`vplotter calibrate --at X Y` makes it exact)")
     return pos
 
@@ -82,7 +86,8 @@ def add_machine_options(p: argparse.ArgumentParser) -> None:
                    help="with the fake backend: play in real time to measure timing lateness")
 
 
-def session(args, cfg, command: str, pos):
+def session(args, cfg, command: str, pos, job=None):
+    """The Session that moves the machine for a command (job: a draw's machine/job.DrawJob)."""
     from vplotter.machine.job import Session
 
     dry = getattr(args, "dry_run", False)
@@ -90,7 +95,7 @@ def session(args, cfg, command: str, pos):
         raise MachineError("error: --backend serial streams drawings: use it with `vplotter draw`")
     name = "fake" if dry else (args.backend or cfg.gpio.backend)
     # --backend fake is a simulated machine (lock, stored position); --dry-run touches nothing
-    return Session(cfg, command, name, dry, args.trace, args.realtime, pos)
+    return Session(cfg, command, name, dry, args.trace, args.realtime, pos, job)
 
 
 def command_line(argv) -> str:
@@ -163,3 +168,63 @@ class Progress:
 
     def done(self) -> None:
         say("", sys.stderr)
+
+
+# ---------------------------------------------------------------- results as values
+RESULT_FD = "VPLOTTER_RESULT_FD"
+
+
+def error_line(e: BaseException) -> str:
+    """The one line the command line prints for an error that ends a command (cli.main)."""
+    if isinstance(e, VplotterError):
+        msg = str(e)
+        if isinstance(e, BusyError) and e.holder:
+            from vplotter.machine import live
+
+            msg = live.busy_line(e.holder)
+        if isinstance(e, BusyError) or "error:" in msg:
+            return msg if not msg.startswith("error:") else f"vplotter: {msg}"
+        return f"vplotter: {msg}" if e.exit_code >= 128 else f"vplotter: error: {msg}"
+    if isinstance(e, KeyboardInterrupt):
+        return "vplotter: interrupted"
+    return f"vplotter: internal error: {type(e).__name__}: {e} (rerun with --debug for details)"
+
+
+def exit_code(e: BaseException) -> int:
+    """The exit status that goes with error_line(e)."""
+    if isinstance(e, VplotterError):
+        return e.exit_code
+    return 130 if isinstance(e, KeyboardInterrupt) else 1
+
+
+@contextmanager
+def answering():
+    """A command that a program runs as a subprocess (the page's commands/serve.Machine) hands
+    it its result as a value: with VPLOTTER_RESULT_FD set, one JSON object goes to that pipe,
+    {"result": {the result dataclass's fields}} from answer(result), or {"error": the line the
+    command line prints, "exit_code": N} when the command fails. Nothing else changes: the
+    command prints what it always prints. The variable is taken out of the environment, so
+    that no process the command starts writes to the pipe."""
+    import dataclasses
+    import json
+
+    fd_text = os.environ.pop(RESULT_FD, None)
+    fd = int(fd_text) if fd_text and fd_text.isdigit() else None
+    sent = [fd is None]
+
+    def send(obj: dict) -> None:
+        if sent[0]:
+            return
+        sent[0] = True
+        try:
+            os.write(fd, json.dumps(obj).encode())
+            os.close(fd)
+        except OSError:
+            pass
+
+    try:
+        yield lambda result: send({"result": dataclasses.asdict(result)})
+    except BaseException as e:
+        send({"error": error_line(e), "exit_code": exit_code(e)})
+        raise
+    send({"result": None})

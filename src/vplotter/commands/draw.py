@@ -5,9 +5,10 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from dataclasses import dataclass
 
-from vplotter.commands.common import (Progress, add_machine_options, command_line, eprint,
-                                      file_hash, load_config, position, say, session)
+from vplotter.commands.common import (Progress, add_machine_options, answering, command_line,
+                                      eprint, file_hash, load_config, position, say, session)
 from vplotter.errors import ConfigError, MachineError
 
 
@@ -63,18 +64,27 @@ def start_at(args, pos):
     return StartAt(int(info["line"]), (float(xy[0]), float(xy[1])) if xy else None)
 
 
+@dataclass(frozen=True)
+class DrawStarted:
+    """`draw --detach`: the background draw's pid, its log, and the first line the draw said
+    (how the file was ordered, or its summary)."""
+
+    pid: int
+    log: str
+    message: str
+
+
 def cmd_draw(args, argv=None) -> int:
-    import os
+    with answering() as answer:
+        started = draw_file(args, argv)
+        if started is not None:
+            answer(started)
+    return 0
 
-    import numpy as np
 
-    from vplotter import kinematics, pipeline
-    from vplotter.commands.files import prepare_file
-    from vplotter.errors import Interrupted
-    from vplotter.file_options import options_key
-
-    from vplotter.machine import live, notify
-
+def draw_file(args, argv=None) -> DrawStarted | None:
+    """The draw command: validate FILE, then draw it here, or (--detach) in a background
+    process, whose DrawStarted is returned."""
     cfg = load_config(args)
     if args.detach and args.dry_run:
         raise ConfigError("error: --detach draws on the machine; a --dry-run has nothing to detach")
@@ -83,85 +93,132 @@ def cmd_draw(args, argv=None) -> int:
     if args.backend == "serial" or args.save_stream:
         from vplotter.commands import serial
 
-        return serial.draw(args, argv, cfg, pos, begin,
-                           lambda s, progress: _pause_handler(s, progress, False))
-    sess = session(args, cfg, command_line(argv), pos)
-    sess.drawing = {"file": os.path.abspath(args.file), "sha256": file_hash(args.file),
-                    "options": options_key(args.file, args)}
-    sess.ignore_hangup = args.detached
+        serial.draw(args, argv, cfg, pos, begin, PauseHandler(args.dry_run))
+        return None
     # the session (lock, pins, signal handlers) is open first, so that a signal at any moment
     # ends the same way; nothing is output before the whole file has been validated
-    with sess as s:
-        # a resumed draw is ordered from where the interrupted one started, so that the
-        # record numbers match
-        start = (pos.extra.get("resume") or {}).get("start") if args.resume else None
-        prep = prepare_file(args, cfg, pos, start_xy=start)
-        sess.drawing["start"] = list(prep.start_xy)
-        # validation pass: the whole file, page limits and exact plot time before anything moves
-        summary = pipeline.validate(cfg, prep.records(), pos.counts, pos.ref_mm, args.file, begin,
-                                    lambda: s.stop_pending, where=prep.where, park=prep.start_xy)
-        if summary is not None and not s.dry_run and not args.detach:
-            # published before the summary is printed: whoever sees the summary finds it
-            s.live = live.Publisher(command_line(argv), os.path.abspath(args.file), summary.time_s,
-                                     on_state=notify.hook(cfg.notify))
-            s.live.update(0.0, 0, force=True)
-        if summary is not None:
-            _ordered(prep)
-            for line in summary.pen_lines():
-                say(f"{args.file}: {line}")
-            say(f"{args.file}: {summary.text()}")
+    with session(args, cfg, command_line(argv), pos, draw_job(args, argv, cfg)) as s:
+        prep, summary, said = _validate(args, cfg, pos, begin, s)
         if args.detach and summary is not None:
-            return _detach(args, argv, s)
-        if summary is not None and summary.plan is not None:     # planned once, drawn as planned
-            rows = pipeline.replay(cfg, summary.plan, pos.counts, pos.ref_mm)
-        else:
-            rows = pipeline.stream(cfg, prep.records(), pos.counts, pos.ref_mm, args.file,
-                                   start_at=begin, where=prep.where, park=prep.start_xy)
-        if s.tracer is not None:
-            s.tracer.comment(f"file {os.path.abspath(args.file)}")
-        progress = (Progress(summary) if summary and sys.stderr.isatty() and not s.dry_run
-                    else None)
-        s.on_pause = _pause_handler(s, progress, args.detached)
-        try:
-            s.play(rows, progress)
-        except Interrupted:
-            kin = kinematics.from_config(cfg)
-            cords = np.asarray(pos.ref_mm) + np.asarray(s.counts) / np.asarray(cfg.motors.steps_per_unit)
-            xy = kin.to_gcode(kin.forward(cords[None, :]))[0]
-            if s.line > 0:      # something of the file was drawn
-                s.resume_info = {**sess.drawing, "line": s.line,
-                                 "xy": [float(xy[0]), float(xy[1])]}
-            if progress:
-                progress.done()
-            xy = np.where(np.abs(xy) < 5e-4, 0.0, xy)
-            where = f"{prep.where(s.line)}: stopped" if s.line else f"{args.file}: stopped before drawing"
-            eprint(f"{where} at X{xy[0]:.3f} Y{xy[1]:.3f}; pen lifted, coils released"
-                    f"{'' if s.dry_run else ', position saved'}")
-            if not s.dry_run and s.resume_info:
-                eprint(f"resume with: vplotter draw {args.file} --resume")
-            raise
-        if progress:
-            progress.done()
-        s.resume_info = {}
-        stats = s.backend.lateness()
-        if stats:
-            text = ("lateness (actual - planned change time): p50 {p50_ms:.3f} ms, "
-                    "p99 {p99_ms:.3f} ms, max {max_ms:.3f} ms over {n} changes").format(**stats)
-            if stats.get("underruns"):
-                text += f", {stats['underruns']} queue underruns"
-            if "shifts" in stats:
-                text += (f"; the timeline moved {stats['shifts']} times by more than 0.1 ms, "
-                         f"{stats['lost_ms'] / 1e3:.3f} s lost in total")
-            if s.tracer is not None:
-                s.tracer.comment(text)
-            if args.verbose:
-                say(text)
-        if args.detached:
-            say(f"{args.file}: finished at {time.strftime('%H:%M:%S')}")
-    return 0
+            return _detach(args, argv, s, said[0])
+        _play(args, cfg, pos, begin, s, prep, summary)
+    return None
 
 
-def _detach(args, argv, s) -> int:
+def draw_job(args, argv, cfg):
+    """What the draw's session needs from the command (machine/job.DrawJob)."""
+    import os
+
+    from vplotter.machine import live, notify
+    from vplotter.machine.job import DrawJob
+    from vplotter.file_options import options_key
+
+    path = os.path.abspath(args.file)
+
+    def publisher(time_s: float):
+        return live.Publisher(command_line(argv), path, time_s, on_state=notify.hook(cfg.notify))
+
+    # a draw that goes on in the background publishes there, not here
+    here = not args.dry_run and not args.detach
+    return DrawJob(args.file, path, file_hash(args.file), options_key(args.file, args),
+                   detached=args.detached, publisher=publisher if here else None,
+                   on_pause=PauseHandler(args.dry_run, args.detached))
+
+
+def _validate(args, cfg, pos, begin, s):
+    """Prepare FILE (a resumed draw is ordered from where the interrupted one started, so that
+    the record numbers match), then the validation pass: the whole file, page limits and
+    exact plot time before anything moves. (prep, summary or None if stopped, lines said)."""
+    from vplotter import pipeline
+    from vplotter.commands.files import prepare_file
+
+    start = (pos.extra.get("resume") or {}).get("start") if args.resume else None
+    prep = prepare_file(args, cfg, pos, start_xy=start)
+    s.place(prep.start_xy)
+    summary = pipeline.validate(cfg, prep.records(), pos.counts, pos.ref_mm, args.file, begin,
+                                lambda: s.stop_pending, where=prep.where, park=prep.start_xy)
+    said: list[str] = []
+    if summary is not None:
+        # published before the summary is printed: whoever sees the summary finds it
+        s.go_live(summary.time_s)
+        said = _ordered(prep) + [f"{args.file}: {line}" for line in summary.pen_lines()]
+        said.append(f"{args.file}: {summary.text()}")
+        for line in said:
+            say(line)
+    return prep, summary, said
+
+
+def _play(args, cfg, pos, begin, s, prep, summary) -> None:
+    """Draw what was validated (planned once, drawn as planned), then say how it went."""
+    import os
+
+    from vplotter import pipeline
+    from vplotter.errors import Interrupted
+
+    if summary is not None and summary.plan is not None:
+        rows = pipeline.replay(cfg, summary.plan, pos.counts, pos.ref_mm)
+    else:
+        rows = pipeline.stream(cfg, prep.records(), pos.counts, pos.ref_mm, args.file,
+                               start_at=begin, where=prep.where, park=prep.start_xy)
+    if s.tracer is not None:
+        s.tracer.comment(f"file {os.path.abspath(args.file)}")
+    progress = (Progress(summary) if summary and sys.stderr.isatty() and not s.dry_run
+                else None)
+    try:
+        s.play(rows, progress)
+    except Interrupted:
+        _stopped(args, cfg, pos, s, prep, progress)
+        raise
+    if progress:
+        progress.done()
+    s.finished()
+    _lateness(args, s)
+    if args.detached:
+        say(f"{args.file}: finished at {time.strftime('%H:%M:%S')}")
+
+
+def _stopped(args, cfg, pos, s, prep, progress) -> None:
+    """A signal stopped the draw: where it stopped, and (if something was drawn) the stored
+    position says to resume from there."""
+    import numpy as np
+
+    from vplotter import kinematics
+
+    kin = kinematics.from_config(cfg)
+    spu = np.asarray(cfg.motors.steps_per_unit)
+    cords = np.asarray(pos.ref_mm) + np.asarray(s.counts) / spu
+    xy = kin.to_gcode(kin.forward(cords[None, :]))[0]
+    resume = s.resume_from(xy)
+    if progress:
+        progress.done()
+    xy = np.where(np.abs(xy) < 5e-4, 0.0, xy)
+    where = (f"{prep.where(s.line)}: stopped" if s.line
+             else f"{args.file}: stopped before drawing")
+    eprint(f"{where} at X{xy[0]:.3f} Y{xy[1]:.3f}; pen lifted, coils released"
+           f"{'' if s.dry_run else ', position saved'}")
+    if not s.dry_run and resume:
+        eprint(f"resume with: vplotter draw {args.file} --resume")
+
+
+def _lateness(args, s) -> None:
+    """The real-time backends' timing: in the trace, and said with --verbose."""
+    stats = s.backend.lateness()
+    if not stats:
+        return
+    text = ("lateness (actual - planned change time): p50 {p50_ms:.3f} ms, "
+            "p99 {p99_ms:.3f} ms, max {max_ms:.3f} ms over {n} changes").format(**stats)
+    if stats.get("underruns"):
+        text += f", {stats['underruns']} queue underruns"
+    if "shifts" in stats:
+        text += (f"; the timeline moved {stats['shifts']} times by more than 0.1 ms, "
+                 f"{stats['lost_ms'] / 1e3:.3f} s lost in total")
+    if s.tracer is not None:
+        s.tracer.comment(text)
+    if args.verbose:
+        say(text)
+
+
+def _detach(args, argv, s, message: str) -> DrawStarted:
     """Go on in a new process in its own session (setsid: no terminal, no SIGHUP from it),
     output to the log file; the lock passes to it (it inherits the open lock file)."""
     import os
@@ -184,30 +241,35 @@ def _detach(args, argv, s) -> int:
         held.hand_over()
     say(f"drawing in the background: pid {child.pid}; its output goes to {log}")
     say("follow it: vplotter status --watch (or vplotter log -f); pause it: vplotter stop")
-    return 0
+    return DrawStarted(child.pid, str(log), message)
 
 
-def _ordered(prep) -> None:
-    if not prep.passthrough:
-        say(f"{prep.path}: {len(prep.strokes)} strokes placed and ordered in {prep.order_s:.2f} s")
+def _ordered(prep) -> list[str]:
+    """The line that says how the file was placed and ordered (none for G-code kept as is)."""
+    if prep.passthrough:
+        return []
+    return [f"{prep.path}: {len(prep.strokes)} strokes placed and ordered in {prep.order_s:.2f} s"]
 
 
-def _pause_handler(s, progress, detached: bool = False):
+class PauseHandler:
     """What happens at a Pause: the pen is up (at a pen change the gondola is parked at the
     change point and held there; at a plain pause the coils are released). A dry run only
     notes it; a draw waits for Enter or `vplotter continue`, a background draw (--detach) for
     `vplotter continue`; a signal (`vplotter stop`) ends any wait."""
-    from vplotter.machine import live
 
-    def on_pause(p) -> None:
+    def __init__(self, dry_run: bool, detached: bool = False):
+        self.dry_run, self.detached = dry_run, detached
+
+    def __call__(self, p, stop, progress) -> None:
+        from vplotter.machine import live
+
         if progress:
             progress.done()
         text = live.pen_prompt(p)
-        stop = lambda: s.stop_pending   # noqa: E731
-        if s.dry_run:
+        if self.dry_run:
             say(f"pause: {text} (dry run: not waiting)")
             return
-        if detached:
+        if self.detached:
             say(f"pause: {text}; waiting: `vplotter continue` goes on")
             wait_continue(stop, live.take_continue)
         elif p.pen is not None:
@@ -218,9 +280,8 @@ def _pause_handler(s, progress, detached: bool = False):
         else:
             say(f"pause: {text}, then press Enter")
             wait_enter(sys.stdin, stop, go=live.take_continue)
-        if not s.stop_pending and p.pen is not None:
+        if not stop() and p.pen is not None:
             say(f"going on with the {p.pen} pen")
-    return on_pause
 
 
 POLL_S = 0.2          # a waiting draw looks for `vplotter continue` (or a stop) this often
@@ -270,7 +331,8 @@ def cmd_estimate(args, argv=None) -> int:
     prep = prepare_file(args, cfg, pos)
     summary = pipeline.validate(cfg, prep.records(), pos.counts, pos.ref_mm, args.file,
                                 where=prep.where)
-    _ordered(prep)
+    for line in _ordered(prep):
+        say(line)
     for line in summary.pen_lines():
         print(f"{args.file}: {line}")
     print(f"{args.file}: {summary.text()}")

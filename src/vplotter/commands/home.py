@@ -43,10 +43,10 @@ def home_polar(args, cfg, command: str) -> int:
             s.play([sched.cord_move((0, towards * stretch), HOME_SHARE)])
             moved += 1
         # the pen is at home_radius_mm here; the table's angle is 0 where it stands
-        s.position = state.Position(0.0, p.home_radius_mm, s.counts[0], s.counts[1],
-                                    pos.steps_per_unit, extra={"machine": cfg.machine.kind})
+        s.rebase(state.Position(0.0, p.home_radius_mm, s.counts[0], s.counts[1],
+                                pos.steps_per_unit, extra={"machine": cfg.machine.kind}))
         s.play([sched.cord_move((0, int(round(-towards * BACK_OFF_MM * spu[1]))), HOME_SHARE)])
-        home = s.position.moved_to(s.counts)
+        home = s.here()
     if args.dry_run:
         eprint("dry run: the fake end switch closed; nothing is stored")
     print(f"home: table angle 0, pen at radius {home.right_mm:.3f} mm "

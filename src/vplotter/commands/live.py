@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import sys
 import time
+from dataclasses import dataclass
 
 from vplotter.budget import clock_text
 from vplotter.commands.common import load_config, say
@@ -25,13 +26,14 @@ def add_status(p) -> None:
 
 def _snapshot(cfg):
     """(stored position or None, lock holder or None, running draw or None)."""
-    from vplotter.machine import job, live, lock, state
+    from vplotter.machine import live, lock, state
+    from vplotter.machine.position import check_machine
 
     holder = lock.holder()
     drawing = live.read(holder) if holder else None
     stored = state.load()
     if stored:
-        job.check_machine(cfg, stored)      # a polar position is no pair of cords
+        check_machine(cfg, stored)      # a polar position is no pair of cords
     pos = state.recovered(stored).rebased(cfg.motors.steps_per_unit) if stored else None
     return pos, holder, drawing
 
@@ -64,7 +66,8 @@ def _print_json(cfg, pos, holder, drawing) -> None:
 def status_object(cfg, pos=None, holder=None, drawing=None, snapshot: bool = True) -> dict:
     """What `status --json` prints (and the web page's GET /api/status answers): read now
     when snapshot is true, else from the given position, lock holder and running draw."""
-    from vplotter.machine import job, state
+    from vplotter.machine import state
+    from vplotter.machine.position import uncertainty_mm
     from vplotter.commands.machine import _pen_xy
 
     if snapshot:
@@ -80,7 +83,7 @@ def status_object(cfg, pos=None, holder=None, drawing=None, snapshot: bool = Tru
         # a process that holds the lock is moving the machine: its stop is still to come
         "clean": None if running else pos.clean,
         "last_stop": "running" if running else ("clean" if pos.clean else "unclean"),
-        "uncertainty_mm": round(job.uncertainty_mm(cfg, pos), 4),
+        "uncertainty_mm": round(uncertainty_mm(cfg, pos), 4),
         "resume": None if running else pos.extra.get("resume") or None, "state_file": str(state.state_path()),
         "pen_in": pos.extra.get("pen_in"),      # the pen put in last: {"pen", "index", "count"}
         "pen_change": None if running else pos.extra.get("pen_change"),   # stopped waiting
@@ -89,7 +92,8 @@ def status_object(cfg, pos=None, holder=None, drawing=None, snapshot: bool = Tru
 
 def _print_text(cfg, pos, holder, drawing) -> None:
     from vplotter.commands.machine import _describe
-    from vplotter.machine import job, state
+    from vplotter.machine import state
+    from vplotter.machine.position import uncertainty_mm
 
     if holder is not None:
         busy = _busy(holder)
@@ -109,14 +113,14 @@ def _print_text(cfg, pos, holder, drawing) -> None:
         print("position unknown: run `vplotter calibrate --at X Y`")
         return
     if holder is not None:
-        off = job.uncertainty_mm(cfg, pos)
+        off = uncertainty_mm(cfg, pos)
         print(f"{_describe(cfg, pos)}  (moving: where the journal had it, within {off:.2f} mm)")
     else:
         print(_describe(cfg, pos))
         if pos.clean:
             print("last stop: clean")
         else:
-            off = job.uncertainty_mm(cfg, pos)
+            off = uncertainty_mm(cfg, pos)
             print(f"last stop: UNCLEAN (crash or power cut): the position may be off by up to "
                   f"{off:.2f} mm; check it and run `vplotter calibrate`, or draw with "
                   f"--trust-position")
@@ -173,54 +177,99 @@ def add_stop(p) -> None:
                    help="seconds to wait for the pen to be up and the position stored (default 60)")
 
 
+@dataclass(frozen=True)
+class Stopped:
+    """What `vplotter stop` did: pid is the draw it stopped (None: nothing was running, `why`
+    says so); where: the stored position it left, described (None: no position is stored);
+    resume: the file to go on with `draw FILE --resume`."""
+
+    pid: int | None = None
+    why: str = ""
+    command: str = ""
+    where: str | None = None
+    clean: bool = True
+    resume: str | None = None
+
+    def lines(self) -> list[str]:
+        if self.pid is None:
+            return [f"nothing to stop: {self.why}"]
+        if self.where is None:
+            return [f"stopped pid {self.pid}"]
+        return [f"stopped pid {self.pid} ({self.command}): {self.where}"
+                f"{'' if self.clean else ' (not a clean stop: see vplotter status)'}"] + \
+            ([f"resume with: vplotter draw {self.resume} --resume"] if self.resume else [])
+
+    @property
+    def message(self) -> str:
+        return self.lines()[0]
+
+
 def cmd_stop(args, argv=None) -> int:
+    for line in stop_draw(load_config(args), args.timeout).lines():
+        say(line)
+    return 0
+
+
+def stop_draw(cfg, timeout_s: float) -> Stopped:
     """Pause the running draw: SIGINT to the lock holder, wait until it has lifted the pen,
-    released the coils and stored the position (it lets go of the lock then), say where."""
+    released the coils and stored the position (it lets go of the lock then), say where.
+    VplotterError when it cannot be signalled or does not stop within timeout_s."""
     import os
     import signal
 
     from vplotter.machine import lock, state
 
-    cfg = load_config(args)
     holder = lock.holder()
     if holder is None:
-        say("nothing to stop: no vplotter is driving the plotter")
-        return 0
+        return Stopped(why="no vplotter is driving the plotter")
     pid = holder["pid"]
     try:
         os.kill(pid, signal.SIGINT)
     except ProcessLookupError:
-        say("nothing to stop: it has just ended")
-        return 0
+        return Stopped(why="it has just ended")
     except PermissionError:
         raise VplotterError(f"cannot stop pid {pid} ({holder.get('command', '')}): it belongs to "
                             f"another user (sudo vplotter stop)") from None
-    deadline = time.monotonic() + args.timeout
+    deadline = time.monotonic() + timeout_s
     while lock.alive(pid) and (lock.holder() or {}).get("pid") == pid:
         if time.monotonic() > deadline:
-            raise VplotterError(f"pid {pid} has not stopped within {args.timeout:g} s")
+            raise VplotterError(f"pid {pid} has not stopped within {timeout_s:g} s")
         time.sleep(POLL_S)
     pos = state.load()
     if pos is None:
-        say(f"stopped pid {pid}")
-        return 0
+        return Stopped(pid)
     from vplotter.commands.machine import _describe
 
-    say(f"stopped pid {pid} ({holder.get('command', '')}): {_describe(cfg, pos)}"
-        f"{'' if pos.clean else ' (not a clean stop: see vplotter status)'}")
     resume = pos.extra.get("resume")
-    if resume:
-        say(f"resume with: vplotter draw {resume['file']} --resume")
-    return 0
+    return Stopped(pid, command=holder.get("command", ""), where=_describe(cfg, pos),
+                   clean=pos.clean, resume=resume["file"] if resume else None)
 
 
 def add_continue(p) -> None:
     pass
 
 
+@dataclass(frozen=True)
+class Continued:
+    """`vplotter continue`: the draw (pid) that waited goes on; prompt: what it waited for."""
+
+    pid: int
+    prompt: str
+
+    @property
+    def message(self) -> str:
+        return f"continuing pid {self.pid}: {self.prompt}"
+
+
 def cmd_continue(args, argv=None) -> int:
+    say(continue_draw().message)
+    return 0
+
+
+def continue_draw() -> Continued:
     """Let the draw that waits at a pen change (or another pause) go on: it polls for the
-    request (machine/live.py), the same as Enter on its terminal."""
+    request (machine/live.py), the same as Enter on its terminal. MachineError when nothing
+    waits."""
     from vplotter.errors import MachineError
     from vplotter.machine import live, lock
 
@@ -232,8 +281,7 @@ def cmd_continue(args, argv=None) -> int:
             f"pid {holder['pid']} is not waiting at a pause"
         raise MachineError(f"error: nothing to continue: {what}")
     live.request_continue(drawing["pid"])
-    say(f"continuing pid {drawing['pid']}: {waiting['prompt']}")
-    return 0
+    return Continued(drawing["pid"], waiting["prompt"])
 
 
 def add_log(p) -> None:

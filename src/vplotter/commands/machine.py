@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
-from vplotter.commands.common import (add_machine_options, check_on_page, command_line,
-                                      load_config, moves_to, position, run_records, session)
+from dataclasses import dataclass
+
+from vplotter.commands.common import (add_machine_options, answering, check_on_page,
+                                      command_line, load_config, moves_to, position, run_records,
+                                      session)
 from vplotter.errors import ConfigError, MachineError
 
 
@@ -132,7 +135,26 @@ def add_pen(p) -> None:
     add_machine_options(p)
 
 
+@dataclass(frozen=True)
+class PenMoved:
+    """`vplotter pen ACTION`: the pen was lifted (up), lowered (down) or both (cycle)."""
+
+    action: str
+
+    @property
+    def message(self) -> str:
+        return f"pen {self.action}"
+
+
 def cmd_pen(args, argv=None) -> int:
+    with answering() as answer:
+        moved = move_pen(args, argv)
+        print(moved.message)
+        answer(moved)
+    return 0
+
+
+def move_pen(args, argv=None) -> PenMoved:
     import dataclasses
 
     from vplotter.motion.schedule import Rows, Scheduler
@@ -156,8 +178,7 @@ def cmd_pen(args, argv=None) -> int:
     rows = Rows.concat([r for r in parts if r is not None])
     with session(args, cfg, command_line(argv), pos) as s:
         s.play([rows])
-    print(f"pen {args.action}")
-    return 0
+    return PenMoved(args.action)
 
 
 def add_jog(p) -> None:
@@ -169,18 +190,46 @@ def add_jog(p) -> None:
     add_machine_options(p)
 
 
+@dataclass(frozen=True)
+class Jogged:
+    """`vplotter jog --dx/--dy`: the G-code point the pen was moved to (the command says
+    nothing)."""
+
+    x: float
+    y: float
+
+    @property
+    def message(self) -> str:
+        return ""
+
+
 def cmd_jog(args, argv=None) -> int:
+    with answering() as answer:
+        if args.dx is not None or args.dy is not None:
+            answer(jog_by(args, argv))
+            return 0
+        return _jog_other(args, argv)
+
+
+def jog_by(args, argv=None) -> Jogged:
+    """jog --dx/--dy: move the pen (as it is, up or down) by dx, dy mm on the page."""
+    cfg = load_config(args)
+    pos = position(cfg, args, args.dry_run)
+    if args.left is not None or args.right is not None:
+        raise ConfigError("error: jog takes --dx/--dy or --left/--right, not both")
+    xy = _pen_xy(cfg, pos)
+    target = (float(xy[0]) + (args.dx or 0.0), float(xy[1]) + (args.dy or 0.0))
+    check_on_page(cfg, *target, "jog target")
+    run_records(args, cfg, command_line(argv), pos, moves_to(cfg, pos, target))
+    return Jogged(*target)
+
+
+def _jog_other(args, argv) -> int:
+    """jog --left/--right (the cords), or the arrow keys."""
     from vplotter.commands import jog
 
     cfg = load_config(args)
     pos = position(cfg, args, args.dry_run)
-    if args.dx is not None or args.dy is not None:
-        if args.left is not None or args.right is not None:
-            raise ConfigError("error: jog takes --dx/--dy or --left/--right, not both")
-        xy = _pen_xy(cfg, pos)
-        target = (float(xy[0]) + (args.dx or 0.0), float(xy[1]) + (args.dy or 0.0))
-        check_on_page(cfg, *target, "jog target")
-        return run_records(args, cfg, command_line(argv), pos, moves_to(cfg, pos, target))
     if args.left is not None or args.right is not None:
         with session(args, cfg, command_line(argv), pos) as s:
             s.play([jog.cord_rows(cfg, pos, s.counts, args.left or 0.0, args.right or 0.0)])

@@ -10,12 +10,14 @@ from vplotter.commands.common import Progress, command_line, eprint, file_hash, 
 from vplotter.errors import ConfigError, Interrupted
 
 
-def draw(args, argv, cfg, pos, begin, pause_handler=None) -> int:
-    """cmd_draw hands the serial case here: validate, then stream the lines to the controller."""
+def draw(args, argv, cfg, pos, begin, on_pause=None) -> int:
+    """cmd_draw hands the serial case here: validate, then stream the lines to the controller.
+    on_pause(pause, stop, progress): what happens at M0 or a pen change (machine/job.DrawJob)."""
     import numpy as np
 
     from vplotter import pipeline
     from vplotter.machine import live, notify
+    from vplotter.machine.job import DrawJob
     from vplotter.machine.serial_job import SerialSession
     from vplotter.inputs import gcode
     from vplotter.motion.linestream import LineScheduler
@@ -34,34 +36,34 @@ def draw(args, argv, cfg, pos, begin, pause_handler=None) -> int:
             super().__init__(*a)
             made.append(self)
 
-    sess = SerialSession(cfg, command_line(argv), args.dry_run, pos, args.save_stream)
-    sess.drawing = {"file": os.path.abspath(args.file), "sha256": file_hash(args.file)}
-    sess.file = args.file
-    with sess as s:
+    path = os.path.abspath(args.file)
+
+    def publisher(time_s: float):
+        return live.Publisher(command_line(argv), path, time_s, on_state=notify.hook(cfg.notify))
+
+    # M0, a pen change: all before it runs, then it asks
+    job = DrawJob(args.file, path, file_hash(args.file), on_pause=on_pause,
+                  publisher=None if args.dry_run else publisher)
+    with SerialSession(cfg, command_line(argv), args.dry_run, pos, args.save_stream, job) as s:
         records = gcode.read(args.file, strict=args.strict)
         summary = pipeline.validate(cfg, records, pos.counts, pos.ref_mm, args.file, begin,
                                     lambda: s.stop_pending, Counted)
-        if summary is not None and not s.dry_run:     # for `vplotter status`
-            s.live = live.Publisher(command_line(argv), os.path.abspath(args.file), summary.time_s,
-                                     on_state=notify.hook(cfg.notify))
-            s.live.update(0.0, 0, force=True)
         if summary is not None:
+            s.go_live(summary.time_s)      # for `vplotter status`
             say(f"{args.file}: {summary.text()}")
             say(f"{args.file}: {made[-1].lines_total} lines to stream "
                 f"({cfg.serial.axes} axes, {cfg.serial.port})")
         quiet = gcode.read(args.file, strict=args.strict, warn=lambda m: None)
         progress = (Progress(summary) if summary and sys.stderr.isatty() and not s.dry_run
                     else None)
-        if pause_handler is not None:      # M0, a pen change: all before it runs, then it asks
-            s.on_pause = pause_handler(s, progress)
         try:
             s.play(pipeline.stream(cfg, quiet, pos.counts, pos.ref_mm, args.file,
                                    start_at=begin, scheduler=LineScheduler), progress)
         except Exception as e:
             if progress:
                 progress.done()
-            if s.line > 0 and s.stop_xy is not None:
-                s.resume_info = {**sess.drawing, "line": s.line, "xy": list(s.stop_xy)}
+            if s.stop_xy is not None:
+                s.resume_from(s.stop_xy)
             xy = np.where(np.abs(s.stop_xy or (0.0, 0.0)) < 5e-4, 0.0, s.stop_xy or (0.0, 0.0))
             where = f"{args.file}:{s.line}: stopped" if s.line else f"{args.file}: stopped before drawing"
             if isinstance(e, Interrupted):
@@ -75,7 +77,7 @@ def draw(args, argv, cfg, pos, begin, pause_handler=None) -> int:
             raise
         if progress:
             progress.done()
-        s.resume_info = {}
+        s.finished()
         if args.verbose and not s.dry_run:
             say(f"{s.lines_sent} lines streamed")
     return 0

@@ -1,10 +1,15 @@
 """serve: the page on the Pi (vplotter.web), on the CLI's own machinery.
 
-The web app asks a Machine (below) for everything it does to the plotter: the status object
-of `status --json`, the estimate of `estimate`, the picture of `preview`, and draws, stops, pen
-and jog moves as the very commands (`draw FILE --detach`, `stop`, `pen`, `jog`) run in
-subprocesses with this config (an argument list, never a shell). A draw so started lives in its
-own process and session: the server can stop or crash without touching it.
+The web app asks a Machine (below) for everything it does to the plotter, and gets values
+back: the status object of `status --json`, the estimate of `estimate`, and the results of the
+functions behind `stop` and `continue` (run here: they only signal the running draw), and of
+`draw FILE --detach`, `pen` and `jog`, which run as the very commands in subprocesses with this
+config (an argument list, never a shell) and hand their result, or their error line, back as
+JSON on a pipe of their own (commands/common.answering). A failure is raised as a VplotterError
+(exit_code as the command's; error_line(e) is the line the command line prints). A draw so
+started lives in its own process and session: the server can stop or crash without touching
+it; a pen or jog move in its own process is stopped by `vplotter stop` like any other, and a
+second plotter process finds it holding the lock. `preview` runs niced (the PNG is its result).
 """
 
 from __future__ import annotations
@@ -14,7 +19,7 @@ import os
 import sys
 
 from vplotter.commands.common import eprint, load_config, say
-from vplotter.errors import ConfigError
+from vplotter.errors import ConfigError, VplotterError
 
 LOOPBACK = ("127.0.0.1", "::1", "localhost")
 DEFAULT_PORT = 8000
@@ -76,21 +81,84 @@ class Machine:
         code, _, err = self._run(["preview", path, "-o", out, "--size", str(size)], nice=10)
         return code, err
 
-    # ------------------------------------------------------------ act (subprocesses)
-    def draw(self, path: str, resume: bool) -> tuple[int, str, str]:
-        return self._run(["draw", path, "--detach", *(["--resume"] if resume else [])])
+    # ------------------------------------------------------------ act
+    def draw(self, path: str, resume: bool):
+        """`draw PATH --detach [--resume]`: a commands.draw.DrawStarted once validated."""
+        from vplotter.commands.draw import DrawStarted
 
-    def stop(self) -> tuple[int, str, str]:
-        return self._run(["stop"])
+        return DrawStarted(**self._result(["draw", path, "--detach",
+                                           *(["--resume"] if resume else [])]))
 
-    def continue_(self) -> tuple[int, str, str]:
-        return self._run(["continue"])
+    def stop(self):
+        """`vplotter stop`: a commands.live.Stopped once the draw has paused."""
+        from vplotter.commands.live import stop_draw
 
-    def pen(self, state: str) -> tuple[int, str, str]:
-        return self._run(["pen", state])
+        return self._here(lambda: stop_draw(self._config(), 60.0))
 
-    def jog(self, dx: float, dy: float) -> tuple[int, str, str]:
-        return self._run(["jog", "--dx", f"{dx:.4f}", "--dy", f"{dy:.4f}"])
+    def continue_(self):
+        """`vplotter continue`: a commands.live.Continued (MachineError when nothing waits)."""
+        from vplotter.commands.live import continue_draw
+
+        return self._here(continue_draw)
+
+    def pen(self, state: str):
+        from vplotter.commands.machine import PenMoved
+
+        return PenMoved(**self._result(["pen", state]))
+
+    def jog(self, dx: float, dy: float):
+        from vplotter.commands.machine import Jogged
+
+        return Jogged(**self._result(["jog", "--dx", f"{dx:.4f}", "--dy", f"{dy:.4f}"]))
+
+    def error_line(self, e: VplotterError) -> str:
+        """The line the command line prints for e."""
+        from vplotter.commands.common import error_line
+
+        return str(e) if isinstance(e, CommandFailed) else error_line(e)
+
+    def _config(self):
+        return load_config(argparse.Namespace(config=self.config_path))
+
+    def _here(self, run):
+        """run() in this process; an unexpected error ends as the command line's line for it."""
+        from vplotter.commands.common import error_line, exit_code
+
+        try:
+            return run()
+        except VplotterError:
+            raise
+        except Exception as e:  # noqa: BLE001 - answered as the command would have
+            raise CommandFailed(error_line(e), exit_code(e)) from e
+
+    def _result(self, argv: list[str], timeout_s: float = 900.0) -> dict:
+        """Run the command in a subprocess; the fields of the result it hands back on its pipe
+        (CommandFailed with its error line and exit status when it fails)."""
+        import json
+        import subprocess
+
+        from vplotter.commands.common import RESULT_FD
+
+        cmd = [sys.executable, "-m", "vplotter", "--config", self.config_path, *argv]
+        r, w = os.pipe()
+        with os.fdopen(r, "rb") as pipe:
+            try:
+                proc = subprocess.run(cmd, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                                      stderr=subprocess.DEVNULL, timeout=timeout_s,
+                                      env=dict(os.environ, **{RESULT_FD: str(w)}), pass_fds=(w,))
+            except subprocess.TimeoutExpired:
+                raise CommandFailed(f"vplotter {argv[0]}: no answer within {timeout_s:g} s",
+                                    1) from None
+            finally:
+                os.close(w)
+            data = pipe.read()
+        got = json.loads(data) if data else {}
+        if "error" in got:
+            raise CommandFailed(got["error"], int(got["exit_code"]))
+        if not got.get("result"):
+            raise CommandFailed(f"vplotter {argv[0]}: ended (exit status {proc.returncode}) "
+                                f"without an answer", proc.returncode or 1)
+        return got["result"]
 
     def _run(self, argv: list[str], nice: int = 0, timeout_s: float = 900.0):
         import subprocess
@@ -103,6 +171,14 @@ class Machine:
         except subprocess.TimeoutExpired:
             return 1, "", f"vplotter {argv[0]}: no answer within {timeout_s:g} s"
         return r.returncode, r.stdout, r.stderr
+
+
+class CommandFailed(VplotterError):
+    """A command run in a subprocess failed: the message is the line it printed for it."""
+
+    def __init__(self, line: str, exit_code: int):
+        super().__init__(line)
+        self.exit_code = exit_code
 
 
 def is_loopback(host: str) -> bool:

@@ -1,33 +1,42 @@
-"""Running a schedule on the machine safely: lock, position, backend, signals, journal, trace.
+"""Running a schedule on the machine safely: lock, backend, signals, journal, trace.
 
 `Session` is used by every command that moves something (draw, jog, goto, home, pen,
 calibrate steps). It guarantees, whatever happens (error, Ctrl+C, SIGTERM, SSH hang-up):
 the pen is lifted, the coils are released, the exact position reached is stored, and a second
 process cannot drive the same plotter at the same time. A dry run (the fake backend without
 --realtime) takes no lock and never writes the stored position.
+
+A draw hands its session a `DrawJob` when it makes it: what is drawn (stored with the position,
+so that a stopped or crashed draw can be resumed), whether it runs in the background, how its
+live status is published and what happens at a pause. What the session learns for its caller
+is asked for with methods (`go_live`, `resume_from`, `finished`, `rebase`, `here`), never set
+on it from outside.
 """
 
 from __future__ import annotations
 
-import queue
-import signal
 import sys
-import threading
 import time
 from dataclasses import dataclass
-from typing import Iterable
+from typing import Callable, Iterable
 
 import numpy as np
 
 from vplotter.motion import drivers
-from vplotter.backends import memory
 from vplotter.machine import state
+from vplotter.machine.ahead import JOURNAL_EVERY_US, Ahead, stretches
+from vplotter.machine.ledger import Ledger
+from vplotter.machine.position import check_machine, load_position, uncertainty_mm
+from vplotter.machine.signals import SIGNALS, Signals
 from vplotter.machine.writer import Writer as _Writer
-from vplotter.errors import BackendError, Interrupted, MachineError, StateError
+from vplotter.errors import BackendError, Interrupted
 from vplotter.motion.schedule import Rows
 
-JOURNAL_EVERY_US = 500_000     # journal at least every 0.5 s of motion
-SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+# the names other modules have imported from here
+__all__ = ["DrawJob", "JOURNAL_EVERY_US", "SIGNALS", "Session", "Stop", "check_machine",
+           "load_position", "uncertainty_mm"]
+_split = stretches
+_Ahead = Ahead
 
 
 @dataclass
@@ -37,91 +46,82 @@ class Stop:
     line: int
 
 
+@dataclass(frozen=True)
+class DrawJob:
+    """What a draw's session needs from the command: the file (`name` as given, for messages;
+    `file` its absolute path), its hash and the options that placed and ordered it (a resume
+    needs the same), `detached`: a background draw (SIGHUP does not stop it, pauses wait for
+    `vplotter continue`), `publisher(time_s)`: makes the live status (machine/live.Publisher)
+    once the plot time is known (None: nothing is published), `on_pause(pause, stop, progress)`:
+    what happens at a Pause, everything before it played (stop() tells that a signal came)."""
+
+    name: str
+    file: str
+    sha256: str
+    options: str | None = None
+    detached: bool = False
+    publisher: Callable | None = None
+    on_pause: Callable | None = None
+
+    def record(self) -> dict:
+        """What is stored with the position while it draws (and in `resume`)."""
+        rec = {"file": self.file, "sha256": self.sha256}
+        if self.options is not None:
+            rec["options"] = self.options
+        return rec
+
+
 def _eprint(msg: str) -> None:
     print(msg, file=sys.stderr, flush=True)
 
 
-def load_position(cfg, trust: bool = False, dry_run: bool = False) -> state.Position:
-    """The stored position, checked: refuses an unclean stop unless trusted (or a dry run)."""
-    pos = state.load()
-    if pos is None:
-        raise MachineError("error: the pen position is unknown; put the pen on a known point and "
-                           "run `vplotter calibrate --at X Y` first")
-    check_machine(cfg, pos)
-    pos = state.recovered(pos).rebased(cfg.motors.steps_per_unit)
-    if not pos.clean and not trust and not dry_run:
-        mm = uncertainty_mm(cfg, pos)
-        raise StateError(f"error: the last stop was not clean (crash or power cut); the position "
-                         f"may be off by up to {mm:.2f} mm. Check the pen and run `vplotter "
-                         f"calibrate --at X Y`, or pass --trust-position to go on from it")
-    return pos
-
-
-def check_machine(cfg, pos: state.Position) -> None:
-    """The stored position must be of this kind of machine (cords or angle and radius)."""
-    kind = pos.extra.get("machine", "vplotter")
-    if kind != cfg.machine.kind:
-        raise MachineError(f"error: the stored position is of a {kind} machine, not of this "
-                           f"{cfg.machine.kind}; run `vplotter calibrate` (or `vplotter home`) "
-                           f"first")
-
-
-def uncertainty_mm(cfg, pos: state.Position) -> float:
-    """How far the pen may be from the stored position after an unclean stop."""
-    dev = pos.extra.get("uncertain_steps")
-    if pos.clean or dev is None:
-        return 0.0
-    from vplotter import kinematics
-
-    kin = kinematics.from_config(cfg)
-    spu = np.asarray(pos.steps_per_unit)
-    c = np.array([pos.left_mm, pos.right_mm])
-    here = kin.forward(c[None, :])[0]
-    corners = np.array([[sl, sr] for sl in (-1, 1) for sr in (-1, 1)]) * np.array(dev) / spu
-    return float(np.hypot(*(kin.forward(c + corners) - here).T).max())
-
-
 class Session:
     def __init__(self, cfg, command: str, backend_name: str, dry_run: bool, trace=None,
-                 realtime: bool = False, position: state.Position | None = None):
+                 realtime: bool = False, position: state.Position | None = None,
+                 job: DrawJob | None = None):
         self.cfg = cfg
         self.command = command
         self.backend_name = backend_name
         self.dry_run = dry_run
         self.realtime = realtime
         self.trace_path = trace
-        self.position = position
+        self.job = job
+        self.ledger = Ledger(position, job.record() if job is not None else None)
+        self.signals = Signals(ignore_hangup=job is not None and job.detached)
         self.counts = position.counts if position is not None else (0, 0)
         self.stop: Stop | None = None
         self.backend = None
         self.tracer = None
         self._trace_file = None
         self._lock = None
-        self._journal = None
-        self._old_handlers: dict = {}
-        self._signum = 0
         self.t_us = 0          # schedule time of the last row played
         self.line = 0
-        self.pen_us = 0
         self.pen_down = False
         self.coils: int | None = None     # the motor output word last played
         self._moved = False
-        self.resume_info: dict | None = None
         self._writer: _Writer | None = None
-        self.drawing: dict | None = None     # {"file", "sha256"} while a draw runs
-        self.live = None                     # live.Publisher while a draw runs
-        self.ignore_hangup = False           # a background draw goes on when SIGHUP comes
-        # on_pause(pause): a Pause came up, everything before it played: the pen is up; at a
-        # pen change (pause.pen) the gondola is at the change point and the motors hold it
-        # (the position stays exact while a pen is pushed in), at other pauses they are released
-        self.on_pause = None
+        self.live = None        # live.Publisher while a draw runs (go_live)
         self.waiting = None     # the Pause being waited at
         self._waited = (0, 0)   # pauses waited at, and for how long (ns)
-        self.pen_in: dict | None = position.extra.get("pen_in") if position is not None else None
 
     @property
     def saves_state(self) -> bool:
         return not self.dry_run
+
+    @property
+    def position(self) -> state.Position | None:
+        """The stored position the counts are taken from (the last one saved)."""
+        return self.ledger.position
+
+    @property
+    def drawing(self) -> dict | None:
+        """{"file", "sha256", ...} of the draw (what is stored with the position), or None."""
+        return self.ledger.drawing
+
+    @property
+    def stop_pending(self) -> bool:
+        """A signal asked to stop."""
+        return self.signals.pending
 
     # ------------------------------------------------------------ context
     def __enter__(self) -> "Session":
@@ -137,23 +137,15 @@ class Session:
             self.backend.open()
             if self.trace_path:
                 self._trace_file = open(self.trace_path, "w", encoding="utf-8")
-                self.tracer = TraceWriter(self._trace_file, self.backend.coil_pins, self.backend.pen_pin)
-            for s in SIGNALS:
-                ignore = s == signal.SIGHUP and self.ignore_hangup
-                self._old_handlers[s] = signal.signal(s, signal.SIG_IGN if ignore else self._on_signal)
+                self.tracer = TraceWriter(self._trace_file, self.backend.coil_pins,
+                                          self.backend.pen_pin)
+            self.signals.install(self._stop_soon)
         except BaseException:
             self._cleanup()
             raise
         return self
 
-    @property
-    def stop_pending(self) -> bool:
-        """A signal asked to stop."""
-        return bool(self._signum)
-
-    def _on_signal(self, signum, frame) -> None:
-        if not self._signum:
-            self._signum = signum
+    def _stop_soon(self) -> None:
         if self.backend is not None:
             self.backend.stop_requested = True
 
@@ -173,6 +165,39 @@ class Session:
             self.end_live(exc)
             self._cleanup()
         return False
+
+    # ------------------------------------------------------------ what the caller says
+    def go_live(self, time_s: float) -> None:
+        """The draw is validated (time_s of plot time): its live status is published from now
+        on (`vplotter status`, the page, [notify]), if the job has a publisher."""
+        if self.job is not None and self.job.publisher is not None:
+            self.live = self.job.publisher(time_s)
+            self.live.update(0.0, 0, force=True)
+
+    def place(self, start_xy) -> None:
+        """The drawing was ordered from G-code point start_xy: stored with it, so that a
+        resumed draw is ordered the same way (its record numbers match)."""
+        self.ledger.drawing["start"] = list(start_xy)
+
+    def resume_from(self, xy) -> dict | None:
+        """The draw was stopped at G-code point xy: if something of it was drawn, the stored
+        position says to resume it from the line reached (returned), else None."""
+        if self.line > 0:
+            self.ledger.resume = {**self.ledger.drawing, "line": self.line,
+                                  "xy": [float(xy[0]), float(xy[1])]}
+        return self.ledger.resume
+
+    def finished(self) -> None:
+        """The draw ran to its end: nothing is left to resume."""
+        self.ledger.resume = {}
+
+    def rebase(self, position: state.Position) -> None:
+        """From here on the counts are taken from this position (`home` found its reference)."""
+        self.ledger.position = position
+
+    def here(self) -> state.Position:
+        """The position reached, from the current reference."""
+        return self.ledger.position.moved_to(self.counts)
 
     def end_live(self, exc) -> None:
         """The live status (and [notify]) says how the draw ended: ended, stopped, failed."""
@@ -194,23 +219,21 @@ class Session:
         if self.live is not None:
             self.live.close()
             self.live = None
-        for s, h in self._old_handlers.items():
-            try:
-                signal.signal(s, h)
-            except (ValueError, TypeError):
-                pass
-        self._old_handlers.clear()
+        self.signals.restore()
         if self.backend is not None:
             self.backend.close()
         if self._trace_file is not None:
             self._trace_file.close()
             self._trace_file = None
-        if self._journal is not None:
-            self._journal.close()
-            self._journal = None
+        self.ledger.close()
         if self._lock is not None:
             self._lock.release()
             self._lock = None
+
+    def _interrupted(self) -> Interrupted:
+        signum = self.signals.signum
+        self.stop = Stop(signum, self.counts, self.line)
+        return Interrupted(f"stopped by {self.signals.name()}", signum)
 
     # ------------------------------------------------------------ playing
     def play(self, chunks: Iterable[Rows], progress=None) -> None:
@@ -223,17 +246,17 @@ class Session:
         """
         # a simulated machine (the fake backend, not in real time) needs no helper threads
         threaded = self.realtime or self.backend_name != "fake"
-        ahead = _Ahead(chunks, split=self.saves_state, threaded=threaded)
+        ahead = Ahead(chunks, split=self.saves_state, threaded=threaded)
         self._writer = _Writer(self.tracer, threaded=threaded)
         switch = sys.getswitchinterval()
         sys.setswitchinterval(0.0005)     # hand the interpreter back to the player quickly
         try:
             cur, k = ahead.get(), 0
-            while cur is not None and not self._signum:
+            while cur is not None and not self.signals.signum:
                 if not isinstance(cur, Rows):        # a pause: wait once all is played
                     self.backend.drain()
-                    k = self._pause(cur, k)
-                    if self._signum:
+                    k = self._pause(cur, k, progress)
+                    if self.signals.signum:
                         break
                     cur = ahead.get()
                     continue
@@ -246,7 +269,7 @@ class Session:
                     up = self.cfg.pen.up_us           # any other pulse is a pen down (per pen)
                     down = self.pen_down or bool(((cur.pen_us > 0) & (cur.pen_us != up)).any())
                     self._writer.wait_journal(k - 1)
-                    self._writer.journal(self._journal, self.counts, dev, int(cur.line[0]),
+                    self._writer.journal(self.ledger.journal, self.counts, dev, int(cur.line[0]),
                                          "down" if down else "up")
                     k += 1
                 n = self.backend.play(cur)
@@ -263,35 +286,33 @@ class Session:
             ahead.close()
             writer, self._writer = self._writer, None
             writer.close()
-        if self._signum:
+        if self.signals.signum:
             self._abort()
-            signum = self._signum
-            self.stop = Stop(signum, self.counts, self.line)
-            raise Interrupted(f"stopped by {signal.Signals(signum).name}", signum)
+            raise self._interrupted()
 
-    def _pause(self, p, k: int) -> int:
+    def _pause(self, p, k: int, progress) -> int:
         """Wait at a Pause: it is the line being done (a stop now resumes there, and a
         resumed draw asks for the pen again), the journal has the exact position (the motors
         stand), status shows the wait. Returns the journal records written."""
         self.line = int(p.line)
-        if self._journal is not None:
+        if self.ledger.journal is not None:
             self._writer.wait_journal(k - 1)
-            self._writer.journal(self._journal, self.counts, (0, 0), self.line, "up")
+            self._writer.journal(self.ledger.journal, self.counts, (0, 0), self.line, "up")
             self._writer.wait_journal(k + 1)
             k += 1
         self.waiting = p
         if self.live is not None:
             self.live.waiting(p)
         t0 = time.monotonic_ns()
-        if self.on_pause is not None:
-            self.on_pause(p)
+        if self.job is not None and self.job.on_pause is not None:
+            self.job.on_pause(p, lambda: self.stop_pending, progress)
         # a real-time player moves its timeline by the wait: that is no lateness
         self._waited = (self._waited[0] + 1, self._waited[1] + time.monotonic_ns() - t0)
-        if self._signum:                 # stopped while waiting: the change is still to do
+        if self.signals.signum:          # stopped while waiting: the change is still to do
             return k
         self.waiting = None
         if p.pen is not None:
-            self.pen_in = {"pen": p.pen, "index": int(p.index), "count": int(p.count)}
+            self.ledger.pen_in = {"pen": p.pen, "index": int(p.index), "count": int(p.count)}
         if self.live is not None:
             self.live.waiting(None)
         return k
@@ -324,14 +345,7 @@ class Session:
         self._moved = True
 
     def _begin_motion(self) -> None:
-        if self._journal is None:
-            pos = self.position.moved_to(self.counts)
-            pos.clean = False
-            if self.drawing:             # after a crash, --resume goes on from the journal
-                pos.extra["drawing"] = self.drawing
-            state.save(pos)
-            state.clear_journal()
-            self._journal = state.Journal()
+        self.ledger.begin(self.counts)
 
     def _abort(self) -> None:
         """Pen up and coils released, played to the end whatever else happens."""
@@ -375,107 +389,4 @@ class Session:
             _eprint(f"vplotter: warning: could not lift the pen: {e}")
 
     def _save(self, clean: bool) -> None:
-        pos = self.position.moved_to(self.counts)
-        pos.pen = "down" if self.pen_down else "up"
-        pos.clean = clean
-        pos.extra = {k: v for k, v in pos.extra.items() if k not in ("uncertain_steps", "line")}
-        if clean:
-            pos.extra.pop("drawing", None)
-        if self.pen_in is not None:               # the pen in the gondola, as far as known
-            pos.extra["pen_in"] = self.pen_in
-        if self.resume_info is not None:          # only draw says where to resume (or not)
-            pos.extra.pop("resume", None)
-            pos.extra.pop("pen_change", None)
-            w = self.waiting
-            if w is not None and w.pen is not None:   # stopped while waiting for this pen
-                pos.extra["pen_change"] = {"pen": w.pen, "index": int(w.index),
-                                           "count": int(w.count), "message": w.message}
-            if self.resume_info:
-                pos.extra["resume"] = self.resume_info
-        state.save(pos)
-        if clean:
-            state.clear_journal()
-        self.position = pos
-
-
-def _split(rows: Rows) -> Iterable[Rows]:
-    """Cut rows into stretches of at most JOURNAL_EVERY_US, also right after pen changes.
-    The stretches are copies: a view would keep the whole computed part (up to STEPS_PER_PART
-    steps, megabytes) in memory until its last stretch is played."""
-    n = len(rows)
-    if n == 0:
-        return
-    t = rows.t_us
-    cuts = set(np.searchsorted(t, np.arange(t[0] + JOURNAL_EVERY_US, t[-1] + 1, JOURNAL_EVERY_US)).tolist())
-    pen_rows = np.flatnonzero(rows.pen_us > 0)
-    cuts.update((pen_rows + 1).tolist())
-    bounds = [0] + [c for c in sorted(cuts) if 0 < c < n] + [n]
-    for a, b in zip(bounds[:-1], bounds[1:]):
-        yield rows[a:b].copy()
-
-
-_END = object()
-
-
-class _Failure:
-    def __init__(self, exc: BaseException):
-        self.exc = exc
-
-
-class _Ahead:
-    """Computes the schedule's parts on a helper thread, a bounded number ahead."""
-
-    def __init__(self, chunks: Iterable[Rows], depth: int = 8, split: bool = True,
-                 threaded: bool = True):
-        """split: cut the rows into journal stretches (only a run that stores the position
-        journals; a dry run plays whole chunks); threaded=False: compute each part when it
-        is asked for (a simulated machine waits for nobody)."""
-        self.split = split
-        self.q: queue.Queue = queue.Queue(maxsize=depth)
-        self.stopped = threading.Event()
-        self.thread = None
-        if not threaded:
-            self.parts = (p for rows in chunks
-                          for p in (_split(rows) if split and isinstance(rows, Rows) else (rows,)))
-            return
-        self.thread = threading.Thread(target=self._run, args=(chunks,), daemon=True,
-                                       name="vplotter-plan")
-        self.thread.start()
-
-    def _put(self, item) -> bool:
-        while not self.stopped.is_set():
-            try:
-                self.q.put(item, timeout=0.05)
-                return True
-            except queue.Full:
-                continue
-        return False
-
-    def _run(self, chunks) -> None:
-        try:
-            for rows in chunks:
-                for part in (_split(rows) if self.split and isinstance(rows, Rows) else (rows,)):
-                    if not self._put(part):
-                        return
-                rows = part = None      # the stretches are copies: the computed part can go
-                memory.give_back()
-            self._put(_END)
-        except BaseException as e:  # noqa: BLE001 - handed to the main thread
-            self._put(_Failure(e))
-
-    def get(self) -> Rows | None:
-        if self.thread is None:
-            return next(self.parts, None)
-        item = self.q.get()
-        if isinstance(item, _Failure):
-            self.q.put(item)            # later calls see it too
-            raise item.exc
-        if item is _END:
-            self.q.put(_END)
-            return None
-        return item
-
-    def close(self) -> None:
-        self.stopped.set()
-        if self.thread is not None:
-            self.thread.join(timeout=5)
+        self.ledger.save(self.counts, self.pen_down, clean, self.waiting)

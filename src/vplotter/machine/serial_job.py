@@ -8,7 +8,6 @@ reset, and a place to resume from (the reported position, mapped back to the fil
 from __future__ import annotations
 
 import itertools
-import signal
 
 import numpy as np
 
@@ -17,12 +16,14 @@ from vplotter.backends.grbl import NOT_YET, AlarmError, ControllerError, LinkErr
 from vplotter.backends.serial import SerialBackend
 from vplotter.errors import BackendError, Interrupted
 from vplotter.inputs.gcode import Pause
-from vplotter.machine.job import _END, SIGNALS, Session, Stop, _Ahead, _Failure
+from vplotter.machine.ahead import END, Ahead, Failure
+from vplotter.machine.job import DrawJob, Session
 
 
 class SerialSession(Session):
-    def __init__(self, cfg, command: str, dry_run: bool, position, save_stream: str | None = None):
-        super().__init__(cfg, command, "serial", dry_run, None, False, position)
+    def __init__(self, cfg, command: str, dry_run: bool, position, save_stream: str | None = None,
+                 job: DrawJob | None = None):
+        super().__init__(cfg, command, "serial", dry_run, None, False, position, job)
         self.save_stream = save_stream
         self.kin = kinematics.from_config(cfg)
         self.motors = cfg.serial.axes == "motors"
@@ -33,7 +34,7 @@ class SerialSession(Session):
         self._clean = True
         self._streamer: Streamer | None = None
         self._halted = False
-        self.file = "<input>"           # the drawing's name, for messages
+        self.file = job.name if job is not None else "<input>"    # for messages
 
     def __enter__(self) -> "SerialSession":
         from vplotter.machine import lock
@@ -48,8 +49,7 @@ class SerialSession(Session):
                     self._trace_file = open(self.save_stream, "w", encoding="ascii")
                 except OSError as e:
                     raise BackendError(f"cannot write {self.save_stream}: {e.strerror}") from None
-            for s in SIGNALS:
-                self._old_handlers[s] = signal.signal(s, self._on_signal)
+            self.signals.install(self._stop_soon)
         except BaseException:
             self._cleanup()
             raise
@@ -115,7 +115,7 @@ class SerialSession(Session):
                 progress(t_us, line)
 
         try:
-            done = self._run_to_pauses(s, ahead, on_status, first.q[0])
+            done = self._run_to_pauses(s, ahead, on_status, first.q[0], progress)
         except ControllerError as e:
             text, _, (line, _, _) = s.line_at(e.index)
             self._halt()
@@ -132,17 +132,15 @@ class SerialSession(Session):
             ahead.close()
         if not done:
             self._halt()
-            signum = self._signum
-            self.stop = Stop(signum, self.counts, self.line)
-            raise Interrupted(f"stopped by {signal.Signals(signum).name}", signum)
+            raise self._interrupted()
         on_status(s)
         self.pen_down = bool(s.meta[-1][1]) if s.meta else self.pen_down
 
-    def _run_to_pauses(self, s: Streamer, ahead, on_status, q0) -> bool:
+    def _run_to_pauses(self, s: Streamer, ahead, on_status, q0, progress) -> bool:
         """Stream up to each Pause (M0, a pen change), let everything before it run until
         the controller is Idle (the pen is up), then the pause: `on_pause` asks the person
         and waits. True once all has run, False at a stop."""
-        stop = lambda: bool(self._signum)      # noqa: E731
+        stop = lambda: self.signals.pending      # noqa: E731
         while True:
             seg = _UpToPause(ahead)
             if not s.run(seg, q0, stop, on_status, self._cover):
@@ -150,10 +148,14 @@ class SerialSession(Session):
             if seg.pause is None:
                 return True
             on_status(s)
-            if self.on_pause is not None:
-                self.on_pause(seg.pause)
+            self._ask(seg.pause, progress)
             if stop():
                 return False
+
+    def _ask(self, pause, progress) -> None:
+        """A Pause: the job's on_pause asks the person and waits."""
+        if self.job is not None and self.job.on_pause is not None:
+            self.job.on_pause(pause, lambda: self.stop_pending, progress)
 
     def _tee(self, chunks):
         for ch in chunks:
@@ -164,12 +166,10 @@ class SerialSession(Session):
     def _play_dry(self, chunks, progress) -> None:
         last = None
         for ch in chunks:
-            if self._signum:
-                signum = self._signum
-                raise Interrupted(f"stopped by {signal.Signals(signum).name}", signum)
+            if self.signals.pending:
+                raise Interrupted(f"stopped by {self.signals.name()}", self.signals.signum)
             if isinstance(ch, Pause):
-                if self.on_pause is not None:
-                    self.on_pause(ch)
+                self._ask(ch, progress)
                 continue
             if len(ch):
                 last = ch
@@ -191,7 +191,7 @@ class SerialSession(Session):
             return
         self._begin_motion()
         dev = np.abs(self._counts(np.array(pts)) - np.asarray(self.counts)).max(axis=0)
-        self._journal.record(self.counts, dev, self.line, "down" if self.pen_down else "up")
+        self.ledger.journal.record(self.counts, dev, self.line, "down" if self.pen_down else "up")
 
     def _halt(self) -> None:
         """Feed hold, wait until stopped on the path, lift the pen, soft reset."""
@@ -239,7 +239,7 @@ class _UpToPause:
         return ch
 
 
-class _Prefetch(_Ahead):
+class _Prefetch(Ahead):
     """Iterates `chunks` on a helper thread, a bounded number ahead, so that planning the next
     lines never holds up the stream (a Pi Zero plans a round of pieces in about a second).
     Errors raised while planning are raised to the consumer; while the next chunk is still
@@ -258,10 +258,10 @@ class _Prefetch(_Ahead):
             item = self.q.get(timeout=0.005)
         except queue.Empty:
             return NOT_YET              # still planning: the stream goes on meanwhile
-        if item is _END:
+        if item is END:
             self.q.put(item)
             raise StopIteration
-        if isinstance(item, _Failure):
+        if isinstance(item, Failure):
             self.q.put(item)
             raise item.exc
         return item

@@ -1,13 +1,14 @@
 """The JSON API under /api (the page uses nothing else): status, files, draw, stop, pen, jog,
 and server-sent events. What touches the plotter goes through the Machine of
-commands/serve.py; a draw runs as `draw FILE --detach` does, in its own process."""
+commands/serve.py, which answers with values: a result object (its fields and the `message`
+the command prints first) or a VplotterError (the command's exit status and error line); a
+draw runs as `draw FILE --detach` does, in its own process."""
 
 from __future__ import annotations
 
 import asyncio
 import json
 import math
-import re
 import time
 
 from vplotter.web.files import MAX_BYTES, FileError
@@ -58,17 +59,61 @@ class State:
 def routes(state: State):
     from starlette.routing import Route
 
-    async def get_status(request):
+    h = Handlers(state)
+    return [
+        Route("/api/status", h.get_status, methods=["GET"]),
+        Route("/api/files", h.list_files, methods=["GET"]),
+        Route("/api/files", h.upload, methods=["POST"]),
+        Route("/api/files/{name}", h.delete_file, methods=["DELETE"]),
+        Route("/api/files/{name}/preview.png", h.preview, methods=["GET"]),
+        Route("/api/draw", h.draw, methods=["POST"]),
+        Route("/api/stop", h.stop, methods=["POST"]),
+        Route("/api/continue", h.go_on, methods=["POST"]),
+        Route("/api/pen", h.pen, methods=["POST"]),
+        Route("/api/jog", h.jog, methods=["POST"]),
+        Route("/api/events", h.events, methods=["GET"]),
+    ]
+
+
+async def body_json(request) -> dict:
+    try:
+        data = json.loads(await request.body() or b"{}")
+    except ValueError:
+        raise FileError(400, "the body must be a JSON object") from None
+    if not isinstance(data, dict):
+        raise FileError(400, "the body must be a JSON object")
+    return data
+
+
+async def _limited(request):
+    """The request's body, refused (TooBig) past the upload limit while it streams."""
+    n = 0
+    async for chunk in request.stream():
+        n += len(chunk)
+        if n > MAX_BYTES + 65536:
+            raise TooBig
+        yield chunk
+
+
+class Handlers:
+    """The routes' handlers. What moves the plotter is asked of the Machine, whose answers
+    are values (result objects with a `message`, or a VplotterError with its exit code)."""
+
+    def __init__(self, state: State):
+        self.state = state
+
+    # ------------------------------------------------------------ status and files
+    async def get_status(self, request):
         from starlette.responses import JSONResponse
 
-        return JSONResponse(await asyncio.to_thread(state.status))
+        return JSONResponse(await asyncio.to_thread(self.state.status))
 
-    async def list_files(request):
+    async def list_files(self, request):
         from starlette.responses import JSONResponse
 
-        return JSONResponse(state.folder.listing())
+        return JSONResponse(self.state.folder.listing())
 
-    async def upload(request):
+    async def upload(self, request):
         from starlette.formparsers import MultiPartException, MultiPartParser
         from starlette.responses import JSONResponse
 
@@ -77,17 +122,8 @@ def routes(state: State):
             return error(413, f"the file is larger than {MAX_BYTES >> 20} MB")
         if not request.headers.get("content-type", "").startswith("multipart/form-data"):
             return error(400, "send the file as multipart/form-data in the field `file`")
-
-        async def limited():
-            n = 0
-            async for chunk in request.stream():
-                n += len(chunk)
-                if n > MAX_BYTES + 65536:
-                    raise TooBig
-                yield chunk
-
         try:
-            form = await MultiPartParser(request.headers, limited(), max_files=1,
+            form = await MultiPartParser(request.headers, _limited(request), max_files=1,
                                          max_fields=4).parse()
         except TooBig:
             return error(413, f"the file is larger than {MAX_BYTES >> 20} MB")
@@ -99,41 +135,50 @@ def routes(state: State):
                 return error(400, "no file in the field `file`")
             if (up.size or 0) > MAX_BYTES:
                 return error(413, f"the file is larger than {MAX_BYTES >> 20} MB")
-            async with state.working:
-                tmp = state.folder.incoming(up.filename)
-                try:
-                    await up.seek(0)
-                    with open(tmp, "wb") as out:
-                        while block := await up.read(1 << 20):
-                            out.write(block)
-                    estimate_s = await asyncio.to_thread(state.machine.estimate, str(tmp))
-                except Exception as e:
-                    state.folder.discard(tmp)
-                    from vplotter.errors import VplotterError
-
-                    if isinstance(e, VplotterError):
-                        text = str(e).replace(str(tmp.parent) + "/", "")
-                        return error(400, first_line(text))
-                    raise
-                name = state.folder.keep(tmp, estimate_s)
+            async with self.state.working:
+                kept = await self._keep(up)
+                if not isinstance(kept, tuple):
+                    return kept
+                name, estimate_s = kept
         except FileError as e:
             return error(e.status, str(e))
         finally:
             await form.close()
         return JSONResponse({"name": name, "estimate_s": round(estimate_s, 1)}, status_code=201)
 
-    async def delete_file(request):
+    async def _keep(self, up):
+        """Write the upload inside the folder, estimate it, keep it: (name, estimate_s), or
+        the 400 answer of a file that does not validate (nothing is kept)."""
+        from vplotter.errors import VplotterError
+
+        folder = self.state.folder
+        tmp = folder.incoming(up.filename)
+        try:
+            await up.seek(0)
+            with open(tmp, "wb") as out:
+                while block := await up.read(1 << 20):
+                    out.write(block)
+            estimate_s = await asyncio.to_thread(self.state.machine.estimate, str(tmp))
+        except Exception as e:
+            folder.discard(tmp)
+            if isinstance(e, VplotterError):
+                return error(400, first_line(str(e).replace(str(tmp.parent) + "/", "")))
+            raise
+        return folder.keep(tmp, estimate_s), estimate_s
+
+    async def delete_file(self, request):
         from starlette.responses import JSONResponse
 
         try:
-            state.folder.delete(request.path_params["name"])
+            self.state.folder.delete(request.path_params["name"])
         except FileError as e:
             return error(e.status, str(e))
         return JSONResponse({"deleted": request.path_params["name"]})
 
-    async def preview(request):
+    async def preview(self, request):
         from starlette.responses import Response
 
+        state = self.state
         try:
             path = state.folder.file(request.path_params["name"])
         except FileError as e:
@@ -147,77 +192,83 @@ def routes(state: State):
         return Response(png.read_bytes(), media_type="image/png",
                         headers={"Cache-Control": "no-cache"})
 
-    async def body_json(request) -> dict:
-        try:
-            data = json.loads(await request.body() or b"{}")
-        except ValueError:
-            raise FileError(400, "the body must be a JSON object") from None
-        if not isinstance(data, dict):
-            raise FileError(400, "the body must be a JSON object")
-        return data
+    # ------------------------------------------------------------ moving the plotter
+    def _busy(self):
+        holder = self.state.machine.holder()
+        return None if holder is None else error(409, self.state.machine.busy_line(holder))
 
-    def busy():
-        holder = state.machine.holder()
-        return None if holder is None else error(409, state.machine.busy_line(holder))
+    async def _act(self, do, *args, busy: bool = True, failed=None):
+        """do(*args) on a worker thread, one move at a time: (its result, None), or (None, the
+        answer): 409 while another process drives the plotter (busy), or the answer to the
+        VplotterError it raised (failed(e), by default the command line's status and line)."""
+        from vplotter.errors import VplotterError
 
-    def answer(code: int, out: str, err: str, ok: dict):
+        async with self.state.acting:
+            if busy and (refusal := self._busy()) is not None:
+                return None, refusal
+            try:
+                return await asyncio.to_thread(do, *args), None
+            except VplotterError as e:
+                return None, (failed or self._failed)(e)
+
+    def _done(self, result, ok: dict, status: int = 200):
+        """What a move answers: ok with the result's message (the first line the command
+        prints)."""
         from starlette.responses import JSONResponse
 
-        state.forget_status()
-        if code == 0:
-            status = ok.pop("_status", 200)
-            lines = [ln.strip() for ln in out.splitlines() if ln.strip()]
-            return JSONResponse({**ok, "message": lines[0] if lines else ""},
-                                status_code=status)
-        status = {2: 400, 3: 409}.get(code, 500)
-        return error(status, first_line(err) if status != 409 else err.strip().splitlines()[0])
+        self.state.forget_status()
+        return JSONResponse({**ok, "message": result.message.strip()}, status_code=status)
 
-    async def draw(request):
+    def _failed(self, e):
+        """A VplotterError answered with the command line's exit status (2: 400, busy 3: 409,
+        else 500) and its error line."""
+        self.state.forget_status()
+        status = {2: 400, 3: 409}.get(e.exit_code, 500)
+        line = self.state.machine.error_line(e)
+        return error(status, first_line(line) if status != 409 else line.strip().splitlines()[0])
+
+    async def draw(self, request):
         try:
             data = await body_json(request)
             resume = bool(data.get("resume", False))
             if data.get("file") is None and resume:
-                stored = (await asyncio.to_thread(state.status)).get("resume") or {}
+                stored = (await asyncio.to_thread(self.state.status)).get("resume") or {}
                 if not stored.get("file"):
                     return error(400, "nothing to resume: no interrupted draw is stored")
                 path = stored["file"]
             else:
-                path = str(state.folder.file(str(data.get("file", ""))))
+                path = str(self.state.folder.file(str(data.get("file", ""))))
         except FileError as e:
             return error(e.status, str(e))
-        async with state.acting:
-            if (refusal := busy()) is not None:
-                return refusal
-            code, out, err = await asyncio.to_thread(state.machine.draw, path, resume)
-        m = re.search(r"background: pid (\d+)", out)
-        return answer(code, out, err, {"pid": int(m.group(1)) if m else None, "_status": 202})
+        started, answer = await self._act(self.state.machine.draw, path, resume)
+        return answer or self._done(started, {"pid": started.pid}, 202)
 
-    async def stop(request):
-        async with state.acting:
-            code, out, err = await asyncio.to_thread(state.machine.stop)
-        return answer(code, out, err, {"stopped": "stopped pid" in out})
+    async def stop(self, request):
+        stopped, answer = await self._act(self.state.machine.stop, busy=False)
+        return answer or self._done(stopped, {"stopped": stopped.pid is not None})
 
-    async def go_on(request):
-        async with state.acting:
-            code, out, err = await asyncio.to_thread(state.machine.continue_)
-        if code == 2:                       # nothing waits: the state says otherwise
-            return error(409, first_line(err).removeprefix("vplotter: "))
-        return answer(code, out, err, {"continued": True})
+    async def go_on(self, request):
+        def nothing_waits(e):              # the state says otherwise: a conflict
+            if e.exit_code != 2:
+                return self._failed(e)
+            line = self.state.machine.error_line(e)
+            return error(409, first_line(line).removeprefix("vplotter: "))
 
-    async def pen(request):
+        went, answer = await self._act(self.state.machine.continue_, busy=False,
+                                       failed=nothing_waits)
+        return answer or self._done(went, {"continued": True})
+
+    async def pen(self, request):
         try:
             data = await body_json(request)
         except FileError as e:
             return error(e.status, str(e))
         if data.get("state") not in ("up", "down"):
             return error(400, 'give {"state": "up"} or {"state": "down"}')
-        async with state.acting:
-            if (refusal := busy()) is not None:
-                return refusal
-            code, out, err = await asyncio.to_thread(state.machine.pen, data["state"])
-        return answer(code, out, err, {"pen": data["state"]})
+        moved, answer = await self._act(self.state.machine.pen, data["state"])
+        return answer or self._done(moved, {"pen": data["state"]})
 
-    async def jog(request):
+    async def jog(self, request):
         try:
             data = await body_json(request)
             dx, dy = (float(data.get(k, 0.0)) for k in ("dx", "dy"))
@@ -227,14 +278,14 @@ def routes(state: State):
             return error(400, 'give {"dx": MM, "dy": MM}')
         if not all(math.isfinite(v) and abs(v) <= 1000 for v in (dx, dy)) or dx == dy == 0:
             return error(400, "dx and dy must be numbers of mm up to 1000, not both 0")
-        async with state.acting:
-            if (refusal := busy()) is not None:
-                return refusal
-            code, out, err = await asyncio.to_thread(state.machine.jog, dx, dy)
-        return answer(code, out, err, {"dx": dx, "dy": dy})
+        moved, answer = await self._act(self.state.machine.jog, dx, dy)
+        return answer or self._done(moved, {"dx": dx, "dy": dy})
 
-    async def events(request):
+    # ------------------------------------------------------------ events
+    async def events(self, request):
         from starlette.responses import StreamingResponse
+
+        state = self.state
 
         async def stream():
             last, sent = None, 0.0
@@ -252,17 +303,3 @@ def routes(state: State):
 
         return StreamingResponse(stream(), media_type="text/event-stream",
                                  headers={"Cache-Control": "no-store", "X-Accel-Buffering": "no"})
-
-    return [
-        Route("/api/status", get_status, methods=["GET"]),
-        Route("/api/files", list_files, methods=["GET"]),
-        Route("/api/files", upload, methods=["POST"]),
-        Route("/api/files/{name}", delete_file, methods=["DELETE"]),
-        Route("/api/files/{name}/preview.png", preview, methods=["GET"]),
-        Route("/api/draw", draw, methods=["POST"]),
-        Route("/api/stop", stop, methods=["POST"]),
-        Route("/api/continue", go_on, methods=["POST"]),
-        Route("/api/pen", pen, methods=["POST"]),
-        Route("/api/jog", jog, methods=["POST"]),
-        Route("/api/events", events, methods=["GET"]),
-    ]
