@@ -1,9 +1,9 @@
 """Streaming throughput against real grbl 1.1 firmware (grbl-sim) behind a pseudo-terminal.
 
-    python bench/grbl_throughput.py --sim /tmp/grblbuild/grbl/grbl-sim/grbl_sim.exe \
+    python -m bench.grbl_throughput --sim /tmp/grblbuild/grbl/grbl-sim/grbl_sim.exe \
         [--file gcode_samples/square.ngc] [--lines N] [--config config.toml] [--only a|b]
 
-grbl-sim (github.com/grbl/grbl-sim, built against gnea/grbl 1.1 by `bench/build_grbl_sim.sh DIR`,
+grbl-sim (github.com/grbl/grbl-sim, built against gnea/grbl 1.1 by `bench/reference/build_grbl_sim.sh DIR`,
 with three fixes to the simulator's host code: see there) compiles grbl's own planner,
 stepper and serial code and runs it in real time (time factor 1; it reads one byte per baud tick
 at 115200 into grbl's 128-byte receive buffer). This script starts it with its stdin/stdout on a
@@ -45,8 +45,9 @@ import tomllib
 import tty
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-ENV = dict(os.environ, PYTHONPATH=str(ROOT / "src"))
+from bench import ROOT
+
+ENV = dict(os.environ)
 VPLOTTER = [sys.executable, "-m", "vplotter"]
 
 

@@ -170,8 +170,8 @@ CASES = [("spacing", "corners.ngc"), ("stretch", "corners.ngc"), ("spools", "cor
 def test_trace_under_the_models_draws_the_path(name, gname, config_path, tmp_path, capsys):
     """The dry-run trace decoded through the models by tracecheck (which knows nothing of
     vplotter) stays within 0.02 mm of the path both ways, within every motor limit."""
-    import tracecheck as tc
-    from conftest import REPO
+    from support import tracecheck as tc
+    from support import REPO
     from vplotter.cli import main
 
     gfile = REPO / ("gcode_samples" if gname == "car.ngc" else "tests/data") / gname
@@ -188,7 +188,7 @@ def test_trace_under_the_models_draws_the_path(name, gname, config_path, tmp_pat
 
 
 def test_tracecheck_models_agree_with_the_package():
-    import tracecheck as tc
+    from support import tracecheck as tc
 
     cfg = tc.load_config({"gondola": {"cord_spacing_mm": 40.0, "pen_below_mm": 15.0},
                           "cords": {"stretch": 0.004}})

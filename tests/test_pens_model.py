@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 from hypothesis import given, strategies as st
 
-import tracecheck as tc
-from conftest import REPO
+from support import tracecheck as tc
+from support import REPO
 from vplotter import config
 from vplotter.cli import main
 from vplotter.commands.files import write_gcode

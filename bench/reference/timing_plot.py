@@ -7,7 +7,7 @@ the left and the right motor against time, the limit +-max_step_rate as dashed l
 pen-down time shaded. The picture in docs/timing.md was made with:
 
     vplotter draw gcode_samples/car.ngc --dry-run --trace /tmp/car.csv
-    python bench/timing_plot.py /tmp/car.csv config.toml -o docs/img/timing-car.png \
+    python -m bench.reference.timing_plot /tmp/car.csv config.toml -o docs/img/timing-car.png \
         --start 0 --seconds 120
 """
 
