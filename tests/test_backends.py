@@ -191,7 +191,7 @@ def test_player_stops_within_a_few_milliseconds():
 
 # ---------------------------------------------------------------- lgpio on the stand-in
 def lgpio_backend(cfg, clock, lg=None, **kw):
-    """The lgpio backend on the stand-in (more in test_lgpio.py)."""
+    """The lgpio backend on the stand-in (more in test_backend_lgpio.py)."""
     lg = lg or FakeLgpio(clock)
     b = create("lgpio", cfg, lgpio=lg, clock=clock.now, sleep=clock.sleep, **kw)
     return b, lg

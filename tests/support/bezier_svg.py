@@ -9,7 +9,7 @@ non-uniform scale, rotation); paths are chains of C1-smooth cubic segments, open
 start to start, and an open end next to a node of a closed path), the two paths far apart
 in the file and often in other groups or layers.
 
-Used by tests/test_order_geometry.py and bench/order_geometry.py.
+Used by tests/test_order_keeps_the_lines.py and bench/order_geometry.py.
 """
 
 from __future__ import annotations

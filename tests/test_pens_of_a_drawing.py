@@ -1,5 +1,5 @@
 """The pen model in the pipeline (drawing/pens.py, prepare's records, G-code tool changes,
-info, convert, estimate and dry runs). tests/test_pens.py is about the servo backend."""
+info, convert, estimate and dry runs). tests/test_pen_kinds.py is about the servo backend."""
 
 from __future__ import annotations
 
