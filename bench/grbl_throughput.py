@@ -282,6 +282,38 @@ def report(res: dict, k: str, n: int) -> None:
           + (f" {r['errors'][:3]}" if r["errors"] else ""), flush=True)
 
 
+def run_vplotter(args, settings: dict, cfg_text: str, src: Path, tmp: Path, lines: list,
+                 first: bytes, calibrated_env, res: dict) -> None:
+    """(b): `vplotter draw FILE --backend serial` on a fresh simulator; its timing into res."""
+    sim = Sim(args.sim, settings)
+    try:
+        conf = tmp / "config.toml"
+        conf.write_text(with_port(cfg_text, sim.port))
+        env = calibrated_env()
+        w0 = time.perf_counter()
+        try:
+            p = subprocess.run(VPLOTTER + ["--config", str(conf), "draw", str(src),
+                                           "--backend", "serial"], env=env,
+                               capture_output=True, text=True, timeout=args.timeout)
+        except subprocess.TimeoutExpired as e:
+            p = subprocess.CompletedProcess(e.cmd, "timeout", e.stdout or "", e.stderr or "")
+            print(f"(b) vplotter draw did not finish within {args.timeout} s", flush=True)
+        wall = time.perf_counter() - w0
+        time.sleep(0.2)
+        res["b"] = dict(sim.timing(first), wall=wall, rc=p.returncode)
+        if p.returncode:
+            print(str(p.stdout)[-2000:], str(p.stderr)[-2000:])
+        report(res, "b", len(lines))
+        end = planned_end(lines)
+        got = sim.work_position()
+        if end and got:
+            print(f"(b) final work position {got[0]:.3f}, {got[1]:.3f}; planned end "
+                  f"{end[0]:.3f}, {end[1]:.3f}; off by {max(abs(got[0] - end[0]), abs(got[1] - end[1])):.3f} mm",
+                  flush=True)
+    finally:
+        sim.close()
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sim", required=True, help="path to grbl_sim.exe")
@@ -333,33 +365,7 @@ def main() -> int:
         finally:
             sim.close()
     if args.only in (None, "b"):
-        sim = Sim(args.sim, settings)
-        try:
-            conf = tmp / "config.toml"
-            conf.write_text(with_port(cfg_text, sim.port))
-            env = calibrated_env()
-            w0 = time.perf_counter()
-            try:
-                p = subprocess.run(VPLOTTER + ["--config", str(conf), "draw", str(src),
-                                               "--backend", "serial"], env=env,
-                                   capture_output=True, text=True, timeout=args.timeout)
-            except subprocess.TimeoutExpired as e:
-                p = subprocess.CompletedProcess(e.cmd, "timeout", e.stdout or "", e.stderr or "")
-                print(f"(b) vplotter draw did not finish within {args.timeout} s", flush=True)
-            wall = time.perf_counter() - w0
-            time.sleep(0.2)
-            res["b"] = dict(sim.timing(first), wall=wall, rc=p.returncode)
-            if p.returncode:
-                print(str(p.stdout)[-2000:], str(p.stderr)[-2000:])
-            report(res, "b", len(lines))
-            end = planned_end(lines)
-            got = sim.work_position()
-            if end and got:
-                print(f"(b) final work position {got[0]:.3f}, {got[1]:.3f}; planned end "
-                      f"{end[0]:.3f}, {end[1]:.3f}; off by {max(abs(got[0] - end[0]), abs(got[1] - end[1])):.3f} mm",
-                      flush=True)
-        finally:
-            sim.close()
+        run_vplotter(args, settings, cfg_text, src, tmp, lines, first, calibrated_env, res)
 
     done = [k for k in res if res[k]["t"] and res[k]["ok"] == len(lines)
             and res[k].get("rc", 0) == 0]
