@@ -11,6 +11,12 @@ from vplotter.inputs.gcode import Move
 from vplotter.motion.segment import arc_sweep, points
 
 
+def pytest_approx(v):
+    import pytest
+
+    return pytest.approx(v, abs=1e-9)
+
+
 def _dist_to_circle(pts, cx, cy, r):
     return np.abs(np.hypot(pts[:, 0] - cx, pts[:, 1] - cy) - r)
 
