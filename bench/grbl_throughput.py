@@ -3,7 +3,8 @@
     python -m bench.grbl_throughput --sim /tmp/grblbuild/grbl/grbl-sim/grbl_sim.exe \
         [--file gcode_samples/square.ngc] [--lines N] [--config config.toml] [--only a|b]
 
-grbl-sim (github.com/grbl/grbl-sim, built against gnea/grbl 1.1 by `bench/reference/build_grbl_sim.sh DIR`,
+grbl-sim (github.com/grbl/grbl-sim, built against gnea/grbl 1.1 by
+`bench/reference/build_grbl_sim.sh DIR`,
 with three fixes to the simulator's host code: see there) compiles grbl's own planner,
 stepper and serial code and runs it in real time (time factor 1; it reads one byte per baud tick
 at 115200 into grbl's 128-byte receive buffer). This script starts it with its stdin/stdout on a
@@ -307,9 +308,9 @@ def run_vplotter(args, settings: dict, cfg_text: str, src: Path, tmp: Path, line
         end = planned_end(lines)
         got = sim.work_position()
         if end and got:
+            off = max(abs(got[0] - end[0]), abs(got[1] - end[1]))
             print(f"(b) final work position {got[0]:.3f}, {got[1]:.3f}; planned end "
-                  f"{end[0]:.3f}, {end[1]:.3f}; off by {max(abs(got[0] - end[0]), abs(got[1] - end[1])):.3f} mm",
-                  flush=True)
+                  f"{end[0]:.3f}, {end[1]:.3f}; off by {off:.3f} mm", flush=True)
     finally:
         sim.close()
 

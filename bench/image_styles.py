@@ -137,7 +137,8 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         photo = os.path.join(tmp, "photo.png")
         big = os.path.join(tmp, "photo12mp.jpg")
-        subprocess.run([sys.executable, "-m", "bench.image_styles", "--make", photo, big], check=True)
+        subprocess.run([sys.executable, "-m", "bench.image_styles", "--make", photo, big],
+                       check=True)
         print(f"{'picture':14} {'style':9} {'px':>9} {'load s':>6} {'style s':>7} {'RSS MB':>6} "
               f"{'py MB':>6} {'strokes':>7} {'points':>7} {'drawn m':>7} {'lifts':>5} "
               f"{'travel m':>8} {'hours':>5} {'fidelity':>8}")
@@ -147,7 +148,8 @@ def main() -> None:
                         f"vplotter.inputs.image.{name}") is None:
                     print(f"{os.path.basename(path):14} {name:9} (not in this tree)")
                     continue
-                cmd = [sys.executable, "-m", "bench.image_styles", "--one", path, name] + ([png_dir] if png_dir else [])
+                cmd = ([sys.executable, "-m", "bench.image_styles", "--one", path, name]
+                       + ([png_dir] if png_dir else []))
                 r = subprocess.run(cmd, capture_output=True, text=True)
                 if r.returncode:
                     last = (r.stderr.strip().splitlines() or ["?"])[-1]

@@ -87,7 +87,8 @@ def between(ss) -> float:
 
 
 def svg_layers(cfg, seeds=(0, 1, 2), n_paths: int = 300) -> None:
-    """Per layer, on SVGs from tests/support/bezier_svg.py (3 layers, smooth cubics under nested skewed
+    """Per layer, on SVGs from tests/support/bezier_svg.py (3 layers, smooth cubics under nested
+    skewed
     matrices, many ends 0.01-0.1 mm apart): the travel between strokes of `vplotter --order
     best` (prepare(), default join) and of `vpype read FILE linesort` (vpype's own reading,
     pen_up_length of each layer)."""

@@ -2,7 +2,8 @@
 
 For car.ngc, a generated 15,000-line Inkscape gcodetools drawing (450 short strokes of arcs)
 and a generated 40,000-move file of rosettes, prints:
-- the planned plot time, the time-optimal reference of bench/reference/topp.py (same path, same motor
+- the planned plot time, the time-optimal reference of bench/reference/topp.py (same path, same
+  motor
   limits) and their ratio;
 - the wall time of the whole process `vplotter draw FILE --dry-run` (best of 3; Python start,
   imports, parsing, validation, planning, step schedule and the simulated machine) and how many

@@ -5,7 +5,8 @@
 
 Draws a square (side --side mm, pen down, then back to X0 Y0) with `vplotter draw --backend
 gpiozero --verbose`, on MockFactory pins whose class records time.perf_counter_ns() at every
-state change. The pin log is decoded by tests/support/tracecheck/ (which imports nothing of vplotter)
+state change. The pin log is decoded by tests/support/tracecheck/ (which imports nothing of
+vplotter)
 and compared with the dry run's trace. Prints, per motor, the shortest interval between two
 steps (the limit is 1 / max_step_rate), the illegal coil transitions, whether the decoded steps
 are the dry run's (the patterns after every single pin change equal the dry run's, and so do the

@@ -1,5 +1,6 @@
 """Backends without a Raspberry Pi: the shared software timing loop on a simulated clock, the
-lgpio backend on a stand-in lgpio that simulates its C thread (tests/support/fake_lgpio.py), gpiozero on
+lgpio backend on a stand-in lgpio that simulates its C thread (tests/support/fake_lgpio.py),
+gpiozero on
 its MockFactory, and one contract every backend keeps. Nothing here really sleeps."""
 
 from __future__ import annotations

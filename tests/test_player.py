@@ -1,6 +1,7 @@
 """The software timing loop (realtime.Player) under load, on a simulated clock: stalls in the
 sleep, in the spin, and in the middle of a pin write. Whatever they are, the pins (recorded
-with the time of each single pin change, decoded by tests/support/tracecheck/) never show two steps of
+with the time of each single pin change, decoded by tests/support/tracecheck/) never show two
+steps of
 one motor closer than 1 / max_step_rate, an illegal coil transition, a pen change sooner than
 planned after the last step, or a step sooner than planned after a pen change; lateness moves
 the rest of the timeline instead of being made up."""

@@ -1,4 +1,5 @@
-"""Streaming to a grbl controller: the stand-in on a pty pair (tests/support/grbl_standin.py) plays it.
+"""Streaming to a grbl controller: the stand-in on a pty pair (tests/support/grbl_standin.py)
+plays it.
 
 What the user sees is checked: every line answered, nothing lost or reordered in the receive
 buffer, the controller's end position, the drawn path (the motor-space moves it executed,

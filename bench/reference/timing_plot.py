@@ -78,7 +78,8 @@ def legend(d, font, x, top, k, rate) -> None:
     for label, colour in (("left motor", LEFT), ("right motor", RIGHT),
                           (f"limit +-{rate:g}", LIMIT), ("pen down", PEN)):
         if colour == PEN:
-            d.rectangle([x, top - 20 * k, x + 22 * k, top - 8 * k], fill=PEN, outline=(180, 180, 180))
+            d.rectangle([x, top - 20 * k, x + 22 * k, top - 8 * k], fill=PEN,
+                        outline=(180, 180, 180))
         else:
             d.line([x, top - 14 * k, x + 22 * k, top - 14 * k], fill=colour, width=3 * k)
         d.text((x + 28 * k, top - 14 * k), label, fill="black", font=font, anchor="lm")

@@ -16,7 +16,7 @@ The limits are by default the planner's derated ones (0.998 x max_step_rate, 0.9
 max_accel, see `limits`): the plan has to stay inside them, so that is the fair yardstick;
 `reference(..., derated=False)` gives the bound at the raw limits.
 
-Run: python -m bench.reference.topp FILE [...]   (prints reference time, planned time and their ratio)
+Run: python -m bench.reference.topp FILE [...]   (prints reference time, planned time, ratio)
 """
 
 from __future__ import annotations
