@@ -1,7 +1,7 @@
 """How often this machine takes the CPU away from a spinning thread, and for how long: the floor
 under any software-timed pulse (a pen pulse whose fall falls into such a gap comes out long).
 
-    python bench/cpu_gaps.py [--seconds 2] [--fifo]
+    python -m bench.cpu_gaps [--seconds 2] [--fifo]
 
 Spins on the monotonic clock for --seconds (at SCHED_FIFO priority 10 with --fifo, as vplotter's
 player spins through a pen pulse where allowed) and prints the gaps between two successive

@@ -1,9 +1,10 @@
 """Streaming throughput against real grbl 1.1 firmware (grbl-sim) behind a pseudo-terminal.
 
-    python bench/grbl_throughput.py --sim /tmp/grblbuild/grbl/grbl-sim/grbl_sim.exe \
+    python -m bench.grbl_throughput --sim /tmp/grblbuild/grbl/grbl-sim/grbl_sim.exe \
         [--file gcode_samples/square.ngc] [--lines N] [--config config.toml] [--only a|b]
 
-grbl-sim (github.com/grbl/grbl-sim, built against gnea/grbl 1.1 by `bench/build_grbl_sim.sh DIR`,
+grbl-sim (github.com/grbl/grbl-sim, built against gnea/grbl 1.1 by
+`bench/reference/build_grbl_sim.sh DIR`,
 with three fixes to the simulator's host code: see there) compiles grbl's own planner,
 stepper and serial code and runs it in real time (time factor 1; it reads one byte per baud tick
 at 115200 into grbl's 128-byte receive buffer). This script starts it with its stdin/stdout on a
@@ -45,8 +46,9 @@ import tomllib
 import tty
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-ENV = dict(os.environ, PYTHONPATH=str(ROOT / "src"))
+from bench import ROOT
+
+ENV = dict(os.environ)
 VPLOTTER = [sys.executable, "-m", "vplotter"]
 
 
@@ -281,6 +283,38 @@ def report(res: dict, k: str, n: int) -> None:
           + (f" {r['errors'][:3]}" if r["errors"] else ""), flush=True)
 
 
+def run_vplotter(args, settings: dict, cfg_text: str, src: Path, tmp: Path, lines: list,
+                 first: bytes, calibrated_env, res: dict) -> None:
+    """(b): `vplotter draw FILE --backend serial` on a fresh simulator; its timing into res."""
+    sim = Sim(args.sim, settings)
+    try:
+        conf = tmp / "config.toml"
+        conf.write_text(with_port(cfg_text, sim.port))
+        env = calibrated_env()
+        w0 = time.perf_counter()
+        try:
+            p = subprocess.run(VPLOTTER + ["--config", str(conf), "draw", str(src),
+                                           "--backend", "serial"], env=env,
+                               capture_output=True, text=True, timeout=args.timeout)
+        except subprocess.TimeoutExpired as e:
+            p = subprocess.CompletedProcess(e.cmd, "timeout", e.stdout or "", e.stderr or "")
+            print(f"(b) vplotter draw did not finish within {args.timeout} s", flush=True)
+        wall = time.perf_counter() - w0
+        time.sleep(0.2)
+        res["b"] = dict(sim.timing(first), wall=wall, rc=p.returncode)
+        if p.returncode:
+            print(str(p.stdout)[-2000:], str(p.stderr)[-2000:])
+        report(res, "b", len(lines))
+        end = planned_end(lines)
+        got = sim.work_position()
+        if end and got:
+            off = max(abs(got[0] - end[0]), abs(got[1] - end[1]))
+            print(f"(b) final work position {got[0]:.3f}, {got[1]:.3f}; planned end "
+                  f"{end[0]:.3f}, {end[1]:.3f}; off by {off:.3f} mm", flush=True)
+    finally:
+        sim.close()
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sim", required=True, help="path to grbl_sim.exe")
@@ -332,33 +366,7 @@ def main() -> int:
         finally:
             sim.close()
     if args.only in (None, "b"):
-        sim = Sim(args.sim, settings)
-        try:
-            conf = tmp / "config.toml"
-            conf.write_text(with_port(cfg_text, sim.port))
-            env = calibrated_env()
-            w0 = time.perf_counter()
-            try:
-                p = subprocess.run(VPLOTTER + ["--config", str(conf), "draw", str(src),
-                                               "--backend", "serial"], env=env,
-                                   capture_output=True, text=True, timeout=args.timeout)
-            except subprocess.TimeoutExpired as e:
-                p = subprocess.CompletedProcess(e.cmd, "timeout", e.stdout or "", e.stderr or "")
-                print(f"(b) vplotter draw did not finish within {args.timeout} s", flush=True)
-            wall = time.perf_counter() - w0
-            time.sleep(0.2)
-            res["b"] = dict(sim.timing(first), wall=wall, rc=p.returncode)
-            if p.returncode:
-                print(str(p.stdout)[-2000:], str(p.stderr)[-2000:])
-            report(res, "b", len(lines))
-            end = planned_end(lines)
-            got = sim.work_position()
-            if end and got:
-                print(f"(b) final work position {got[0]:.3f}, {got[1]:.3f}; planned end "
-                      f"{end[0]:.3f}, {end[1]:.3f}; off by {max(abs(got[0] - end[0]), abs(got[1] - end[1])):.3f} mm",
-                      flush=True)
-        finally:
-            sim.close()
+        run_vplotter(args, settings, cfg_text, src, tmp, lines, first, calibrated_env, res)
 
     done = [k for k in res if res[k]["t"] and res[k]["ok"] == len(lines)
             and res[k].get("rc", 0) == 0]

@@ -11,26 +11,20 @@ N in (5k, 20k, 50k) dots (spacing_mm chosen so that N = sum(darkness) px area / 
   is finer than the dots at 5k), Pearson correlation of ink with darkness. For the line it is
   given for both density models: rho = d (as the dots) and rho = d² (what tsp=True uses).
 
-Times are wall-clock seconds on this (shared, 2-core) machine. Run: python bench/image_stipple.py
+Times are wall-clock seconds on this (shared, 2-core) machine. Run: python -m bench.image_stipple
 """
 
 from __future__ import annotations
 
 import math
-import os
-import sys
 import time
 
 import numpy as np
 from PIL import Image, ImageDraw, ImageFilter
+from scipy.spatial import cKDTree
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, os.path.join(ROOT, "src"))
-
-from scipy.spatial import cKDTree  # noqa: E402
-
-from vplotter.inputs.image import stipple, stipple_tour  # noqa: E402
-from vplotter.inputs.image.picture import Picture  # noqa: E402
+from vplotter.inputs.image import stipple, stipple_tour
+from vplotter.inputs.image.picture import Picture
 
 WIDTH_MM, PEN_MM, PX_MM = 300.0, 0.5, 10
 

@@ -13,7 +13,7 @@ and the picture's darkness are blurred at 1 mm (Gaussian); the figure is the Pea
 correlation of ink with darkness over the picture. Plot time is the drawing at 4 mm/s, the
 pen-up travel in the order made (no reordering) at 8 mm/s, and 0.3 s a lift.
 
-Run: python bench/image_styles.py [--png out_dir]   (out_dir: a rendering per style)
+Run: python -m bench.image_styles [--png out_dir]   (out_dir: a rendering per style)
 """
 
 from __future__ import annotations
@@ -30,8 +30,6 @@ import tracemalloc
 
 import numpy as np
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, os.path.join(ROOT, "src"))
 
 WIDTH_MM, PEN_MM, SPACING_MM = 300.0, 0.5, 1.5
 STYLES = ("hatch", "spiral", "squiggle", "stipple")
@@ -139,7 +137,8 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         photo = os.path.join(tmp, "photo.png")
         big = os.path.join(tmp, "photo12mp.jpg")
-        subprocess.run([sys.executable, __file__, "--make", photo, big], check=True)
+        subprocess.run([sys.executable, "-m", "bench.image_styles", "--make", photo, big],
+                       check=True)
         print(f"{'picture':14} {'style':9} {'px':>9} {'load s':>6} {'style s':>7} {'RSS MB':>6} "
               f"{'py MB':>6} {'strokes':>7} {'points':>7} {'drawn m':>7} {'lifts':>5} "
               f"{'travel m':>8} {'hours':>5} {'fidelity':>8}")
@@ -149,7 +148,8 @@ def main() -> None:
                         f"vplotter.inputs.image.{name}") is None:
                     print(f"{os.path.basename(path):14} {name:9} (not in this tree)")
                     continue
-                cmd = [sys.executable, __file__, "--one", path, name] + ([png_dir] if png_dir else [])
+                cmd = ([sys.executable, "-m", "bench.image_styles", "--one", path, name]
+                       + ([png_dir] if png_dir else []))
                 r = subprocess.run(cmd, capture_output=True, text=True)
                 if r.returncode:
                     last = (r.stderr.strip().splitlines() or ["?"])[-1]

@@ -1,6 +1,6 @@
 """Scheduling lateness of the software-timed (real-time) paths, idle and with one core busy.
 
-    python bench/lateness.py [--seconds 10] [--spin-us 2000] [--config config.toml]
+    python -m bench.lateness [--seconds 10] [--spin-us 2000] [--config config.toml]
 
 Plays a synthetic schedule in real time: both motors stepping at the configured max step rate
 (half a step apart, so ~1,300 coil changes a second), handed over in 0.5 s parts like
@@ -17,17 +17,15 @@ import argparse
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT / "src"))
+from bench import ROOT
 
-from vplotter import config  # noqa: E402
-from vplotter.backends import create  # noqa: E402
-from vplotter.motion.schedule import Rows  # noqa: E402
-from vplotter.motion.sequencer import TABLES, coil_words  # noqa: E402
+from vplotter import config
+from vplotter.backends import create
+from vplotter.motion.schedule import Rows
+from vplotter.motion.sequencer import TABLES, coil_words
 
 
 def synthetic(cfg, seconds: float) -> list[Rows]:

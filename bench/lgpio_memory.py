@@ -7,7 +7,7 @@ LD_PRELOAD (a shim that answers the gpiochip ioctls). Runs `vplotter draw FILE -
 samples, the growth over the first minute and the least-squares slope after --warmup seconds,
 extrapolated to six hours.
 
-    LD_PRELOAD=/tmp/gpiochip_shim.so python bench/lgpio_memory.py --seconds 90
+    LD_PRELOAD=/tmp/gpiochip_shim.so python -m bench.lgpio_memory --seconds 90
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-REPO = Path(__file__).resolve().parent.parent
+from bench import ROOT as REPO
 
 
 def rss_kb(pid: int) -> int | None:
@@ -47,7 +47,7 @@ def main() -> int:
     ap.add_argument("--warmup", type=float, default=20.0)
     args = ap.parse_args()
 
-    env = dict(os.environ, PYTHONPATH=str(REPO / "src"))
+    env = dict(os.environ)
     with tempfile.TemporaryDirectory() as state:
         env["XDG_STATE_HOME"] = state
         if args.file == "zigzag":

@@ -2,7 +2,7 @@
 segment, plan, step schedule, coil words; no trace writing).
 
 The plain machine and the gondola model solve each step in closed form; stretch solves it
-by bracketed Newton steps. Run: python bench/models_speed.py
+by bracketed Newton steps. Run: python -m bench.models_speed
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import numpy as np
 from vplotter import config, kinematics, pipeline
 from vplotter.inputs import gcode
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+from bench import ROOT
 
 
 def main() -> None:

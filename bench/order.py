@@ -7,29 +7,28 @@ number `estimate` prints) in file order and after best, and, when vpype is impor
 travel of vpype's `linesort` (greedy with reversal; vpype_cli.execute) on the same strokes,
 measured the same way (from X0 Y0, no return). vpype's own pen_up_length leaves out the travel
 from the start to the first stroke; the last two columns compare that way (between strokes).
-Then, per layer, generated SVGs (tests/bezier_svg.py, 3 layers): --order best against
+Then, per layer, generated SVGs (tests/support/bezier_svg.py, 3 layers): --order best against
 `vpype read FILE linesort`, between strokes.
 
-Run: python bench/order.py          (vpype is optional: pip install vpype in a throwaway venv)
+Run: python -m bench.order          (vpype is optional: pip install vpype in a throwaway venv)
 """
 
 from __future__ import annotations
 
 import os
-import sys
 import time
 
 import numpy as np
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, os.path.join(ROOT, "src"))
 
-from vplotter import config, kinematics, pipeline  # noqa: E402
-from vplotter.drawing import order  # noqa: E402
-from vplotter.machine import state  # noqa: E402
-from vplotter.inputs import gcode, strokes  # noqa: E402
-from vplotter.motion.segment import CHORD_SHARE  # noqa: E402
-from vplotter.prepare import Prepared, gcode_strokes  # noqa: E402
+from vplotter import config, kinematics, pipeline
+from vplotter.drawing import order
+from vplotter.machine import state
+from vplotter.inputs import gcode, strokes
+from vplotter.motion.segment import CHORD_SHARE
+from vplotter.prepare import Prepared, gcode_strokes
+
+from bench import ROOT
 
 
 def car(cfg) -> list[strokes.Stroke]:
@@ -88,15 +87,17 @@ def between(ss) -> float:
 
 
 def svg_layers(cfg, seeds=(0, 1, 2), n_paths: int = 300) -> None:
-    """Per layer, on SVGs from tests/bezier_svg.py (3 layers, smooth cubics under nested skewed
+    """Per layer, on SVGs from tests/support/bezier_svg.py (3 layers, smooth cubics under nested
+    skewed
     matrices, many ends 0.01-0.1 mm apart): the travel between strokes of `vplotter --order
     best` (prepare(), default join) and of `vpype read FILE linesort` (vpype's own reading,
     pen_up_length of each layer)."""
     import tempfile
     import types
 
-    sys.path.insert(0, os.path.join(ROOT, "tests"))
-    import bezier_svg
+    from bench import test_support
+
+    bezier_svg = test_support("bezier_svg")
     from vplotter.prepare import prepare
 
     try:

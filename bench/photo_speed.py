@@ -13,7 +13,7 @@ Bad files: a decompression bomb (a PNG whose IHDR claims 30000 x 30000, built wi
 zlib: 900 MB of pixels if decoded), an empty file, a text file named .png and a JPEG cut in
 half: exit status, the one line it printed, the time.
 
-Run (from the repository root, in vplotter's venv): python bench/photo_speed.py
+Run (from the repository root, in vplotter's venv): python -m bench.photo_speed
     [--budgets 1h,3h] [--styles hatch,spiral,squiggle,stipple,tsp]   (tsp: stipple --tsp)
 """
 
@@ -25,18 +25,16 @@ import re
 import shutil
 import struct
 import subprocess
-import sys
 import tempfile
 import time
 import zlib
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, os.path.join(ROOT, "bench"))
+from bench import ROOT
 STYLES = ("hatch", "spiral", "squiggle", "stipple")
 
 
 def scene(w: int, h: int):
-    from image_styles import scene as make     # the photo-like scene of bench/image_styles.py
+    from bench.image_styles import scene as make     # the photo-like scene of bench/image_styles.py
 
     return make(w, h)
 

@@ -36,9 +36,9 @@ listed apart).
 
 Test pictures (nothing downloaded: scikit-image bundles its sample photographs; run with a
 python that has it, e.g. a throwaway venv, and keep them out of the repo):
-    /tmp/venv-skimage/bin/python bench/photo_tone.py --make /tmp/photos
+    /tmp/venv-skimage/bin/python -m bench.photo_tone --make /tmp/photos
 Run (from the repository root, in vplotter's venv):
-    python bench/photo_tone.py /tmp/photos [--budgets 1h,3h] [--styles hatch,spiral,tsp]
+    python -m bench.photo_tone /tmp/photos [--budgets 1h,3h] [--styles hatch,spiral,tsp]
         [--hatched-python /tmp/venv-hatched/bin/python] [--keep DIR] [--jobs 2]
 """
 
@@ -58,6 +58,8 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+# the repository's root; not `from bench import ROOT`: the --hatched-worker runs this file by its
+# path in hatched's own venv, where neither bench nor vplotter is importable
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 WIDTH_MM, PEN_MM = 300.0, 0.5
 RASTER = 10            # px/mm of the line rendering
@@ -247,8 +249,9 @@ def plot_time(ngc: str, config: str, *extra) -> float:
 
 def ours(photo: str, style: str, budget: str, out: str, config: str):
     """(pen-down polylines in G-code mm, seconds, spacing note) of vplotter convert."""
-    sys.path.insert(0, os.path.join(ROOT, "tests"))
-    import tracecheck
+    from bench import test_support
+
+    tracecheck = test_support("tracecheck")
 
     t0 = time.perf_counter()
     how = ("--style", "stipple", "--tsp") if style == "tsp" else ("--style", style)

@@ -7,7 +7,7 @@ trace is written first (not timed), then timed:
 - preview: read, validate (plot time), picture + PNG at 1600 px.
 Also a preview of 2,000 short strokes (many shapes in one picture).
 
-Times are CPU seconds of this process (the machine is shared). Run: python bench/pictures.py
+Times are CPU seconds of this process (the machine is shared). Run: python -m bench.pictures
 """
 
 from __future__ import annotations
@@ -15,19 +15,15 @@ from __future__ import annotations
 import contextlib
 import io
 import os
-import sys
 import tempfile
 import time
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.dirname(HERE)
-sys.path.insert(0, HERE)
+from bench import ROOT
+from bench.make.samples import rosettes_file
 
-from samples import rosettes_file  # noqa: E402
-
-from vplotter import config  # noqa: E402
-from vplotter.machine import trace  # noqa: E402
-from vplotter.cli import main  # noqa: E402
+from vplotter import config
+from vplotter.machine import trace
+from vplotter.cli import main
 
 
 def quiet(argv: list[str]) -> float:

@@ -2,13 +2,13 @@
 
 For the seed machine (config.toml) and the two sized machines of tests/data (wall1m.toml,
 wall2m.toml) prints, per file: lines, the planned plot time (`pipeline.validate(...).time_s`,
-the time `estimate` prints), the time-optimal reference of bench/topp.py at the planner's
+the time `estimate` prints), the time-optimal reference of bench/reference/topp.py at the planner's
 derated limits, their ratio, the ratio against the raw limits too, and the worst ratio of the
 set. The files: the samples, tests/data's small varied files and large ones generated for each
-machine's page by bench/varied.py and bench/samples.py. Rows are sorted worst first.
+machine's page by bench/make/varied.py and bench/make/samples.py. Rows are sorted worst first.
 
-Run: python bench/plan_optimal.py [--small] [--machine seed|wall1m|wall2m]
-     python bench/plan_optimal.py --detail FILE [--machine ...]   (the runs that lose most)
+Run: python -m bench.plan_optimal [--small] [--machine seed|wall1m|wall2m]
+     python -m bench.plan_optimal --detail FILE [--machine ...]   (the runs that lose most)
 """
 
 from __future__ import annotations
@@ -20,16 +20,12 @@ import tempfile
 
 import numpy as np
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.dirname(HERE)
-sys.path.insert(0, HERE)
+from bench import ROOT
+from bench.make import samples, varied
+from bench.reference import topp
 
-import samples  # noqa: E402
-import topp  # noqa: E402
-import varied  # noqa: E402
-
-from vplotter import config, kinematics, pipeline  # noqa: E402
-from vplotter.inputs import gcode  # noqa: E402
+from vplotter import config, kinematics, pipeline
+from vplotter.inputs import gcode
 
 MACHINES = {"seed": os.path.join(ROOT, "config.toml"),
             "wall1m": os.path.join(ROOT, "tests", "data", "wall1m.toml"),

@@ -2,7 +2,8 @@
 
 For car.ngc, a generated 15,000-line Inkscape gcodetools drawing (450 short strokes of arcs)
 and a generated 40,000-move file of rosettes, prints:
-- the planned plot time, the time-optimal reference of bench/topp.py (same path, same motor
+- the planned plot time, the time-optimal reference of bench/reference/topp.py (same path, same
+  motor
   limits) and their ratio;
 - the wall time of the whole process `vplotter draw FILE --dry-run` (best of 3; Python start,
   imports, parsing, validation, planning, step schedule and the simulated machine) and how many
@@ -10,7 +11,7 @@ and a generated 40,000-move file of rosettes, prints:
   and the step schedule;
 - that memory stays flat in the length of the file.
 
-Run: python bench/plan_speed.py [FILE ...]
+Run: python -m bench.plan_speed [FILE ...]
 """
 
 from __future__ import annotations
@@ -21,15 +22,12 @@ import sys
 import tempfile
 import time
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.dirname(HERE)
-sys.path.insert(0, HERE)
+from bench import ROOT
+from bench.make.samples import gcodetools_file, rosettes_file
+from bench.reference.topp import reference
 
-from samples import gcodetools_file, rosettes_file  # noqa: E402
-from topp import reference  # noqa: E402
-
-from vplotter import config, kinematics, pipeline  # noqa: E402
-from vplotter.inputs import gcode  # noqa: E402
+from vplotter import config, kinematics, pipeline
+from vplotter.inputs import gcode
 
 
 def start_of(cfg):

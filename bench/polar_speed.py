@@ -5,7 +5,7 @@ Prints, for each file (default: gcode_samples/polar/*.ngc): steps of each motor,
 pipeline (parse, segment, plan, turns at the centre, step times, step/dir words; no trace
 writing), steps per CPU second and plot time / CPU time (a Pi Zero is about 20x slower).
 
-Run: python bench/polar_speed.py [FILE ...]
+Run: python -m bench.polar_speed [FILE ...]
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ import numpy as np
 from vplotter import config, kinematics, pipeline
 from vplotter.inputs import gcode
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+from bench import ROOT
 
 
 def main(files: list[str]) -> None:

@@ -1,11 +1,12 @@
 """The software player under load: a real-time draw on gpiozero's MockFactory while CPU burners
 (`python -c "while True: pass"`) run beside it, the pins timed OUTSIDE vplotter.
 
-    python bench/stress.py [--burners 2] [--side 12] [--config config.toml]
+    python -m bench.stress [--burners 2] [--side 12] [--config config.toml]
 
 Draws a square (side --side mm, pen down, then back to X0 Y0) with `vplotter draw --backend
 gpiozero --verbose`, on MockFactory pins whose class records time.perf_counter_ns() at every
-state change. The pin log is decoded by tests/tracecheck/ (which imports nothing of vplotter)
+state change. The pin log is decoded by tests/support/tracecheck/ (which imports nothing of
+vplotter)
 and compared with the dry run's trace. Prints, per motor, the shortest interval between two
 steps (the limit is 1 / max_step_rate), the illegal coil transitions, whether the decoded steps
 are the dry run's (the patterns after every single pin change equal the dry run's, and so do the
@@ -24,11 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT / "src"))
-sys.path.insert(0, str(ROOT / "tests"))
+from bench import ROOT, test_support
 
-import tracecheck as tc  # noqa: E402
+tc = test_support("tracecheck")
 
 
 def square(side: float) -> str:

@@ -1,13 +1,14 @@
 """The wall fit on simulated walls: how far a 300 mm test drawing is off before and after
-`calibrate fit`, for several true machines (tests/test_fit.py's procedure).
+`calibrate fit`, for several true machines (tests/test_wall_calibration.py's procedure: the
+simulated wall of tests/support/wall.py).
 
 For each wall: `calibrate --at 0 0`, `calibrate pattern --backend fake`, the dots decoded
-through the TRUE geometry by tests/tracecheck/, the pairs "measured" with 0.3 mm noise
+through the TRUE geometry by tests/support/tracecheck/, the pairs "measured" with 0.3 mm noise
 (and once more with one of them mistyped, x10), `calibrate fit`, the test drawing drawn from
 the stored position and decoded through the true geometry, matched to the ideal by a rigid
 move only (ICP, Kabsch without scale): the worst distance both ways.
 
-Run: python bench/wall_fit.py
+Run: python -m bench.wall_fit
 """
 
 from __future__ import annotations
@@ -15,14 +16,12 @@ from __future__ import annotations
 import contextlib
 import io
 import os
-import sys
 import tempfile
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT / "tests"))
+from bench import test_support
 
-import test_fit as tf  # noqa: E402
+tf = test_support("wall")
 
 WALLS = [  # anchor distance +mm, gondola spacing, pen below, circumferences x, stretch, ref off
     dict(d=6.0, sp=40.0, pb=12.0, circ=(1.015, 0.988), k=0.003, off=(5.0, -4.0)),
@@ -42,25 +41,16 @@ def one(wall: dict, seed: int, typo: int | None):
     os.environ["XDG_STATE_HOME"] = str(tmp / "state")
     out = io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(io.StringIO()):
-        pat = tf.drawn_pattern.__wrapped__(_Factory(tmp))
+        (tmp / "pattern").mkdir()
+        pat = tf.draw_pattern(tmp / "pattern")
         os.environ["XDG_STATE_HOME"] = str(tmp / "state2")
-        w = tf.wall.__wrapped__(tmp, pat)
+        w = tf.new_wall(tmp, pat)
         before = tf.draw_and_check(w, "before")
         tf.measure(w["csv"], w["dots"], seed=seed, typo=typo)
         rc = tf.run(w["cfg"], "calibrate", "fit", w["csv"])
         after = tf.draw_and_check(w, "after") if rc == 0 else float("nan")
     named = sum("outlier" in line for line in out.getvalue().splitlines())
     return before, after, rc, named
-
-
-class _Factory:
-    def __init__(self, tmp: Path):
-        self.tmp = tmp
-
-    def mktemp(self, name: str) -> Path:
-        p = self.tmp / name
-        p.mkdir()
-        return p
 
 
 def main() -> None:

@@ -1,7 +1,7 @@
 """What `vplotter serve` costs beside a real-time draw: the draw's timing with and without web
 load, and the server's CPU and memory under that load.
 
-    python bench/web_load.py [--seconds 60] [--pollers 20] [--streams 5] [--poll-s 0.5]
+    python -m bench.web_load [--seconds 60] [--pollers 20] [--streams 5] [--poll-s 0.5]
                              [--one-core]
 
 Plays the same drawing (a zigzag of about --seconds of plot time) twice in real time on the
@@ -33,10 +33,9 @@ import threading
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT / "tests"))
+from bench import ROOT, test_support
 
-import tracecheck as tc  # noqa: E402
+tc = test_support("tracecheck")
 
 
 def zigzag(seconds: float, speed_mm_s: float = 4.0) -> str:

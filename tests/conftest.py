@@ -1,11 +1,13 @@
-"""Shared test fixtures: no test touches the real home directory; hypothesis is deterministic."""
+"""Shared test fixtures: no test touches the real home directory; hypothesis is deterministic.
+
+The helpers the tests share (REPO, tracecheck, the stand-ins) are in tests/support/."""
 
 from pathlib import Path
 
 import pytest
 from hypothesis import settings
 
-REPO = Path(__file__).resolve().parent.parent
+from support import REPO
 
 settings.register_profile("vplotter", derandomize=True, database=None, deadline=None)
 settings.load_profile("vplotter")

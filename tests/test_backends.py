@@ -1,5 +1,6 @@
 """Backends without a Raspberry Pi: the shared software timing loop on a simulated clock, the
-lgpio backend on a stand-in lgpio that simulates its C thread (tests/fake_lgpio.py), gpiozero on
+lgpio backend on a stand-in lgpio that simulates its C thread (tests/support/fake_lgpio.py),
+gpiozero on
 its MockFactory, and one contract every backend keeps. Nothing here really sleeps."""
 
 from __future__ import annotations
@@ -11,7 +12,7 @@ import numpy as np
 import pytest
 from gpiozero.pins.mock import MockFactory, MockPWMPin
 
-from fake_lgpio import FakeLgpio, SimClock
+from support.fake_lgpio import FakeLgpio, SimClock
 from vplotter import config, kinematics, pipeline
 from vplotter.machine import state
 from vplotter.inputs import gcode
@@ -21,7 +22,7 @@ from vplotter.errors import BackendError
 from vplotter.machine.ahead import stretches as _split
 from vplotter.motion.schedule import Rows
 
-from conftest import REPO
+from support import REPO
 
 SHORT = """G21
 G0 X0 Y0
@@ -191,7 +192,7 @@ def test_player_stops_within_a_few_milliseconds():
 
 # ---------------------------------------------------------------- lgpio on the stand-in
 def lgpio_backend(cfg, clock, lg=None, **kw):
-    """The lgpio backend on the stand-in (more in test_lgpio.py)."""
+    """The lgpio backend on the stand-in (more in test_backend_lgpio.py)."""
     lg = lg or FakeLgpio(clock)
     b = create("lgpio", cfg, lgpio=lg, clock=clock.now, sleep=clock.sleep, **kw)
     return b, lg

@@ -1,14 +1,14 @@
-"""End to end: draw files with the fake backend, decode the trace independently (tests/
+"""End to end: draw files with the fake backend, decode the trace independently (tests/support/
 tracecheck/ knows nothing of vplotter) and check what the motors would physically draw."""
 
 import signal  # noqa: F401  (kept for symmetry with test_safety)
 
 import pytest
 
-import tracecheck as tc
+from support import tracecheck as tc
 from vplotter.cli import main
 
-from conftest import REPO
+from support import REPO
 
 SAMPLES = sorted((REPO / "gcode_samples").glob("*.ngc")) + [REPO / "tests" / "data" / "corners.ngc"]
 

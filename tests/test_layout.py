@@ -7,7 +7,7 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
-from conftest import REPO
+from support import REPO
 
 SRC = Path(REPO) / "src"
 MAX_LINES = 500

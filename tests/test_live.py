@@ -14,11 +14,11 @@ import sys
 import numpy as np
 import pytest
 
-import tracecheck as tc
+from support import tracecheck as tc
 from vplotter.machine import live, lock, state
 from vplotter.cli import main
 
-from conftest import REPO
+from support import REPO
 from test_safety import SHORT  # the same short drawing
 
 MEDIUM = """G21 G90

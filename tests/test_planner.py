@@ -8,7 +8,7 @@ from vplotter.motion.planner import RATE_MARGIN, Planner
 from vplotter.motion.refine import MAX_PARTS
 from vplotter.motion.schedule import Scheduler
 
-from conftest import REPO
+from support import REPO
 
 CFG = config.load(REPO / "config.toml")
 KIN = kinematics.from_config(CFG)
@@ -197,16 +197,16 @@ SIZED = {"seed": REPO / "config.toml", "wall1m": REPO / "tests" / "data" / "wall
                                                                     "square.ngc", "long_line.ngc")]
                          + [(m, f"tests/data/{n}") for m in SIZED for n in VARIED])
 def test_plot_time_is_close_to_time_optimal(machine, name):
-    """bench/topp.py computes the time-optimal parameterisation of the same path under the
-    same motor limits (the planner's derated ones; the pen within tolerance_mm at corners);
-    the plan is within 5 % of it, and of the reference at the raw limits too, on the seed
-    machine and on a 1 m and a 2 m wall (tests/data: other anchors, pages, spools, rates and
-    accelerations), for the samples and the varied small files of bench/varied.py."""
+    """bench/reference/topp.py computes the time-optimal parameterisation of the same path
+    under the same motor limits (the planner's derated ones; the pen within tolerance_mm at
+    corners); the plan is within 5 % of it, and of the reference at the raw limits too, on the
+    seed machine and on a 1 m and a 2 m wall (tests/data: other anchors, pages, spools, rates
+    and accelerations), for the samples and the varied small files of bench/make/varied.py."""
     import sys
 
-    sys.path.insert(0, str(REPO / "bench"))
+    sys.path.insert(0, str(REPO))      # bench/ is a package at the repository's root
     try:
-        import topp
+        from bench.reference import topp
     finally:
         sys.path.pop(0)
     cfg = config.load(SIZED[machine])
@@ -225,7 +225,7 @@ def test_plot_time_is_close_to_time_optimal(machine, name):
 def test_sized_machines_keep_the_limits(machine, name, tmp_path):
     """Dry-run traces of the varied files on the sized machines, decoded by tracecheck: step
     rate, 0.1 s-window acceleration, settling, release and accuracy (0.02 mm both ways)."""
-    import tracecheck as tc
+    from support import tracecheck as tc
     from vplotter.cli import main
 
     gfile, trace = REPO / "tests" / "data" / name, tmp_path / "t.csv"

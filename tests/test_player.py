@@ -1,6 +1,7 @@
 """The software timing loop (realtime.Player) under load, on a simulated clock: stalls in the
 sleep, in the spin, and in the middle of a pin write. Whatever they are, the pins (recorded
-with the time of each single pin change, decoded by tests/tracecheck/) never show two steps of
+with the time of each single pin change, decoded by tests/support/tracecheck/) never show two
+steps of
 one motor closer than 1 / max_step_rate, an illegal coil transition, a pen change sooner than
 planned after the last step, or a step sooner than planned after a pen change; lateness moves
 the rest of the timeline instead of being made up."""
@@ -13,8 +14,8 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-import tracecheck as tc
-from fake_lgpio import SimClock
+from support import tracecheck as tc
+from support.fake_lgpio import SimClock
 from test_backends import SHORT, concat, make_rows, steady
 from vplotter import config, kinematics, pipeline
 from vplotter.machine import state
@@ -24,7 +25,7 @@ from vplotter.inputs import gcode
 from vplotter.machine.ahead import stretches as _split
 from vplotter.motion.sequencer import TABLES
 
-from conftest import REPO
+from support import REPO
 
 CFG = config.load(REPO / "config.toml")
 TC_CFG = tc.load_config(REPO / "config.toml")

@@ -1,5 +1,5 @@
 """prepare(), info and convert, the file options on draw/estimate, and what the motors draw for a
-placed and ordered file (decoded by tests/tracecheck/)."""
+placed and ordered file (decoded by tests/support/tracecheck/)."""
 
 from __future__ import annotations
 
@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 from hypothesis import given, strategies as st
 
-import tracecheck as tc
-from conftest import REPO
+from support import tracecheck as tc
+from support import REPO
 from vplotter import config
 from vplotter.drawing import order
 from vplotter.cli import main

@@ -13,12 +13,12 @@ import sys
 import numpy as np
 import pytest
 
-import tracecheck as tc
+from support import tracecheck as tc
 from vplotter.machine import lock, state
 from vplotter.backends.fake import FakeBackend
 from vplotter.cli import main
 
-from conftest import REPO
+from support import REPO
 
 CIRCLES = REPO / "gcode_samples" / "circles.ngc"
 

@@ -11,9 +11,9 @@ import pytest
 from gpiozero.pins.mock import MockFactory
 from hypothesis import given, strategies as st
 
-import tracecheck as tc
-from tracecheck import polar as tp
-from fake_lgpio import FakeLgpio, SimClock
+from support import tracecheck as tc
+from support.tracecheck import polar as tp
+from support.fake_lgpio import FakeLgpio, SimClock
 from vplotter import config, kinematics, pipeline
 from vplotter.motion import drivers
 from vplotter.machine import state
@@ -23,7 +23,7 @@ from vplotter.errors import ConfigError
 from vplotter.inputs import gcode
 from vplotter.machine.ahead import stretches as _split
 
-from conftest import REPO
+from support import REPO
 from test_safety import interrupt_after
 
 STEPDIR = """

@@ -1,4 +1,4 @@
-"""Tests of the independent trace checker (tests/tracecheck/) itself.
+"""Tests of the independent trace checker (tests/support/tracecheck/) itself.
 
 All traces here are synthetic and built in the tests; nothing from the
 vplotter package is used.
@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-import tracecheck as tc
+from support import tracecheck as tc
 
 CFG = tc.load_config(None)
 SPM = 4096 / 25.0                    # 163.84 steps per mm of cord

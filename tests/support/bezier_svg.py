@@ -9,7 +9,7 @@ non-uniform scale, rotation); paths are chains of C1-smooth cubic segments, open
 start to start, and an open end next to a node of a closed path), the two paths far apart
 in the file and often in other groups or layers.
 
-Used by tests/test_order_geometry.py and bench/order_geometry.py.
+Used by tests/test_order_keeps_the_lines.py and bench/order_geometry.py.
 """
 
 from __future__ import annotations
@@ -97,13 +97,10 @@ def _chain(rng, start: np.ndarray, k: int, size: float, closed: bool,
     return segs
 
 
-def make(seed: int = 0, n_paths: int = 60, n_layers: int = 2, width: float = 300.0,
-         height: float = 400.0, pairs: int = 20, gap=(0.01, 0.1), n: int = 2000):
-    """(svg text, true curves: list of (N, 2) arrays in G-code mm, one per path; n points per
-    cubic segment)."""
-    rng = np.random.default_rng(seed)
+def _groups(rng, n_layers: int, width: float, height: float) -> list:
+    """Per layer a matrix group, and inside it one or two nested matrix groups: (layer, chain
+    of matrices from the layer down, full map to G-code mm)."""
     page = np.array([[1.0, 0, -width / 2], [0, -1.0, height / 2], [0, 0, 1]])
-    # groups: per layer a matrix group, and inside it one or two nested matrix groups
     groups = []              # (layer, chain of matrices from the layer down, full map)
     for lay in range(n_layers):
         centre = rng.uniform([0.3 * width, 0.3 * height], [0.7 * width, 0.7 * height])
@@ -117,6 +114,40 @@ def make(seed: int = 0, n_paths: int = 60, n_layers: int = 2, width: float = 300
             for m in chain:
                 full = full @ m
             groups.append((lay, chain, full))
+    return groups
+
+
+def _svg(groups: list, paths: list, n_layers: int, width: float, height: float, n: int):
+    """(svg text, true curves) of the paths in their groups, layer by layer."""
+    body = []
+    true = []
+    for lay in range(n_layers):
+        gis = [i for i, g in enumerate(groups) if g[0] == lay]
+        m_layer = groups[gis[0]][1][0]
+        body.append(f'<g inkscape:groupmode="layer" id="layer{lay + 1}" '
+                    f'inkscape:label="L{lay + 1}" transform="{_svg_matrix(m_layer)}">')
+        for gi in gis:
+            chain = groups[gi][1]
+            for m in chain[1:]:
+                body.append(f'<g transform="{_svg_matrix(m)}">')
+            for p in paths:
+                if p.group == gi:
+                    body.append(f'<path fill="none" stroke="black" d="{p.d()}"/>')
+                    true.append(np.concatenate([true_bezier(_apply(groups[gi][2], c), n)
+                                                for c in p.segs]))
+            body.append("</g>" * (len(chain) - 1))
+        body.append("</g>")
+    text = (f'<svg {NS} width="{width}mm" height="{height}mm" viewBox="0 0 {width} {height}">'
+            + "\n".join(body) + "</svg>\n")
+    return text, true
+
+
+def make(seed: int = 0, n_paths: int = 60, n_layers: int = 2, width: float = 300.0,
+         height: float = 400.0, pairs: int = 20, gap=(0.01, 0.1), n: int = 2000):
+    """(svg text, true curves: list of (N, 2) arrays in G-code mm, one per path; n points per
+    cubic segment)."""
+    rng = np.random.default_rng(seed)
+    groups = _groups(rng, n_layers, width, height)
     size = 0.04 * min(width, height)
     paths: list[_Path] = []
 
@@ -162,24 +193,4 @@ def make(seed: int = 0, n_paths: int = 60, n_layers: int = 2, width: float = 300
     perm = rng.permutation(len(paths))      # the near pairs far apart in the file
     paths = [paths[i] for i in perm]
 
-    body = []
-    true = []
-    for lay in range(n_layers):
-        gis = [i for i, g in enumerate(groups) if g[0] == lay]
-        m_layer = groups[gis[0]][1][0]
-        body.append(f'<g inkscape:groupmode="layer" id="layer{lay + 1}" '
-                    f'inkscape:label="L{lay + 1}" transform="{_svg_matrix(m_layer)}">')
-        for gi in gis:
-            chain = groups[gi][1]
-            for m in chain[1:]:
-                body.append(f'<g transform="{_svg_matrix(m)}">')
-            for p in paths:
-                if p.group == gi:
-                    body.append(f'<path fill="none" stroke="black" d="{p.d()}"/>')
-                    true.append(np.concatenate([true_bezier(_apply(groups[gi][2], c), n)
-                                                for c in p.segs]))
-            body.append("</g>" * (len(chain) - 1))
-        body.append("</g>")
-    text = (f'<svg {NS} width="{width}mm" height="{height}mm" viewBox="0 0 {width} {height}">'
-            + "\n".join(body) + "</svg>\n")
-    return text, true
+    return _svg(groups, paths, n_layers, width, height, n)

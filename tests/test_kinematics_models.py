@@ -170,8 +170,8 @@ CASES = [("spacing", "corners.ngc"), ("stretch", "corners.ngc"), ("spools", "cor
 def test_trace_under_the_models_draws_the_path(name, gname, config_path, tmp_path, capsys):
     """The dry-run trace decoded through the models by tracecheck (which knows nothing of
     vplotter) stays within 0.02 mm of the path both ways, within every motor limit."""
-    import tracecheck as tc
-    from conftest import REPO
+    from support import tracecheck as tc
+    from support import REPO
     from vplotter.cli import main
 
     gfile = REPO / ("gcode_samples" if gname == "car.ngc" else "tests/data") / gname
@@ -182,13 +182,15 @@ def test_trace_under_the_models_draws_the_path(name, gname, config_path, tmp_pat
     cfg = tc.load_config(cfg_path)
     tr = tc.read_trace(trace)
     assert tc.verify(tr, gfile, cfg, tol_mm=0.02) == []
-    # the same trace read as the plain machine is off by far more: the check can fail
+    # the same trace read as the plain machine is off by far more: the check can fail. Every
+    # 20th pen-down point is enough to show it (mm off): a subset's largest distance from the
+    # path is a lower bound of accuracy()'s, so this passes only where accuracy() > 0.1 would
     plain = tc.decode(tr, tc.load_config(config_path))
-    assert max(tc.accuracy(plain, tc.reference_path(gfile))) > 0.1
+    assert tc.distances_to_polylines(plain.down_points[::20], tc.reference_path(gfile)).max() > 0.1
 
 
 def test_tracecheck_models_agree_with_the_package():
-    import tracecheck as tc
+    from support import tracecheck as tc
 
     cfg = tc.load_config({"gondola": {"cord_spacing_mm": 40.0, "pen_below_mm": 15.0},
                           "cords": {"stretch": 0.004}})

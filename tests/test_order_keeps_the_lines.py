@@ -4,7 +4,7 @@ segments, and a pen-down join bridges only ends within the flattening tolerance.
 Checked on the records prepare() gives the pipeline (random strokes with nearly touching ends
 and closed rings: the drawn segments, as unordered pairs of points, are the input's plus joins
 no longer than the join limit), and end to end on an SVG of smooth cubics under nested skewed
-matrices (tests/bezier_svg.py), against its true curves computed there: the records and the
+matrices (tests/support/bezier_svg.py), against its true curves computed there: the records and the
 decoded dry-run trace of --order best lie within the tolerance of the true geometry both ways.
 """
 
@@ -17,9 +17,9 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-import bezier_svg
-import tracecheck as tc
-from conftest import REPO
+from support import bezier_svg
+from support import tracecheck as tc
+from support import REPO
 from vplotter import config
 from vplotter.cli import main
 from vplotter.drawing import order

@@ -9,13 +9,13 @@ import signal
 import numpy as np
 import pytest
 
-import tracecheck as tc
+from support import tracecheck as tc
 from test_safety import interrupt_after
 from vplotter.motion import drivers
 from vplotter.cli import main
 from vplotter.config import load
 
-from conftest import REPO
+from support import REPO
 
 SAMPLES = REPO / "gcode_samples"
 

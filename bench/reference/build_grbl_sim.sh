@@ -6,7 +6,7 @@
 #   3. SREG is one per thread (the simulated interrupts no longer restore the main loop's
 #      "interrupts disabled" state: without it, `?` queries during motion stall it for ever).
 #
-#   sh bench/build_grbl_sim.sh DIR      # clones into DIR (or uses DIR/grbl if it is there)
+#   sh bench/reference/build_grbl_sim.sh DIR   # clones into DIR (or uses DIR/grbl if it is there)
 #   -> DIR/grbl/grbl-sim/grbl_sim.exe
 #
 # Tested with gnea/grbl bfb67f0 and grbl/grbl-sim 9bdd165.

@@ -1,5 +1,5 @@
 """The lgpio backend (and gpiozero on its lgpio pin factory) on the stand-in lgpio
-(tests/fake_lgpio.py), which is as unkind as lgpio 0.2.2: catch-up bursts after a stall,
+(tests/support/fake_lgpio.py), which is as unkind as lgpio 0.2.2: catch-up bursts after a stall,
 retained wave buffers, the head-free hang, servo trains cut by tx_servo(pin, 0), gpiozero's
 whole-percent duty cycle, the notify FIFO, gpiochip errors. Nothing here really sleeps."""
 
@@ -11,8 +11,8 @@ import sys
 import numpy as np
 import pytest
 
-from fake_lgpio import (COLD_WRITE_US, HOT_WRITE_US, FakeLgpio, SimClock, expected_coil_changes,
-                        pulse)
+from support.fake_lgpio import (COLD_WRITE_US, HOT_WRITE_US, FakeLgpio, SimClock,
+                                expected_coil_changes, pulse)
 from test_backends import cfg, concat, make_rows, parts, pen_changes, rechunk, row_changes  # noqa: F401 (fixtures)
 from vplotter import config
 from vplotter.machine import state

@@ -16,7 +16,7 @@ The limits are by default the planner's derated ones (0.998 x max_step_rate, 0.9
 max_accel, see `limits`): the plan has to stay inside them, so that is the fair yardstick;
 `reference(..., derated=False)` gives the bound at the raw limits.
 
-Run: python bench/topp.py FILE [...]   (prints reference time, planned time and their ratio)
+Run: python -m bench.reference.topp FILE [...]   (prints reference time, planned time, ratio)
 """
 
 from __future__ import annotations
@@ -212,8 +212,9 @@ def reference(cfg, path, derated=True):
 
 
 def main(argv):
-    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    cfg = config.load(os.path.join(root, "config.toml"))
+    from bench import ROOT
+
+    cfg = config.load(ROOT / "config.toml")
     kin = kinematics.from_config(cfg)
     cords = kin.inverse(kin.to_machine([[0.0, 0.0]]))[0]
     for path in argv:

@@ -14,7 +14,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 from PIL import Image
 
-from conftest import REPO
+from support import REPO
 from vplotter.errors import InputError
 from vplotter.inputs.hatch import hatch_mask, hatch_polygons
 from vplotter.inputs.image import style

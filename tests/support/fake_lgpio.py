@@ -36,6 +36,7 @@ nothing really sleeps. Outputs are logged as (t_us, gpio or "group", value) in t
 from __future__ import annotations
 
 import errno
+import math
 import os
 from types import SimpleNamespace
 
@@ -63,10 +64,12 @@ class SimClock:
         self.tick_ns = tick_ns
         self.oversleep_ns = oversleep_ns
         self._at: list = []
+        self._next = math.inf            # the earliest time in _at: the player spins on now()
 
     def now(self) -> int:
         self.ns += self.tick_ns
-        self._fire()
+        if self.ns >= self._next:
+            self._fire()
         return self.ns
 
     def sleep(self, seconds: float) -> None:
@@ -77,12 +80,14 @@ class SimClock:
 
     def at(self, t_ns: int, fn) -> None:
         self._at.append((t_ns, fn))
+        self._next = min(self._next, t_ns)
 
     def _fire(self) -> None:
         due = [e for e in self._at if e[0] <= self.ns]
         for e in due:
             self._at.remove(e)
             e[1]()
+        self._next = min((e[0] for e in self._at), default=math.inf)
 
 
 class error(Exception):

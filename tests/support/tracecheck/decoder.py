@@ -180,7 +180,15 @@ def decode(trace, cfg: dict | None = None, start_xy=(0.0, 0.0), start_q=None) ->
     g_us = t_us[new_group]
     g_t = g_us / 1e6
     dec.end_time = float(g_t[-1])
+    net_steps = _decode_motors(dec, c, names, gid, pin, value, G, g_us, g_t)
+    pen_state = _decode_pen(dec, c, gid, pin, value, G, g_t)
+    _pen_points(dec, c, (L0, R0), spu, net_steps, pen_state, g_t)
+    return dec
 
+
+def _decode_motors(dec: Decoded, c: dict, names, gid, pin, value, G: int, g_us, g_t) -> dict:
+    """Each motor's steps (dec.steps) and illegal transitions (dec.illegal, dec.n_illegal), as
+    decode() describes them; returns the net steps of each motor after every instant."""
     table, n = _pattern_table(c["motors"].get("drive", "half"))
     coils = _coil_pins(c)
     net_steps: dict[str, np.ndarray] = {}
@@ -251,8 +259,12 @@ def decode(trace, cfg: dict | None = None, start_xy=(0.0, 0.0), start_q=None) ->
     dec.illegal = [m for _, m in illegal_msgs[:ILLEGAL_MESSAGE_CAP]]
     if illegal_total > len(dec.illegal):
         dec.illegal.append(f"... {illegal_total - len(dec.illegal)} more illegal transitions")
+    return net_steps
 
-    # pen
+
+def _decode_pen(dec: Decoded, c: dict, gid, pin, value, G: int, g_t) -> np.ndarray:
+    """The pen's values and events (dec.pen_values, dec.pen_events); returns its state (1 =
+    down) after every instant."""
     pen_pin = int(c["pen"]["pin"])
     up_us, down_us = int(c["pen"]["up_us"]), int(c["pen"]["down_us"])
     pm = pin == pen_pin
@@ -264,10 +276,17 @@ def decode(trace, cfg: dict | None = None, start_xy=(0.0, 0.0), start_q=None) ->
     schg = np.flatnonzero(pen_state[1:] != pen_state[:-1]) + 1
     dec.pen_events = ([(float(g_t[0]), True)] if pen_state[0] else []) + \
         [(float(g_t[i]), bool(pen_state[i])) for i in schg]
+    return pen_state
 
-    # pen points
+
+def _pen_points(dec: Decoded, c: dict, start_cords, spu, net_steps: dict, pen_state, g_t) -> None:
+    """The pen points (dec.t, cords, x, y, pen_down) at the first instant and wherever a cord
+    or the pen state changed; cords that cannot be triangulated are a problem."""
+    polar = tp.kind(c) == "polar"
+    names = tp.motor_names(c)
+    L0, R0 = start_cords
     nl, nr = net_steps[names[0]], net_steps[names[1]]
-    changed = np.zeros(G, dtype=bool)
+    changed = np.zeros(len(g_t), dtype=bool)
     changed[0] = True
     changed[1:] = (nl[1:] != nl[:-1]) | (nr[1:] != nr[:-1]) | (pen_state[1:] != pen_state[:-1])
     sel = np.flatnonzero(changed)
@@ -284,4 +303,3 @@ def decode(trace, cfg: dict | None = None, start_xy=(0.0, 0.0), start_q=None) ->
         dec.problems.append(f"{int(nan.sum())} cord states cannot be triangulated "
                             f"(first at t={dec.t[i]:.6f}: left={dec.left_mm[i]:.4f} "
                             f"right={dec.right_mm[i]:.4f})")
-    return dec

@@ -7,7 +7,7 @@ the left and the right motor against time, the limit +-max_step_rate as dashed l
 pen-down time shaded. The picture in docs/timing.md was made with:
 
     vplotter draw gcode_samples/car.ngc --dry-run --trace /tmp/car.csv
-    python bench/timing_plot.py /tmp/car.csv config.toml -o docs/img/timing-car.png \
+    python -m bench.reference.timing_plot /tmp/car.csv config.toml -o docs/img/timing-car.png \
         --start 0 --seconds 120
 """
 
@@ -71,6 +71,19 @@ def pen_down(t, pin, val, pen_pin, down_us):
     if start is not None:
         spans.append((start, t[-1]))
     return spans
+
+
+def legend(d, font, x, top, k, rate) -> None:
+    """The legend above the plot, from x to the right."""
+    for label, colour in (("left motor", LEFT), ("right motor", RIGHT),
+                          (f"limit +-{rate:g}", LIMIT), ("pen down", PEN)):
+        if colour == PEN:
+            d.rectangle([x, top - 20 * k, x + 22 * k, top - 8 * k], fill=PEN,
+                        outline=(180, 180, 180))
+        else:
+            d.line([x, top - 14 * k, x + 22 * k, top - 14 * k], fill=colour, width=3 * k)
+        d.text((x + 28 * k, top - 14 * k), label, fill="black", font=font, anchor="lm")
+        x += (len(label) * 7 + 50) * k
 
 
 def main() -> None:
@@ -140,15 +153,7 @@ def main() -> None:
     for name, colour, r in series:
         pts = [(X(c), Y(v)) for c, v in zip(centres, r)]
         d.line(pts, fill=colour, width=2 * k, joint="curve")
-    x = left + 230 * k                             # legend
-    for label, colour in (("left motor", LEFT), ("right motor", RIGHT),
-                          (f"limit +-{rate:g}", LIMIT), ("pen down", PEN)):
-        if colour == PEN:
-            d.rectangle([x, top - 20 * k, x + 22 * k, top - 8 * k], fill=PEN, outline=(180, 180, 180))
-        else:
-            d.line([x, top - 14 * k, x + 22 * k, top - 14 * k], fill=colour, width=3 * k)
-        d.text((x + 28 * k, top - 14 * k), label, fill="black", font=font, anchor="lm")
-        x += (len(label) * 7 + 50) * k
+    legend(d, font, left + 230 * k, top, k, rate)
     img = img.resize((W, H), getattr(Image, "Resampling", Image).LANCZOS)
     img.save(a.output, optimize=True)
     peak = max(float(np.abs(r).max()) for _, _, r in series)

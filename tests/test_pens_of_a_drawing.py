@@ -1,5 +1,5 @@
 """The pen model in the pipeline (drawing/pens.py, prepare's records, G-code tool changes,
-info, convert, estimate and dry runs). tests/test_pens.py is about the servo backend."""
+info, convert, estimate and dry runs). tests/test_pen_kinds.py is about the servo backend."""
 
 from __future__ import annotations
 
@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 from hypothesis import given, strategies as st
 
-import tracecheck as tc
-from conftest import REPO
+from support import tracecheck as tc
+from support import REPO
 from vplotter import config
 from vplotter.cli import main
 from vplotter.commands.files import write_gcode

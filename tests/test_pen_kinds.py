@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from gpiozero.pins.mock import MockFactory, MockPin
 
-from fake_lgpio import FakeLgpio, SimClock
+from support.fake_lgpio import FakeLgpio, SimClock
 from vplotter import config, kinematics, pipeline
 from vplotter.machine import state
 from vplotter.backends import create
@@ -16,7 +16,7 @@ from vplotter.cli import main
 from vplotter.errors import MachineError
 from vplotter.inputs import gcode
 
-from conftest import REPO
+from support import REPO
 
 SHORT = "G21\nG0 X1 Y1\nM3\nG1 X3 Y1 F240\nM5\nG0 X0 Y0\n"
 

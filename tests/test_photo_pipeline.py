@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from PIL import Image, ImageDraw
 
-import tracecheck as tc
-from conftest import REPO
+from support import tracecheck as tc
+from support import REPO
 from vplotter import budget
 from vplotter.cli import main
 

@@ -11,13 +11,13 @@ import numpy as np
 import pytest
 from hypothesis import assume, given, settings, strategies as st
 
-import tracecheck as tc
+from support import tracecheck as tc
 from vplotter import config
 from vplotter.machine import state
 from vplotter.cli import main
 from vplotter.kinematics.polar import Polar
 
-from conftest import REPO
+from support import REPO
 
 POLAR = REPO / "examples" / "polar.toml"
 SAMPLES = sorted((REPO / "gcode_samples" / "polar").glob("*.ngc"))

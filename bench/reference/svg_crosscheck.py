@@ -1,6 +1,6 @@
 """Cross-check the SVG reader against svgelements' own geometry, file by file.
 
-    python bench/svg_crosscheck.py FILE.svg ...   (e.g. $(find /usr/share -name '*.svg'))
+    python -m bench.reference.svg_crosscheck FILE.svg ...   (e.g. $(find /usr/share -name '*.svg'))
 
 For each file: vplotter's strokes (tolerance 0.005 mm) and svgelements' transformed segments
 (lines exact, curves at 400 points each), both in G-code mm with the default placement,

@@ -4,7 +4,7 @@ coil patterns (half-step table), illegal transitions, pen pulse widths; with a d
 (`vplotter draw FILE --dry-run --trace dry.csv`), whether the played coil patterns equal the
 planned ones, pattern for pattern. Independent of vplotter (reads only config.toml).
 
-    python bench/shim_decode.py pins.log config.toml [dry.csv]
+    python -m bench.reference.shim_decode pins.log config.toml [dry.csv]
 
 How the figures in the README's "Measured on the real lgpio library" were made: build the
 shim from its source with gcc into /tmp, `vplotter calibrate --at 0 0`, then

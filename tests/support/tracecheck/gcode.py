@@ -155,20 +155,13 @@ def reference_path(gcode, start_xy=(0.0, 0.0), spacing: float = 0.005,
     radius (I/J form) the arc is a spiral whose radius is linear in the swept
     angle around the I/J centre, ending exactly at the end point.
     """
-    text = _read_gcode_text(gcode)
-    lines = [(i + 1, _clean_line(raw)) for i, raw in enumerate(text.splitlines())]
-    blocks = []
-    for lineno, s in lines:
-        if s:
-            blocks.append((lineno, *_parse_block(s, lineno)))
+    blocks = _blocks(_read_gcode_text(gcode))
     z_file = any("Z" in vals for _, _, _, vals in blocks)
 
     pos = np.array([float(start_xy[0]), float(start_xy[1])])
-    scale = 1.0           # mm per program unit
-    absolute = True
+    scale, absolute = 1.0, True          # mm per program unit, G90
     motion: str | None = None
-    z = 0.0
-    pen = False
+    z, pen = 0.0, False
     polylines: list[np.ndarray] = []
     current: list[np.ndarray] = []
     tool: list[np.ndarray] = [pos.reshape(1, 2).copy()]
@@ -183,37 +176,8 @@ def reference_path(gcode, start_xy=(0.0, 0.0), spacing: float = 0.005,
         pen = down
 
     for lineno, gs, ms, vals in blocks:
-        block_motion = None
-        for g in gs:
-            if g in ("0", "1", "2", "3"):
-                if block_motion is not None:
-                    raise GCodeError(f"line {lineno}: two motion codes in one block")
-                block_motion = g
-            elif g == "20":
-                scale = 25.4
-            elif g == "21":
-                scale = 1.0
-            elif g == "90":
-                absolute = True
-            elif g == "91":
-                absolute = False
-            elif g == "4" or g in IGNORED_G:
-                pass
-            else:
-                raise GCodeError(f"line {lineno}: unsupported G{g}")
-        end_program = False
-        pen_cmd = None
-        for m in ms:
-            if m in ("2", "30"):
-                end_program = True
-            elif m == "3":
-                pen_cmd = True
-            elif m == "5":
-                pen_cmd = False
-            elif m in IGNORED_M:
-                pass
-            else:
-                raise GCodeError(f"line {lineno}: unsupported M{m}")
+        block_motion, scale, absolute = _g_codes(gs, lineno, scale, absolute)
+        end_program, pen_cmd = _m_codes(ms, lineno)
         if block_motion is not None:
             motion = block_motion
         # pen change first
@@ -223,36 +187,14 @@ def reference_path(gcode, start_xy=(0.0, 0.0), spacing: float = 0.005,
                 pen_set(z < 0)
         elif pen_cmd is not None:
             pen_set(pen_cmd)
-        # motion
-        has_xy = "X" in vals or "Y" in vals
-        has_arc = "I" in vals or "J" in vals or "R" in vals
-        mode = motion if motion is not None else "0"
-        if mode in ("0", "1"):
-            if has_arc:
-                raise GCodeError(f"line {lineno}: I/J/R without G2/G3")
-        if has_xy or (mode in ("2", "3") and has_arc):
-            target = pos.copy()
-            for k, axis in ((0, "X"), (1, "Y")):
-                if axis in vals:
-                    target[k] = vals[axis] * scale if absolute else pos[k] + vals[axis] * scale
-            if mode in ("0", "1"):
-                pts = _sample_line(pos, target, spacing)
-            else:
-                cw = mode == "2"
-                if "R" in vals:
-                    if "I" in vals or "J" in vals:
-                        raise GCodeError(f"line {lineno}: both R and I/J")
-                    centre = _centre_from_r(pos, target, vals["R"] * scale, cw, lineno)
-                else:
-                    if not ("I" in vals or "J" in vals):
-                        raise GCodeError(f"line {lineno}: arc without I/J/R")
-                    centre = pos + np.array([vals.get("I", 0.0), vals.get("J", 0.0)]) * scale
-                pts = _sample_arc(pos, target, centre, cw, spacing)
+        moved = _motion(pos, vals, motion if motion is not None else "0", scale, absolute,
+                        spacing, lineno)
+        if moved is not None:
+            pos, pts = moved
             if len(pts):
                 tool.append(pts)
-            if pen and len(pts):
-                current.append(pts)
-            pos = target
+                if pen:
+                    current.append(pts)
         if end_program:
             break
     if travel:
@@ -260,6 +202,86 @@ def reference_path(gcode, start_xy=(0.0, 0.0), spacing: float = 0.005,
     if pen:
         polylines.append(np.concatenate(current))
     return polylines
+
+
+def _blocks(text: str) -> list:
+    """(line number, G codes, M codes, values) of every block that is not empty."""
+    lines = [(i + 1, _clean_line(raw)) for i, raw in enumerate(text.splitlines())]
+    blocks = []
+    for lineno, s in lines:
+        if s:
+            blocks.append((lineno, *_parse_block(s, lineno)))
+    return blocks
+
+
+def _g_codes(gs, lineno: int, scale: float, absolute: bool):
+    """The block's motion code (or None), and the units (mm per program unit) and distance
+    mode after its G words."""
+    block_motion = None
+    for g in gs:
+        if g in ("0", "1", "2", "3"):
+            if block_motion is not None:
+                raise GCodeError(f"line {lineno}: two motion codes in one block")
+            block_motion = g
+        elif g == "20":
+            scale = 25.4
+        elif g == "21":
+            scale = 1.0
+        elif g == "90":
+            absolute = True
+        elif g == "91":
+            absolute = False
+        elif g == "4" or g in IGNORED_G:
+            pass
+        else:
+            raise GCodeError(f"line {lineno}: unsupported G{g}")
+    return block_motion, scale, absolute
+
+
+def _m_codes(ms, lineno: int):
+    """(the program ends after this block, the pen command: True down, False up, None)."""
+    end_program = False
+    pen_cmd = None
+    for m in ms:
+        if m in ("2", "30"):
+            end_program = True
+        elif m == "3":
+            pen_cmd = True
+        elif m == "5":
+            pen_cmd = False
+        elif m in IGNORED_M:
+            pass
+        else:
+            raise GCodeError(f"line {lineno}: unsupported M{m}")
+    return end_program, pen_cmd
+
+
+def _motion(pos, vals: dict, mode: str, scale: float, absolute: bool, spacing: float,
+            lineno: int):
+    """(target, sampled points) of the block's motion in `mode`, or None if it does not move."""
+    has_xy = "X" in vals or "Y" in vals
+    has_arc = "I" in vals or "J" in vals or "R" in vals
+    if mode in ("0", "1"):
+        if has_arc:
+            raise GCodeError(f"line {lineno}: I/J/R without G2/G3")
+    if not (has_xy or (mode in ("2", "3") and has_arc)):
+        return None
+    target = pos.copy()
+    for k, axis in ((0, "X"), (1, "Y")):
+        if axis in vals:
+            target[k] = vals[axis] * scale if absolute else pos[k] + vals[axis] * scale
+    if mode in ("0", "1"):
+        return target, _sample_line(pos, target, spacing)
+    cw = mode == "2"
+    if "R" in vals:
+        if "I" in vals or "J" in vals:
+            raise GCodeError(f"line {lineno}: both R and I/J")
+        centre = _centre_from_r(pos, target, vals["R"] * scale, cw, lineno)
+    else:
+        if not ("I" in vals or "J" in vals):
+            raise GCodeError(f"line {lineno}: arc without I/J/R")
+        centre = pos + np.array([vals.get("I", 0.0), vals.get("J", 0.0)]) * scale
+    return target, _sample_arc(pos, target, centre, cw, spacing)
 
 
 def _centre_from_r(p0, p1, r, clockwise, lineno):

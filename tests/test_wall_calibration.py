@@ -1,4 +1,4 @@
-"""The wall fit on a simulated wall.
+"""The wall fit (`calibrate pattern` / `calibrate fit`) on a simulated wall.
 
 A machine whose true parameters differ from config.toml (anchor distance, the point where
 `calibrate --at 0 0` really put the pen, both spool circumferences, a gondola that holds the
@@ -7,176 +7,31 @@ through the TRUE geometry by tracecheck (which knows nothing of vplotter) into d
 the asked-for pairs are "measured" with 0.3 mm ruler noise; `calibrate fit` runs; a test
 drawing about 300 mm across is drawn from the stored position and decoded through the true
 geometry. Matched to the ideal by a rigid move only, it must be within 0.5 mm everywhere
-(several mm off before the fit).
+(several mm off before the fit). The simulated wall is tests/support/wall.py.
 """
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy.spatial import cKDTree
 
-import tracecheck as tc
-from conftest import REPO
+from support import tracecheck as tc
+from support.wall import (TRUE_ANCHOR_MM, TRUE_CIRC_MM, TRUE_SPACING_MM, draw_and_check,
+                          draw_pattern, measure, new_wall, run)
 from vplotter.calibration import fit, pattern
-from vplotter.machine import state
-from vplotter.cli import main
-
-TEST_DRAWING = """G21 G90
-G0 X-150 Y25
-M3
-G1 X150 Y25 F600
-M5
-G0 X-100 Y-75
-M3
-G1 X100 Y-75
-G1 X100 Y125
-G1 X-100 Y125
-G1 X-100 Y-75
-G1 X100 Y125
-M5
-G0 X100 Y25
-M3
-G2 X100 Y25 I-100 J0
-M5
-"""
-
-# the true wall: off from config.toml as a tape measure and a home-made gondola are
-TRUE_ANCHOR_MM = 422.5 + 6.0
-TRUE_SPACING_MM = 40.0
-TRUE_PEN_BELOW_MM = 12.0
-TRUE_CIRC_MM = (25.0 * 1.015, 25.0 * 0.988)
-TRUE_STRETCH = 0.003
-REF_OFF_MM = (5.0, -4.0)          # where the pen really was at `calibrate --at 0 0` (machine)
-
-
-def true_config() -> dict:
-    # G-code X0 Y0 of this config is where the pen really was at the reference
-    return tc.load_config({
-        "machine": {"anchor_distance_mm": TRUE_ANCHOR_MM},
-        "origin": {"x_mm": 211.25 + REF_OFF_MM[0], "y_mm": 430.0 + REF_OFF_MM[1]},
-        "motors": {"left_spool_circumference_mm": TRUE_CIRC_MM[0],
-                   "right_spool_circumference_mm": TRUE_CIRC_MM[1]},
-        "gondola": {"cord_spacing_mm": TRUE_SPACING_MM, "pen_below_mm": TRUE_PEN_BELOW_MM},
-        "cords": {"stretch": TRUE_STRETCH},
-    })
-
-
-def run(cfg_path, *args) -> int:
-    return main(["--config", str(cfg_path), *map(str, args)])
-
-
-def dots(dec) -> np.ndarray:
-    """Pen-down strokes without a step: the dots, in the order they were made."""
-    down = np.asarray(dec.pen_down)
-    single = down.copy()
-    single[1:] &= ~down[:-1]
-    single[:-1] &= ~down[1:]
-    idx = np.flatnonzero(single)
-    return np.column_stack((dec.x[idx], dec.y[idx])), idx
-
-
-def true_start(true_cfg, counts_at_reference) -> tuple[float, float]:
-    """Where the pen really is after the given step counts from the reference."""
-    spm = tc.steps_per_mm_pair(true_cfg)
-    l0, r0 = tc.inverse_kinematics(true_cfg, 0.0, 0.0)
-    x, y = tc.forward_kinematics(true_cfg, l0 + counts_at_reference[0] / spm[0],
-                                 r0 + counts_at_reference[1] / spm[1])
-    return float(x), float(y)
-
-
-def measure(csv_path, positions: dict[int, np.ndarray], seed: int, typo: int | None = None):
-    """Write the dots' true distances with 0.3 mm noise into pattern.csv; `typo`: that pair
-    row gets its digits mistyped (123.4 -> 1234)."""
-    rng = np.random.default_rng(seed)
-    out, k = [], 0
-    for line in csv_path.read_text().splitlines():
-        if line.startswith("pair,"):
-            _, a, b = line.split(",")[:3]
-            d = float(np.hypot(*(positions[int(a)] - positions[int(b)]))) + rng.normal(0, 0.3)
-            if k == typo:
-                d *= 10
-            line = f"pair,{a},{b},,,,,{d:.1f}"
-            k += 1
-        out.append(line)
-    csv_path.write_text("\n".join(out) + "\n")
-
-
-def rigid_error(dec, gfile) -> float:
-    """Worst distance, both ways, between the drawing and the ideal path after the best rigid
-    move (rotation and translation, no scale) of the drawing onto it (ICP with Kabsch on a
-    sample of the drawn points; the distances on all of them)."""
-    ideal = tc.reference_path(gfile, spacing=0.05)
-    ref_pts = np.vstack(ideal)
-    tree = cKDTree(ref_pts)
-    down = np.column_stack((dec.x, dec.y))[np.asarray(dec.pen_down)]
-    sample = down[::max(1, len(down) // 5000)]
-    rot, shift = np.eye(2), ref_pts.mean(axis=0) - sample.mean(axis=0)
-    for _ in range(40):
-        moved = sample @ rot.T + shift
-        target = ref_pts[tree.query(moved)[1]]
-        pc, tc_ = sample.mean(axis=0), target.mean(axis=0)
-        u, _, vt = np.linalg.svd((sample - pc).T @ (target - tc_))
-        sign = np.sign(np.linalg.det(vt.T @ u.T))
-        new_rot = vt.T @ np.diag([1.0, sign]) @ u.T
-        new_shift = tc_ - pc @ new_rot.T
-        done = np.abs(new_rot - rot).max() < 1e-12 and np.abs(new_shift - shift).max() < 1e-9
-        rot, shift = new_rot, new_shift
-        if done:
-            break
-    drawn = [p @ rot.T + shift for p in tc.drawn_polylines(dec)]
-    # segments of 0.05 mm: within 0.025 mm of exact, against limits of 0.5 and 2 mm
-    there = tc.distances_to_polylines(down @ rot.T + shift, ideal, spacing=0.05).max()
-    back = tc.distances_to_polylines(ref_pts, drawn, spacing=0.05).max()
-    return float(max(there, back))
 
 
 @pytest.fixture(scope="module")
 def drawn_pattern(tmp_path_factory):
     """`calibrate --at 0 0` and the pattern drawn on the fake machine (once for this file):
     the files, the stored position, and the dots decoded through the true geometry."""
-    import os
-
-    tmp = tmp_path_factory.mktemp("pattern")
-    saved = os.environ.get("XDG_STATE_HOME")
-    os.environ["XDG_STATE_HOME"] = str(tmp / "state")
-    try:
-        cfg_path = tmp / "config.toml"
-        cfg_path.write_text((REPO / "config.toml").read_text())
-        csv_path = tmp / "pattern.csv"
-        trace = tmp / "pattern_trace.csv"
-        assert run(cfg_path, "calibrate", "--at", 0, 0) == 0
-        assert run(cfg_path, "calibrate", "pattern", "--backend", "fake", "--trace", trace,
-                   "-o", csv_path) == 0
-        stored = state.state_path().read_text()
-        counts = state.load().counts
-    finally:
-        if saved is None:
-            del os.environ["XDG_STATE_HOME"]
-        else:
-            os.environ["XDG_STATE_HOME"] = saved
-    true_cfg = true_config()
-    dec = tc.decode(tc.read_trace(trace), true_cfg, (0.0, 0.0))
-    pts, idx = dots(dec)
-    return {"csv": csv_path.read_text(), "state": stored, "dec": dec, "pts": pts, "idx": idx,
-            "start": true_start(true_cfg, counts), "true": true_cfg}
+    return draw_pattern(tmp_path_factory.mktemp("pattern"))
 
 
 @pytest.fixture
 def wall(tmp_path, drawn_pattern):
     """A fresh copy of config.toml, pattern.csv and the stored position for each test."""
-    cfg_path = tmp_path / "config.toml"
-    cfg_path.write_text((REPO / "config.toml").read_text())
-    csv_path = tmp_path / "pattern.csv"
-    csv_path.write_text(drawn_pattern["csv"])
-    state.state_path().parent.mkdir(parents=True, exist_ok=True)
-    state.state_path().write_text(drawn_pattern["state"])
-    gfile = tmp_path / "test.ngc"
-    gfile.write_text(TEST_DRAWING)
-    pat = pattern.read(csv_path)
-    return {"cfg": cfg_path, "csv": csv_path, "true": drawn_pattern["true"], "tmp": tmp_path,
-            "gfile": gfile, "dots": dict(zip(sorted(pat.marks), drawn_pattern["pts"])),
-            "start": drawn_pattern["start"]}
+    return new_wall(tmp_path, drawn_pattern)
 
 
 def test_the_pattern_and_its_file(drawn_pattern, tmp_path):
@@ -197,17 +52,6 @@ def test_the_pattern_and_its_file(drawn_pattern, tmp_path):
         assert dec.right_mm[i] == pytest.approx(r0 + rs / spm[1], abs=1e-9)
         # its pen-down lasts without a step: the next point is the pen going up, same cords
         assert not dec.pen_down[i + 1] and dec.left_mm[i + 1] == dec.left_mm[i]
-
-
-def draw_and_check(w, name: str, placed: list | None = None) -> float:
-    trace = w["tmp"] / f"{name}.csv"
-    assert run(w["cfg"], "draw", w["gfile"], "--dry-run", "--trace", trace) == 0
-    dec = tc.decode(tc.read_trace(trace), w["true"], w["start"])
-    assert not dec.problems
-    if placed is not None:      # without any move: G-code X0 Y0 is where the pen was calibrated
-        placed.append(max(tc.accuracy(dec, tc.reference_path(w["gfile"], spacing=0.05),
-                                      spacing=0.05)))
-    return rigid_error(dec, w["gfile"])
 
 
 def test_fit_on_a_simulated_wall(wall, capsys):

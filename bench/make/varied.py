@@ -238,5 +238,7 @@ if __name__ == "__main__":
     import os
     import sys
 
+    from bench import ROOT
+
     small_set(sys.argv[1] if len(sys.argv) > 1 else
-              os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tests", "data"))
+              os.path.join(ROOT, "tests", "data"))

@@ -1,4 +1,5 @@
-"""Streaming to a grbl controller: the stand-in on a pty pair (tests/grbl_standin.py) plays it.
+"""Streaming to a grbl controller: the stand-in on a pty pair (tests/support/grbl_standin.py)
+plays it.
 
 What the user sees is checked: every line answered, nothing lost or reordered in the receive
 buffer, the controller's end position, the drawn path (the motor-space moves it executed,
@@ -17,15 +18,15 @@ import numpy as np
 import pytest
 from hypothesis import given, strategies as st
 
-import tracecheck as tc
-from grbl_standin import GrblStandin
+from support import tracecheck as tc
+from support.grbl_standin import GrblStandin
 from vplotter import config, kinematics
 from vplotter.motion import linestream, motorcut
 from vplotter.machine import state
 from vplotter.backends import grbl
 from vplotter.cli import main
 
-from conftest import REPO
+from support import REPO
 
 CAR = REPO / "gcode_samples" / "car.ngc"
 SQUARE = REPO / "gcode_samples" / "square.ngc"

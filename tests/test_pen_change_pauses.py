@@ -20,8 +20,8 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-import tracecheck as tc
-from conftest import REPO
+from support import tracecheck as tc
+from support import REPO
 from vplotter import config, kinematics
 from vplotter.backends.fake import FakeBackend
 from vplotter.cli import COMMANDS, build_parser, main
@@ -498,7 +498,7 @@ def test_a_resume_on_a_tool_change_line_asks_for_that_pen_once(
 def test_the_servo_backends_take_each_pens_own_pulse(tmp_path):
     """gpiozero's servo spans every pulse width the pens use; lgpio refuses one it cannot make
     when it opens, before anything moves."""
-    from fake_lgpio import FakeLgpio, SimClock
+    from support.fake_lgpio import FakeLgpio, SimClock
     from test_backends import gpiozero_backend, make_rows, mock_outputs
     from vplotter.backends import create
     from vplotter.errors import BackendError

@@ -1,0 +1,1 @@
+"""Generators of test drawings for the benchmarks (deterministic): samples.py, varied.py."""

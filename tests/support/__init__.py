@@ -1,0 +1,16 @@
+"""What the tests share besides pytest's fixtures (those stay in tests/conftest.py).
+
+- ``REPO``: the repository's root.
+- ``tracecheck/``: the independent trace decoder and verifier (imports nothing of vplotter).
+- ``fake_lgpio.py``: a stand-in lgpio as unkind as lgpio 0.2.2, on a simulated clock.
+- ``grbl_standin.py``: a grbl 1.1 stand-in on a pseudo-terminal pair.
+- ``bezier_svg.py``: SVGs of smooth cubic Béziers with their true curves.
+- ``wall.py``: the simulated wall of the wall-calibration tests (and bench/wall_fit.py).
+
+The tests import it as ``support`` (pytest puts tests/ on the path); the bench scripts, run as
+``python -m bench.NAME`` from the repository's root, as ``tests.support``.
+"""
+
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parent.parent.parent
