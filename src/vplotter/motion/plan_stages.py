@@ -190,23 +190,21 @@ class PenChanges:
         self.parked = False
 
     def run(self, items: Iterable) -> Iterator:
-        mo = self.cfg.motion
+        travel_cap = self.cfg.motion.travel_speed_mm_s
+        draw_cap = self.cfg.motion.draw_speed_mm_s
+        new = tuple.__new__           # a Path per move, without NamedTuple's slower __new__
         for rec in items:
             kind = type(rec)
-            if kind is Move or kind is CutMove:
-                move = rec if kind is Move else rec.move
-                self.here = (move.x1, move.y1)
-                if move.arc or (move.x1, move.y1) != (move.x0, move.y0):
+            if kind is Move:
+                self.here = (rec.x1, rec.y1)
+                if self.parked and (rec.arc or self.here != (rec.x0, rec.y0)):
                     self.parked = False    # pen up from the change point to where it ends
-                if kind is CutMove and len(rec.pts) == 0:
-                    continue
-                cap = mo.travel_speed_mm_s
-                if self.down:
-                    cap = mo.draw_speed_mm_s
-                    if move.feed_mm_s is not None and not move.rapid:
-                        cap = min(cap, move.feed_mm_s)
-                yield Path(move if kind is Move else rec.pts, cap, move.line, move.col,
-                           self.down)
+                if not self.down:
+                    yield new(Path, (rec, travel_cap, rec.line, rec.col, False))
+                elif rec.feed_mm_s is None or rec.rapid:
+                    yield new(Path, (rec, draw_cap, rec.line, rec.col, True))
+                else:
+                    yield new(Path, (rec, min(draw_cap, rec.feed_mm_s), rec.line, rec.col, True))
             elif kind is gcode.Pen:
                 if rec.down and self.parked:   # back from the change point to put it down
                     yield Travel(self.here, rec.line, rec.col)
@@ -216,14 +214,15 @@ class PenChanges:
             elif kind is gcode.Dwell:
                 yield Dwell(rec.seconds, rec.line)
             elif kind is Pause:
-                if rec.pen is not None:
-                    yield from self.change(rec)
-                else:
-                    yield Wait(rec)
+                yield from (self.change(rec) if rec.pen is not None else (Wait(rec),))
+            elif kind is CutMove:     # the resume's move: as its Move, with the points cut
+                for path in self.run((rec.move,)):
+                    if len(rec.pts):
+                        yield path._replace(what=rec.pts)
             elif kind is At:
                 self.down, self.here, self.parked = rec.pen_down, rec.xy, False
-            else:                          # Travel, FULL_STOP, a step of the resume
-                yield rec
+            elif kind is Travel or kind is FullStop or isinstance(rec, Step):
+                yield rec                  # from the resume filter
 
     def change(self, p: Pause) -> Iterator:
         """A pen change: pen up, to the change point, wait; a pen that was down (a file that
