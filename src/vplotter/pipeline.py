@@ -14,17 +14,15 @@ import numpy as np
 
 from vplotter import kinematics
 from vplotter.config import Config
-from vplotter.errors import ConfigError, InputError
+from vplotter.errors import ConfigError
 from vplotter.inputs import gcode
 from vplotter.inputs.gcode import Pause
-from vplotter.motion import segment
-from vplotter.motion.planner import (ACCEL_MARGIN, CORNER_SHARE, SHARP_SHARE, TAU_S, Block,
-                                     Planner, Turn, _slice)
+from vplotter.motion import plan_stages as stages, segment
+from vplotter.motion.plan_stages import change_point  # noqa: F401  (public here)
+from vplotter.motion.planner import Block, _slice
 from vplotter.motion.schedule import Rows, Scheduler
 from vplotter.motion.segment import CHORD_SHARE
-
-
-BATCH = 512  # moves per batch handed to the planner
+from vplotter.motion.steps import Dwell, Finish, InPlace, Motion, PenMove, Start, Step, Wait
 
 
 @dataclass
@@ -86,11 +84,12 @@ def stream(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: s
            start_at: StartAt | None = None, pen_down: bool | None = None,
            keep: Kept | None = None, scheduler=Scheduler, where=None,
            park=None) -> Iterator[Rows | Pause]:
-    """Rows for drawing `records` starting from the given step counts (cords = ref + counts / steps per unit).
+    """Rows for drawing `records` starting from the given step counts (cords = ref + counts /
+    steps per unit).
 
     With `start_at`, records before that line are skipped (their pen changes still count), the
     pen travels up to the resume point and goes down again if the file has it down there.
-    With `keep` (a Kept list), the plan (pen events and planned blocks) is appended to it, so that
+    With `keep` (a Kept list), the plan (its steps) is appended to it, so that
     `replay` can make the same rows later without parsing and planning again.
     `scheduler` makes what is played from the plan (Rows for GPIO; the serial backend's
     `linestream.LineScheduler` makes G-code lines); its `chord_share` cuts arcs.
@@ -101,14 +100,14 @@ def stream(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: s
     where(line, col) names the file place of a line in errors (default: name:line:col).
     """
     summary = summary if summary is not None else Summary()
-    ops = plan(cfg, records, counts, ref_mm, name, summary, start_at, pen_down,
-               getattr(scheduler, "chord_share", CHORD_SHARE), where, park)
+    steps = plan(cfg, records, counts, ref_mm, name, summary, start_at, pen_down,
+                 getattr(scheduler, "chord_share", CHORD_SHARE), where, park)
     if keep is not None:
-        ops = _keeping(ops, keep)
-    yield from _schedule(cfg, ops, counts, ref_mm, emit, summary, scheduler)
+        steps = _keeping(steps, keep)
+    yield from _schedule(cfg, steps, counts, ref_mm, emit, summary, scheduler)
 
 
-def replay(cfg: Config, ops: list, counts, ref_mm) -> Iterator[Rows]:
+def replay(cfg: Config, ops: list[Step], counts, ref_mm) -> Iterator[Rows]:
     """The rows of a plan kept by `validate`; the same rows `stream` makes."""
     yield from _schedule(cfg, iter(ops), counts, ref_mm, True, Summary())
 
@@ -120,60 +119,67 @@ class Kept(list):
     pieces = 0
 
 
-def _keeping(ops, keep: Kept):
-    for op in ops:
+def _keeping(steps: Iterator[Step], keep: Kept) -> Iterator[Step]:
+    for step in steps:
         if not keep.full:
-            keep.append(op)
-            if op[0] == "motion":
-                keep.pieces += len(op[1].d)
+            keep.append(step)
+            if type(step) is Motion:
+                keep.pieces += len(step.block.d)
                 if keep.pieces > PLAN_LIMIT:      # too long to keep: the draw plans it again
                     keep.clear()
                     keep.full = True
-        yield op
+        yield step
 
 
-def _schedule(cfg, ops, counts, ref_mm, emit: bool, summary: Summary,
-              scheduler=Scheduler) -> Iterator[Rows]:
+def _schedule(cfg, steps: Iterator[Step], counts, ref_mm, emit: bool, summary: Summary,
+              scheduler=Scheduler) -> Iterator[Rows | Pause]:
+    """The steps played: what `scheduler` makes of each (Rows), and each Wait's Pause."""
     kin = kinematics.from_config(cfg)
     sched = scheduler(cfg, kin, counts, ref_mm)
     spu = np.asarray(cfg.motors.steps_per_unit, dtype=float)
-    for op in ops:
-        kind = op[0]
-        if kind == "motion":
-            for part in _parts(op[1], spu):
+    for step in steps:
+        kind = type(step)
+        if kind is Motion:
+            for part in _parts(step.block, spu):
                 rows = sched.motion(part, emit)
                 if rows is not None and emit:
                     yield rows
                 rows = None             # not kept alive while the player plays it
             continue
-        elif kind == "pen":
-            rows = sched.pen(op[1], op[2], emit)
-        elif kind == "dwell":
-            rows = sched.dwell(op[1], op[2])
-        elif kind == "turn":
+        elif kind is PenMove:
+            rows = sched.pen(step.down, step.line, emit)
+        elif kind is Dwell:
+            rows = sched.dwell(step.seconds, step.line)
+        elif kind is InPlace:
             if not hasattr(sched, "turn"):
                 raise ConfigError("error: the polar table turns in place at its centre here, "
                                   "which this backend cannot send; use a GPIO backend")
-            rows = sched.turn(op[1], emit)
-        elif kind == "start":
-            rows = sched.start(op[1])
-        elif kind == "pause":
-            summary.pen_mark(op[1], sched.t_us / 1e6)
-            if op[1].pen is None:            # a plain pause: the coils are released
-                rows = sched.release()
-                if emit and rows is not None:
-                    yield rows
-            else:                            # a pen change: held; the new pen's pen-down pulse
-                sched.down_us = pen_down_us(cfg, op[1].pen)
-            if emit:
-                yield op[1]
+            rows = sched.turn(step.turn, emit)
+        elif kind is Start:
+            rows = sched.start(step.pen_down)
+        elif kind is Wait:
+            yield from _wait(cfg, sched, step.pause, emit, summary)
             continue
         else:
-            rows = sched.finish(lift=op[1])
+            rows = sched.finish(lift=step.lift)
         if rows is not None and emit:
             yield rows
     summary.steps = sched.steps_total.copy()
     summary.time_s = sched.t_us / 1e6
+
+
+def _wait(cfg, sched, pause: Pause, emit: bool, summary: Summary) -> Iterator[Rows | Pause]:
+    """A Wait played: the pause passed on for the player; a plain one releases the coils, a
+    pen change holds them and sets the new pen's pen-down pulse."""
+    summary.pen_mark(pause, sched.t_us / 1e6)
+    if pause.pen is None:
+        rows = sched.release()
+        if emit and rows is not None:
+            yield rows
+    else:
+        sched.down_us = pen_down_us(cfg, pause.pen)
+    if emit:
+        yield pause
 
 
 def pen_down_us(cfg: Config, pen: str | None) -> int:
@@ -183,22 +189,6 @@ def pen_down_us(cfg: Config, pen: str | None) -> int:
     if cfg.pen.kind == "servo" and spec is not None and spec.down_us is not None:
         return int(spec.down_us)
     return cfg.pen.down_us
-
-
-def change_point(cfg: Config, park, where: str) -> tuple[float, float]:
-    """Where the gondola waits at a pen change (G-code mm): config.toml [pens] change_x_mm,
-    change_y_mm, else `park` (where the plot started); checked against the page."""
-    xy = cfg.pens.change_at
-    what = "[pens] change_x_mm, change_y_mm"
-    if xy is None:
-        xy, what = park, f"where the plot started; set {what} to choose one"
-    x, y = float(xy[0]), float(xy[1])
-    page = cfg.page
-    if not (page.x_min_mm <= x <= page.x_max_mm and page.y_min_mm <= y <= page.y_max_mm):
-        raise ConfigError(f"{where}: error: the pen change point X{x:.3f} Y{y:.3f} ({what}) is "
-                          f"outside the page (X {page.x_min_mm:g}..{page.x_max_mm:g}, "
-                          f"Y {page.y_min_mm:g}..{page.y_max_mm:g})")
-    return (x, y)
 
 
 def _parts(block: Block, spu: np.ndarray) -> Iterator[Block]:
@@ -217,246 +207,37 @@ def _parts(block: Block, spu: np.ndarray) -> Iterator[Block]:
         i = j
 
 
-def _chord_turn(cfg: Config):
-    """How far a chord of an arc may turn (radians) on a two-cord machine, by radius: the pen
-    goes round an arc of radius r at up to v = min(draw speed, sqrt(CORNER_SHARE a r)) (a: the
-    smallest cord acceleration; a cord's slope is at most 1). The planner counts the speed jump
-    at a chord's corner against the 0.1 s acceleration window: it takes the corners of a curve
-    as the centripetal v^2 / r when a chord is passed well within TAU_S (chord <= v TAU_S / 2),
-    or the jump alone as SHARP_SHARE of the budget otherwise (turn <= SHARP_SHARE a TAU_S / v).
-    Where the tolerance alone would cut coarser chords than either, the arc is cut finer, so
-    that tiny arcs on a slow machine are not passed at a crawl. None for other machines."""
-    if cfg.machine.kind != "vplotter":
-        return None
-    m = cfg.motors
-    acc = float(np.min(m.max_accel * ACCEL_MARGIN / np.asarray(m.steps_per_unit, dtype=float)))
-    cap = cfg.motion.draw_speed_mm_s
-
-    def turn(r):
-        r = np.maximum(r, 1e-9)
-        v = np.minimum(cap, np.sqrt(CORNER_SHARE * acc * r))
-        return np.maximum(0.5 * v * TAU_S / r, SHARP_SHARE * acc * TAU_S / v)
-
-    return turn
-
-
 def plan(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str,
          summary: Summary, start_at: StartAt | None = None,
          pen_down: bool | None = None, chord_share: float = CHORD_SHARE,
-         where=None, park=None) -> Iterator[tuple]:
-    """The plan: ("start", pen_down), ("motion", Block), ("turn", Turn), ("pen", down, line),
-    ("dwell", seconds, line) and ("finish", lift) in the order the machine does them.
+         where=None, park=None) -> Iterator[Step]:
+    """The plan: the steps (motion/steps.py) in the order the machine does them, from the
+    stages of motion/plan_stages.py.
 
     Pen changes and dwells are stops inside the planner's look-ahead, so that many short
-    strokes are planned together: they travel with the planned pieces as the events of the
-    stop they happen at, and come out right after the block that ends there. A Pause record
-    gives ("pause", record), a stop like a pen change; before a pen change (Pause.pen) the
-    gondola travels pen up to the change point and goes on from there (`park`: see stream).
-    A resumed plan asks for the pen in use at the resume point first (the last pen change
-    before it), so that a stop or a power cut during or after a pen change goes on with the
-    right pen."""
+    strokes are planned together: they travel with the planned pieces as the steps of the
+    stop they happen at, and come out right after the Motion that ends there. A Pause record
+    gives Wait, a stop like a pen change; before a pen change (Pause.pen) the gondola travels
+    pen up to the change point and goes on from there (`park`: see stream). A resumed plan
+    asks for the pen in use at the resume point first (the last pen change before it), so
+    that a stop or a power cut during or after a pen change goes on with the right pen."""
     where = where or (lambda line, col: f"{name}:{line}:{col}")
     kin = kinematics.from_config(cfg)
-    spu = np.asarray(cfg.motors.steps_per_unit)
-    summary.motors = tuple(kin.motors)
-    cords = np.asarray(ref_mm, dtype=float) + np.asarray(counts, dtype=float) / spu
-    start = kin.forward(cords[None, :])[0]
-    planner = Planner(kin, cfg.motors.max_step_rate, cfg.motors.max_accel, spu, start,
-                      start_q=cords)
-    reach = getattr(kin, "first_unreachable", None)
-    page = cfg.page
-    tol = cfg.motion.tolerance_mm * chord_share
-    turn = _chord_turn(cfg)
-    mo = cfg.motion
-    file_xy = (0.0, 0.0)
-    here_xy = tuple(kin.to_gcode(start[None, :])[0].tolist())   # the file's pen point
+    planner, here_xy = stages.planner_at(cfg, kin, counts, ref_mm)
     park_xy = here_xy if park is None else (float(park[0]), float(park[1]))
-    parked = False                       # at the change point, not where the file's pen is
-    pending: Pause | None = None         # resume: the pen change of the records skipped
-
-    def blocks(bs: Iterator[Block | Turn]) -> Iterator[tuple]:
-        for b in bs:
-            if isinstance(b, Turn):
-                yield ("turn", b)
-                continue
-            summary.pieces += len(b.d)
-            drawn = float(b.d[b.drawing].sum())
-            summary.drawn_mm += drawn
-            summary.travel_mm += float(b.d.sum()) - drawn
-            i = 0
-            for j, events in zip(np.flatnonzero(b.stop).tolist(), b.events):
-                yield ("motion", _slice(b, i, j + 1))
-                yield from events
-                i = j + 1
-            if i < len(b.d):
-                yield ("motion", _slice(b, i, len(b.d)) if i else b)
-
-    # Moves are batched so that segmenting, page checks and coordinate maps are vector
-    # operations. A batch holds moves (cut all at once) or, after a resume, points already cut;
-    # each with its cap, line, column, pen, and the events of a stop right after it.
-    batch: list[gcode.Move | np.ndarray] = []
-    meta: list[tuple[float, int, int, bool]] = []
-    after: dict[int, list] = {}          # batch entry -> events at the stop after it
-
-    def stop_for(op: tuple) -> Iterator[tuple]:
-        """A pen change or a dwell: after the motion so far, at a standstill."""
-        if batch:
-            after.setdefault(len(batch) - 1, []).append(op)
-        elif not planner.mark_stop([op]):
-            yield op                     # standing already
-
-    def flush(stop: bool) -> Iterator[tuple]:
-        if batch:
-            if all(isinstance(b, gcode.Move) for b in batch):
-                pts, n = segment.points_many(batch, tol, turn)
-            else:
-                parts = [segment.points(b, tol, turn) if isinstance(b, gcode.Move) else b
-                         for b in batch]
-                pts, n = np.concatenate(parts), np.array([len(p) for p in parts])
-            cap, line, col, draw = (np.array(v) for v in zip(*meta))
-            bad = segment.first_outside(pts, page.x_min_mm, page.x_max_mm, page.y_min_mm, page.y_max_mm)
-            if bad >= 0:
-                move = int(np.searchsorted(np.cumsum(n), bad, side="right"))
-                x, y = pts[bad]
-                raise InputError(
-                    f"{where(int(line[move]), int(col[move]))}: error: point X{x:.3f} Y{y:.3f} is outside "
-                    f"the page (X {page.x_min_mm:g}..{page.x_max_mm:g}, "
-                    f"Y {page.y_min_mm:g}..{page.y_max_mm:g})")
-            mpts = kin.to_machine(pts)
-            bad = reach(mpts, planner.position) if reach is not None else -1
-            if bad >= 0:
-                move = int(np.searchsorted(np.cumsum(n), bad, side="right"))
-                x, y = pts[bad]
-                raise InputError(f"{name}:{line[move]}:{col[move]}: error: the pen cannot reach "
-                                 f"X{x:.3f} Y{y:.3f} or the line to it (the arm reaches "
-                                 f"{kin.r_min:g}..{kin.r_max:g} mm from the table's centre)")
-            keep = planner.nonzero(mpts)
-            cap, line, draw = (np.repeat(v, n)[keep] for v in (cap, line, draw))
-            # the events after entry i go to the last point kept up to the end of entry i
-            last = np.cumsum(keep) - 1
-            ends = np.cumsum(n) - 1
-            stops: dict[int, list] = {}
-            for i, events in after.items():
-                at = int(last[ends[i]]) if ends[i] >= 0 else -1
-                if at < 0 and not planner.mark_stop(events):
-                    yield from events    # before anything of the batch moved, standing still
-                elif at >= 0:
-                    stops.setdefault(at, []).extend(events)
-            batch.clear()
-            meta.clear()
-            after.clear()
-            yield from blocks(planner.add(mpts[keep], cap, line, draw, stops))
-        if stop:
-            yield from blocks(planner.stop())
-
-    def travel_to(xy, line: int, col: int) -> None:
-        batch.append(np.array([xy], dtype=float))
-        meta.append((mo.travel_speed_mm_s, line, col, False))
-
-    def change(p: Pause, down: bool) -> Iterator[tuple]:
-        """A pen change: pen up, to the change point, wait; a pen that was down (a file that
-        changes pens mid-stroke) goes back and down again."""
-        nonlocal parked
-        xy = change_point(cfg, park_xy, where(p.line, p.col))
-        if down:
-            yield from stop_for(("pen", False, p.line))
-        travel_to(xy, p.line, p.col)
-        yield from stop_for(("pause", p))
-        if down:
-            travel_to(here_xy, p.line, p.col)
-            yield from stop_for(("pen", True, p.line))
-        parked = not down
-
-    keep_pen = pen_down is not None
-    yield ("start", pen_down)
-    pen_down = bool(pen_down)
-    pairs = ((r, False) for r in records) if start_at is None else \
-        _before_resume(records, start_at.line)
-    for rec, before in pairs:
-        pts = None
-        if start_at is not None:
-            if before:
-                if isinstance(rec, gcode.Pen):
-                    pen_down = rec.down
-                elif isinstance(rec, gcode.Move):
-                    file_xy = here_xy = (rec.x1, rec.y1)
-                elif isinstance(rec, Pause) and rec.pen is not None:
-                    pending = rec
-                continue
-            at_change = isinstance(rec, Pause) and rec.pen is not None
-            if pending is not None and not at_change:
-                yield from change(pending, False)       # the pen is up here (start lifts it)
-            parked = False
-            if at_change and not pen_down:     # resumed at a pen change: it parks, goes on
-                start_at = None
-        if start_at is not None:
-            # travel pen up to where the drawing goes on, then put the pen as the file has it
-            there = file_xy
-            if isinstance(rec, gcode.Move):
-                pts = segment.points(rec, tol, turn)
-                there = (rec.x0, rec.y0)
-                if rec.line == start_at.line and start_at.xy is not None and len(pts):
-                    there, pts = segment.cut(np.vstack(([[rec.x0, rec.y0]], pts)), start_at.xy)
-            start_at = None
-            batch.append(np.array([there], dtype=float))
-            meta.append((mo.travel_speed_mm_s, rec.line, rec.col, False))
-            yield from flush(True)
-            if pen_down:
-                yield ("pen", True, rec.line)
-        if isinstance(rec, gcode.Move):
-            summary.moves += 1
-            here_xy = (rec.x1, rec.y1)
-            if rec.arc or (rec.x1, rec.y1) != (rec.x0, rec.y0):
-                parked = False         # pen up from the change point to where the move ends
-            if pts is not None and len(pts) == 0:
-                continue
-            if pen_down:
-                cap = mo.draw_speed_mm_s
-                if rec.feed_mm_s is not None and not rec.rapid:
-                    cap = min(cap, rec.feed_mm_s)
-            else:
-                cap = mo.travel_speed_mm_s
-            batch.append(rec if pts is None else pts)
-            meta.append((cap, rec.line, rec.col, pen_down))
-            if len(meta) >= BATCH:
-                yield from flush(False)
-        elif isinstance(rec, gcode.Pen):
-            summary.pen_downs += int(rec.down)
-            if rec.down and parked:    # back from the change point to where the pen goes down
-                travel_to(here_xy, rec.line, rec.col)
-            parked = False
-            yield from stop_for(("pen", rec.down, rec.line))
-            pen_down = rec.down
-        elif isinstance(rec, gcode.Dwell):
-            yield from stop_for(("dwell", rec.seconds, rec.line))
-        elif isinstance(rec, Pause) and rec.pen is not None:
-            yield from change(rec, pen_down)
-        elif isinstance(rec, Pause):
-            yield from stop_for(("pause", rec))
+    tol = cfg.motion.tolerance_mm * chord_share
+    turn = segment.chord_turn(cfg)
+    tally = stages.Tally(summary, kin.motors)
+    yield Start(pen_down)
+    down = bool(pen_down)
+    items = records
     if start_at is not None:
-        raise InputError(f"{name}: error: line {start_at.line} is past the last move of the file")
-    yield from flush(True)
-    yield ("finish", not keep_pen)
-
-
-def _before_resume(records, line: int) -> Iterator[tuple]:
-    """(record, whether it lies before the place a resume starts at `line`). Those of the
-    resume line itself do when a pen-change pause follows on it (a G-code tool change lifts
-    the pen, pauses and lowers it on one line): a resume there begins with that change."""
-    held: list = []
-    it = iter(records)
-    for rec in it:
-        if rec.line < line:
-            yield rec, True
-        elif rec.line == line and not (isinstance(rec, Pause) and rec.pen is not None):
-            held.append(rec)
-        else:
-            change = rec.line == line
-            yield from ((h, change) for h in held)
-            yield rec, False
-            yield from ((r, False) for r in it)
-            return
-    yield from ((h, False) for h in held)
+        items = stages.resumed(records, start_at, here_xy, down,
+                               lambda move: segment.points(move, tol, turn), name)
+    items = stages.PenChanges(cfg, here_xy, down, park_xy, where).run(tally.records(items))
+    planned = stages.Batcher(cfg, kin, planner, tol, turn, where).run(items)
+    yield from stages.split(tally.blocks(planned))
+    yield Finish(pen_down is None)
 
 
 def validate(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str = "<input>",
@@ -466,23 +247,30 @@ def validate(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name:
     Returns the summary, or None if stop() turned true first."""
     summary = Summary()
     kept = Kept()
-    ops = _keeping(plan(cfg, records, counts, ref_mm, name, summary, start_at,
-                        chord_share=getattr(scheduler, "chord_share", CHORD_SHARE), where=where,
-                        park=park),
-                   kept)
-    stopped = False
-
-    def watched():
-        nonlocal stopped
-        for op in ops:
-            if stop():
-                stopped = True
-                return
-            yield op
-
-    for _ in _schedule(cfg, watched(), counts, ref_mm, False, summary, scheduler):
+    steps = _keeping(plan(cfg, records, counts, ref_mm, name, summary, start_at,
+                          chord_share=getattr(scheduler, "chord_share", CHORD_SHARE),
+                          where=where, park=park),
+                     kept)
+    watched = _Watched(steps, stop)
+    for _ in _schedule(cfg, iter(watched), counts, ref_mm, False, summary, scheduler):
         pass
-    if stopped:
+    if watched.stopped:
         return None
     summary.plan = None if kept.full else kept
     return summary
+
+
+class _Watched:
+    """The steps, until stop() turns true (then `stopped`)."""
+
+    def __init__(self, steps: Iterator[Step], stop):
+        self.steps = steps
+        self.stop = stop
+        self.stopped = False
+
+    def __iter__(self) -> Iterator[Step]:
+        for step in self.steps:
+            if self.stop():
+                self.stopped = True
+                return
+            yield step

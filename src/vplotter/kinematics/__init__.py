@@ -12,11 +12,14 @@ A machine kind is an object with these methods (all vectorised over rows, machin
   one motor (piece index, target coordinate q, rising or not: one row each), the path distance
   along its piece at which the motor coordinate reaches q (the step solver; work per piece is
   done once per piece, not per step).
-Optional (`planner.motor_path` and the pipeline fall back when a kind has none):
+- `check_move(xy, start) -> index or -1`: the first point the pen cannot reach going in
+  straight lines from `start` through the points (beyond the page rectangle, which the plan
+  checks itself; the two-cord machine reaches all of it), and `cannot_reach(x, y)`, the error
+  for it (G-code mm) after "file:line:col: error: ".
+Optional (`planner.motor_path` falls back when a kind has none):
 - `path(verts, q0) -> (q_before, q_after)`: motor coordinates along a polyline starting at the
   motor coordinates q0, before and after each vertex (they differ where the motors must move
-  in place, the pen standing still: the polar table at the centre);
-- `first_unreachable(xy, start) -> index or -1`: reach check beyond the page rectangle.
+  in place, the pen standing still: the polar table at the centre).
 """
 
 from __future__ import annotations

@@ -171,10 +171,10 @@ class Polar:
         away = rising == (q >= 0)                       # the distance from the centre grows
         return np.where(away, root - b, -b - root)
 
-    def first_unreachable(self, xy: np.ndarray, start: np.ndarray) -> int:
+    def check_move(self, xy: np.ndarray, start: np.ndarray) -> int:
         """Index of the first point the pen cannot reach going from `start` through the points
         in straight lines (beyond radius_max_mm, or, with radius_min_mm > 0, a line that
-        passes too close to the centre), or -1."""
+        passes too close to the centre), or -1 (`cannot_reach` says why)."""
         m = np.asarray(xy, dtype=float)
         rho = np.hypot(m[:, 0], m[:, 1])
         bad = rho > self.r_max + 1e-9
@@ -187,3 +187,8 @@ class Polar:
             bad |= np.hypot(near[:, 0], near[:, 1]) < self.r_min - 1e-9
         idx = np.flatnonzero(bad)
         return int(idx[0]) if idx.size else -1
+
+    def cannot_reach(self, x: float, y: float) -> str:
+        """The error for G-code point (x, y) that `check_move` found out of reach."""
+        return (f"the pen cannot reach X{x:.3f} Y{y:.3f} or the line to it (the arm reaches "
+                f"{self.r_min:g}..{self.r_max:g} mm from the table's centre)")

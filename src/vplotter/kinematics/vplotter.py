@@ -48,6 +48,13 @@ class TwoCord:
         m = np.asarray(xy, dtype=float)
         return np.stack((m[..., 0] - self.origin[0], self.origin[1] - m[..., 1]), axis=-1)
 
+    def check_move(self, xy: np.ndarray, start: np.ndarray) -> int:
+        """-1: the cords reach every point of the page (which the plan checks)."""
+        return -1
+
+    def cannot_reach(self, x: float, y: float) -> str:
+        return f"the pen cannot reach X{x:.3f} Y{y:.3f}"
+
     # ------------------------------------------------------------------ geometry
     def _geometric(self, xy: np.ndarray) -> np.ndarray:
         m = np.asarray(xy, dtype=float)

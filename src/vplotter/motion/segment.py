@@ -14,6 +14,7 @@ import math
 import numpy as np
 
 from vplotter.inputs.gcode import Move
+from vplotter.motion.planner import ACCEL_MARGIN, CORNER_SHARE, SHARP_SHARE, TAU_S
 
 # Share of tolerance_mm given to the chords of arcs; the rest is left for the step quantisation
 # (half a step of each cord moves the pen by up to ~0.008 mm on the seed machine's page).
@@ -41,6 +42,29 @@ def chord_count(radius_mm: float, sweep: float, tol_mm: float) -> int:
     else:
         step = 2.0 * math.acos(1.0 - tol_mm / radius_mm)
     return max(1, math.ceil(abs(sweep) / step - 1e-9))
+
+
+def chord_turn(cfg):
+    """How far a chord of an arc may turn (radians) on a two-cord machine, by radius: the pen
+    goes round an arc of radius r at up to v = min(draw speed, sqrt(CORNER_SHARE a r)) (a: the
+    smallest cord acceleration; a cord's slope is at most 1). The planner counts the speed jump
+    at a chord's corner against the 0.1 s acceleration window: it takes the corners of a curve
+    as the centripetal v^2 / r when a chord is passed well within TAU_S (chord <= v TAU_S / 2),
+    or the jump alone as SHARP_SHARE of the budget otherwise (turn <= SHARP_SHARE a TAU_S / v).
+    Where the tolerance alone would cut coarser chords than either, the arc is cut finer, so
+    that tiny arcs on a slow machine are not passed at a crawl. None for other machines."""
+    if cfg.machine.kind != "vplotter":
+        return None
+    m = cfg.motors
+    acc = float(np.min(m.max_accel * ACCEL_MARGIN / np.asarray(m.steps_per_unit, dtype=float)))
+    cap = cfg.motion.draw_speed_mm_s
+
+    def turn(r):
+        r = np.maximum(r, 1e-9)
+        v = np.minimum(cap, np.sqrt(CORNER_SHARE * acc * r))
+        return np.maximum(0.5 * v * TAU_S / r, SHARP_SHARE * acc * TAU_S / v)
+
+    return turn
 
 
 def points(move: Move, tol_mm: float, max_angle=None) -> np.ndarray:
