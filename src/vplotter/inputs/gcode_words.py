@@ -1,10 +1,12 @@
 """G-code words: one line split into (letter, value, column) words, comments and checksums
-handled. Shared by the reader (`gcode.py`) and its tool-change scan (`gcode_tools.py`)."""
+handled (`tokenize`), then sorted (`sort_words`: G and M codes, the other letters once each).
+Shared by the reader (`gcode.py`) and its tool-change scan (`gcode_tools.py`)."""
 
 from __future__ import annotations
 
 import math
 import re
+from dataclasses import dataclass, field
 
 from vplotter.errors import InputError
 
@@ -88,3 +90,46 @@ def tokenize(raw: str, where: str) -> list[tuple[str, float, int]]:
         else:
             raise InputError(f"{where}:{i + 1}: error: unexpected character {ch!r}")
     return words
+
+
+@dataclass(slots=True)
+class LineWords:
+    """One line's words and what they ask, between the parser's checks and its records."""
+
+    raw: str
+    line: int
+    motion_col: int
+    vals: dict[str, tuple[float, int]] = field(default_factory=dict)   # letter -> value, col
+    g_codes: list[tuple[float, int]] = field(default_factory=list)
+    m_codes: list[tuple[float, int]] = field(default_factory=list)
+    motion: float | None = None
+    dwell_col: int = 0
+    pen_change: bool | None = None
+    pen_col: int = 0
+    end_col: int = 0
+    m6_col: int = 0
+    stop: tuple[float, int] | None = None
+    servo_line: bool = False
+    change: tuple | None = None          # the tool change: (pen, col, code)
+    has_xy: bool = False
+    has_arc_words: bool = False
+
+
+def sort_words(raw: str, words: list, line: int, where: str) -> LineWords:
+    """Sort a line's words: G and M codes (any number), the other letters (once each)."""
+    b = LineWords(raw, line, motion_col=words[0][2])
+    for idx, (letter, value, col) in enumerate(words):
+        if letter == "N":
+            if idx != 0:
+                raise InputError(f"{where}:{col}: error: N line number must come first on "
+                                 f"the line")
+            continue
+        if letter == "G":
+            b.g_codes.append((value, col))
+        elif letter == "M":
+            b.m_codes.append((value, col))
+        else:
+            if letter in b.vals:
+                raise InputError(f"{where}:{col}: error: {letter} appears twice on the line")
+            b.vals[letter] = (value, col)
+    return b
