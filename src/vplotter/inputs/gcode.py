@@ -116,15 +116,35 @@ class Parser:
             if not self.after_end_line and not _blank(raw.replace("%", "")):
                 self.after_end_line = line
             return
-        words = tokenize(raw, f"{self.name}:{line}")
+        where = f"{self.name}:{line}"
+        words = tokenize(raw, where)
         if not words:
             return
-        b = sort_words(raw, words, line, f"{self.name}:{line}")
-        self._g_codes(b)
-        self._check_range(b)
-        self._m_codes(b)
+        b = sort_words(raw, words, line, where)
+        if b.g_codes:
+            self._g_codes(b)
+        if b.vals:
+            self._check_range(b)
+        if b.m_codes:
+            self._m_codes(b)
         self._check_words(b)
-        yield from self._records(b)
+        # the records, in order: tool change, pen, dwell, move, pause
+        if b.change is not None:
+            yield from self._change(line, *b.change)
+        if b.pen_change is not None and b.pen_change != self.pen_down:
+            self.pen_down = b.pen_change
+            yield Pen(line, b.pen_col, b.pen_change)
+        if b.dwell_col:
+            yield Dwell(line, b.dwell_col, b.vals["P"][0])
+        if b.has_xy or (b.has_arc_words and self.motion in (2.0, 3.0)):
+            yield from self._move(b.vals, line, b.motion_col)
+        if b.stop is not None:
+            code, col = _fmt_code("M", b.stop[0]), b.stop[1]
+            pen = comment_pen(raw, where)
+            if pen is not None:
+                yield from self._change(line, pen, col, code)
+            else:
+                yield from self._pause(line, col, comment_text(raw) or f"{code}: program pause")
         if b.end_col:
             self.ended = True
 
@@ -185,11 +205,12 @@ class Parser:
                 raise self._err(b.line, col, f"unsupported code {_fmt_code('M', value)}")
 
     def _check_words(self, b: LineWords) -> None:
-        """S, T, P and F; then the dwell, the motion and the coordinates of the line."""
+        """S, T, P and F; then the dwell, the motion and the coordinates of the line, and Z."""
         vals = b.vals
         if "S" in vals and not b.servo_line:
             self._ignore("S")
-        b.change = self._tool(b.raw, vals if not b.servo_line else {}, b.line, b.m6_col)
+        if b.m6_col or "T" in vals:
+            b.change = self._tool(b.raw, vals if not b.servo_line else {}, b.line, b.m6_col)
         if ("P" in vals and not b.dwell_col and not b.servo_line
                 and not any(v == 64.0 for v, _ in b.g_codes)):
             raise self._err(b.line, vals["P"][1], "P word without G4 (dwell)")
@@ -198,8 +219,20 @@ class Parser:
             if not f > 0:
                 raise self._err(b.line, col, f"feed F must be above 0 (got {f:g})")
             self.feed_mm_s = f * self.scale / 60.0
-        self._check_dwell(b)
-        self._check_motion(b)
+        if b.dwell_col:
+            self._check_dwell(b)
+        # the modal motion code; coordinates need one, arc words need G2/G3
+        if b.motion is not None:
+            self.motion = b.motion
+        b.has_xy = "X" in vals or "Y" in vals
+        b.has_arc_words = any(k in vals for k in "IJR")
+        if (b.has_xy or b.has_arc_words) and self.motion is None:
+            letter = next(k for k in "XYIJR" if k in vals)
+            raise self._err(b.line, vals[letter][1],
+                            "coordinates without a motion code (G0/G1/G2/G3)")
+        if b.has_arc_words and self.motion in (0.0, 1.0):
+            letter = next(k for k in "IJR" if k in vals)
+            raise self._err(b.line, vals[letter][1], f"{letter} is only allowed on arcs (G2/G3)")
         if "Z" in vals:
             self._z(b)
 
@@ -219,21 +252,6 @@ class Parser:
             if p < 0:
                 raise self._err(line, col, f"dwell P must not be negative (got {p:g})")
 
-    def _check_motion(self, b: LineWords) -> None:
-        """The modal motion code; coordinates need one, arc words need G2/G3."""
-        vals = b.vals
-        if b.motion is not None:
-            self.motion = b.motion
-        b.has_xy = "X" in vals or "Y" in vals
-        b.has_arc_words = any(k in vals for k in "IJR")
-        if (b.has_xy or b.has_arc_words) and self.motion is None:
-            letter = next(k for k in "XYIJR" if k in vals)
-            raise self._err(b.line, vals[letter][1],
-                            "coordinates without a motion code (G0/G1/G2/G3)")
-        if b.has_arc_words and self.motion in (0.0, 1.0):
-            letter = next(k for k in "IJR" if k in vals)
-            raise self._err(b.line, vals[letter][1], f"{letter} is only allowed on arcs (G2/G3)")
-
     def _z(self, b: LineWords) -> None:
         """Z: the new height (modal, G91-relative); it moves the pen in Z mode."""
         z, zcol = b.vals["Z"]
@@ -243,26 +261,6 @@ class Parser:
             b.pen_change, b.pen_col = self.z < self.dialect.z_down_below_mm, zcol
         elif self.pen_mode == "s":
             self._ignore("Z")
-
-    def _records(self, b: LineWords) -> Iterator[Record]:
-        """The line's records, in order: tool change, pen, dwell, move, pause."""
-        line = b.line
-        if b.change is not None:
-            yield from self._change(line, *b.change)
-        if b.pen_change is not None and b.pen_change != self.pen_down:
-            self.pen_down = b.pen_change
-            yield Pen(line, b.pen_col, b.pen_change)
-        if b.dwell_col:
-            yield Dwell(line, b.dwell_col, b.vals["P"][0])
-        if b.has_xy or (b.has_arc_words and self.motion in (2.0, 3.0)):
-            yield from self._move(b.vals, line, b.motion_col)
-        if b.stop is not None:
-            code, col = _fmt_code("M", b.stop[0]), b.stop[1]
-            pen = comment_pen(b.raw, f"{self.name}:{line}")
-            if pen is not None:
-                yield from self._change(line, pen, col, code)
-            else:
-                yield from self._pause(line, col, comment_text(b.raw) or f"{code}: program pause")
 
     def _tool(self, raw: str, vals: dict, line: int, m6_col: int) -> tuple | None:
         """The tool change of a line: (pen, col, code) or None (T on an M280 line is the

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass, field
 
 from vplotter.errors import InputError
 
@@ -92,32 +91,39 @@ def tokenize(raw: str, where: str) -> list[tuple[str, float, int]]:
     return words
 
 
-@dataclass(slots=True)
 class LineWords:
-    """One line's words and what they ask, between the parser's checks and its records."""
+    """One line's words and what they ask, between the parser's checks and its records (a
+    plain class: one is made per line, and the class holds the defaults of what most lines
+    do not ask)."""
 
-    raw: str
-    line: int
-    motion_col: int
-    vals: dict[str, tuple[float, int]] = field(default_factory=dict)   # letter -> value, col
-    g_codes: list[tuple[float, int]] = field(default_factory=list)
-    m_codes: list[tuple[float, int]] = field(default_factory=list)
-    motion: float | None = None
-    dwell_col: int = 0
-    pen_change: bool | None = None
+    motion: float | None = None                  # G0-G3 on this line
+    dwell_col: int = 0                           # G4
+    pen_change: bool | None = None               # True: down, False: up
     pen_col: int = 0
-    end_col: int = 0
+    end_col: int = 0                             # M2/M30
     m6_col: int = 0
-    stop: tuple[float, int] | None = None
-    servo_line: bool = False
-    change: tuple | None = None          # the tool change: (pen, col, code)
+    stop: tuple[float, int] | None = None        # M0/M1: (code, col)
+    servo_line: bool = False                     # M280
+    change: tuple | None = None                  # the tool change: (pen, col, code)
     has_xy: bool = False
     has_arc_words: bool = False
+
+    def __init__(self, raw: str, line: int, motion_col: int,
+                 vals: dict[str, tuple[float, int]], g_codes: list[tuple[float, int]],
+                 m_codes: list[tuple[float, int]]):
+        self.raw = raw
+        self.line = line
+        self.motion_col = motion_col
+        self.vals = vals                         # letter -> (value, col), once each
+        self.g_codes = g_codes                   # (value, col), in line order
+        self.m_codes = m_codes
 
 
 def sort_words(raw: str, words: list, line: int, where: str) -> LineWords:
     """Sort a line's words: G and M codes (any number), the other letters (once each)."""
-    b = LineWords(raw, line, motion_col=words[0][2])
+    g_codes: list[tuple[float, int]] = []
+    m_codes: list[tuple[float, int]] = []
+    vals: dict[str, tuple[float, int]] = {}
     for idx, (letter, value, col) in enumerate(words):
         if letter == "N":
             if idx != 0:
@@ -125,11 +131,11 @@ def sort_words(raw: str, words: list, line: int, where: str) -> LineWords:
                                  f"the line")
             continue
         if letter == "G":
-            b.g_codes.append((value, col))
+            g_codes.append((value, col))
         elif letter == "M":
-            b.m_codes.append((value, col))
+            m_codes.append((value, col))
         else:
-            if letter in b.vals:
+            if letter in vals:
                 raise InputError(f"{where}:{col}: error: {letter} appears twice on the line")
-            b.vals[letter] = (value, col)
-    return b
+            vals[letter] = (value, col)
+    return LineWords(raw, line, words[0][2], vals, g_codes, m_codes)
