@@ -2,9 +2,11 @@
 
 - `calibrate steps`: measure a cord before and after a known number of steps and write the
   corrected spool_circumference_mm into config.toml, keeping its comments and layout.
-- `calibrate pattern`: draw numbered marks over the page and write pattern.csv (calibration/pattern.py).
-- `calibrate fit`: fit the machine to the distances measured between the marks (calibration/fit.py),
-  write the new values into config.toml and keep the stored position where the pen really is.
+- `calibrate pattern`: draw numbered marks over the page and write pattern.csv
+  (calibration/pattern.py).
+- `calibrate fit`: fit the machine to the distances measured between the marks
+  (calibration/fit.py), write the new values into config.toml and keep the stored position
+  where the pen really is.
 """
 
 from __future__ import annotations
@@ -23,7 +25,8 @@ def _ask(prompt: str) -> float:
     try:
         value = float(text.strip().replace(",", "."))
     except ValueError:
-        raise InputError(f"error: {text.strip()!r} is not a length in mm; calibration cancelled") from None
+        raise InputError(f"error: {text.strip()!r} is not a length in mm; "
+                         f"calibration cancelled") from None
     if not value > 0:
         raise InputError(f"error: a cord length must be above 0 (got {value:g})")
     return value
@@ -63,7 +66,8 @@ def calibrate_steps(args, cfg, command: str) -> int:
     print(f"The {args.motor} cord will be lengthened by {args.steps} steps "
           f"(about {expected:.2f} mm with the configured spool_circumference_mm = "
           f"{cfg.motors.spool_circumference_mm:g}).")
-    before = _ask(f"Measure the {args.motor} cord now, from where it leaves the spool to the pen (mm): ")
+    before = _ask(f"Measure the {args.motor} cord now, from where it leaves the spool to the "
+                  f"pen (mm): ")
     pos = job.load_position(cfg, trust=True, dry_run=args.dry_run) if state.load() else None
     if pos is None:
         pos = state.Position.at_cords(before, before, spu)
@@ -182,111 +186,37 @@ UNITS = {"anchor_distance_mm": ("mm", 3), "cord_spacing_mm": ("mm", 3), "ref_lef
 
 def calibrate_fit(args, cfg, command: str) -> int:
     """Fit the machine to the measured distances; write config.toml and the stored position."""
-    import dataclasses
-    import tomllib
-
     import numpy as np
 
-    from vplotter import config, kinematics
-    from vplotter.calibration import fit
-    from vplotter.machine import lock
-    from vplotter.calibration import pattern
+    from vplotter.calibration import fit, pattern
 
     _vplotter_only(cfg, "fit")
     if not args.file:
-        raise ConfigError("error: calibrate fit needs the pattern file: vplotter calibrate fit pattern.csv")
+        raise ConfigError("error: calibrate fit needs the pattern file: "
+                          "vplotter calibrate fit pattern.csv")
     pat = pattern.read(args.file)
     measured = [p for p in pat.pairs if p.distance_mm is not None]
     keys = fit.names(args.fit_spacing)
     need = fit.min_pairs(len(keys))
     if len(measured) < need:
-        raise InputError(f"{args.file}: error: {len(measured)} pairs measured; fitting {len(keys)} "
-                         f"parameters needs at least {need}: measure {need - len(measured)} more "
-                         f"(the pair rows of the file have room for them)")
+        raise InputError(f"{args.file}: error: {len(measured)} pairs measured; fitting "
+                         f"{len(keys)} parameters needs at least {need}: measure "
+                         f"{need - len(measured)} more (the pair rows of the file have room "
+                         f"for them)")
     stored = state.load()
-    ref = pat.reference
-    if {"left_mm", "right_mm"} <= ref.keys():
-        reference = (ref["left_mm"], ref["right_mm"])
-    elif stored is not None:
-        reference = stored.ref_mm
-    else:
-        raise InputError(f"{args.file}: error: no reference line and no stored position: "
-                         f"draw the pattern again")
-    ids = sorted(pat.marks)
-    index = {k: i for i, k in enumerate(ids)}
-    steps = np.array([pat.marks[k].steps for k in ids], dtype=float)
-    a = np.array([index[p.a] for p in measured])
-    b = np.array([index[p.b] for p in measured])
-    dist = np.array([p.distance_mm for p in measured])
+    reference = _reference(args.file, pat.reference, stored)
     old = _machine_from(cfg, reference)
-    res, outliers = fit.fit(old, steps, a, b, dist, args.fit_spacing)
-    for k in outliers:
-        p = measured[k]
-        r = res.residual_mm[k]
-        print(f"{p.where}: pair {p.a}-{p.b}: measured {p.distance_mm:.2f} mm, the fit says "
-              f"{p.distance_mm + r:.2f} mm ({r:+.2f} mm): an outlier, left out (a typo, or two "
-              f"rows swapped?)")
-    good = int(res.used.sum())
-    if good < need:
-        raise InputError(f"{args.file}: error: only {good} of {len(measured)} measured pairs fit "
-                         f"together; the fit needs at least {need}: check the outliers above "
-                         f"and measure them again")
-    if not res.rms_mm <= fit.RMS_MAX_MM:
-        raise InputError(f"{args.file}: error: the {good} measured pairs left do not fit together "
-                         f"(they are {res.rms_mm:.1f} mm off on average, a tape measure does better "
-                         f"than {fit.RMS_MAX_MM:g} mm): check the measurements and the mark numbers")
-    # the values as they will be written, and everything else computed from them
-    new = dataclasses.replace(res.machine, **{
-        k: round(getattr(res.machine, k), 5 if k == "stretch" else 4) for k in keys})
-    if new.stretch < 0:
-        new = dataclasses.replace(new, stretch=0.0)
-    kin_old = kinematics.from_config(cfg)
-    home = kin_old.to_gcode(kin_old.forward(np.array([reference])))[0]
-    here = new.kin().forward(np.array([[new.ref_left_mm, new.ref_right_mm]]))[0]
-    origin = (round(float(here[0] - home[0]), 4), round(float(here[1] + home[1]), 4))
-
-    print(f"{'parameter':<24}{'old':>12}{'new':>12}{'uncertainty':>14}")
-    for k, sig in zip(keys, res.sigma):
-        unit, dec = UNITS[k]
-        print(f"{k:<24}{getattr(old, k):>12.{dec}f}{getattr(new, k):>12.{dec}f}"
-              f"{'±':>6}{sig:.{dec}f} {unit}")
-    print(f"{'origin (x_mm, y_mm)':<24}{cfg.origin.x_mm:>6.2f},{cfg.origin.y_mm:.2f}"
-          f"{origin[0]:>6.2f},{origin[1]:.2f}  (keeps the calibrated point at "
-          f"X{home[0]:.3f} Y{home[1]:.3f})")
-    print(f"residuals (fit - measured), rms {res.rms_mm:.2f} mm over {good} pairs:")
-    for p, r, used in zip(measured, res.residual_mm, res.used):
-        print(f"  {p.a:>3}-{p.b:<3} {p.distance_mm:9.2f} mm  {r:+7.2f}{'' if used else '  (left out)'}")
-    pg = cfg.page
-    cx, cy = (pg.x_min_mm + pg.x_max_mm) / 2, (pg.y_min_mm + pg.y_max_mm) / 2
-    spread = _spread(new, res)
-    for label, a_g, b_g in (("horizontal", (cx - 150, cy), (cx + 150, cy)),
-                            ("vertical", (cx, cy - 150), (cx, cy + 150))):
-        before = fit.line_bend_mm(old, new, (cfg.origin.x_mm, cfg.origin.y_mm), a_g, b_g)
-        after = max(fit.line_bend_mm(new, t, origin, a_g, b_g) for t in spread)
-        print(f"a 300 mm {label} line through the page centre bends {before:.2f} mm with the old "
-              f"values, {after:.2f} mm with the new (within the fit's uncertainty)")
-    if args.fit_spacing:
-        print("note: the drawing depends only on anchor_distance_mm - cord_spacing_mm; "
-              "anchor_distance_mm was kept")
-
-    import tomlkit
-    from pathlib import Path
-
+    res, good = _fitted(args, old, pat, measured, need)
+    new = _rounded(res.machine, keys)
+    home, origin = _origin(cfg, reference, new)
+    _report(args, cfg, old, new, res, keys, measured, good, home, origin)
     path = Path(args.config)
-    doc = tomlkit.parse(path.read_text(encoding="utf-8"))
-    if args.fit_spacing:
-        doc.setdefault("gondola", tomlkit.table())["cord_spacing_mm"] = new.cord_spacing_mm
-    else:
-        doc["machine"]["anchor_distance_mm"] = new.anchor_distance_mm
-    doc["origin"]["x_mm"], doc["origin"]["y_mm"] = origin
-    doc["motors"]["left_spool_circumference_mm"] = new.left_circumference_mm
-    doc["motors"]["right_spool_circumference_mm"] = new.right_circumference_mm
-    doc.setdefault("cords", tomlkit.table())["stretch"] = new.stretch
-    text = tomlkit.dumps(doc)
-    config.from_dict(tomllib.loads(text), str(path))     # refuse a config that would not load
+    text = _config_text(path, args.fit_spacing, new, origin)
     if args.dry_run:
         print(f"dry run: {path} and the stored position not changed")
         return 0
+    from vplotter.machine import lock
+
     held = lock.acquire(command)
     try:
         state.atomic_write(path, text)
@@ -308,6 +238,128 @@ def calibrate_fit(args, cfg, command: str) -> int:
     print(f"stored position updated: the pen is at X{xy[0]:.3f} Y{xy[1]:.3f} "
           f"(cords {cords[0]:.3f} and {cords[1]:.3f} mm); the next draw starts from there")
     return 0
+
+
+def _reference(file: str, ref: dict, stored) -> tuple:
+    """The cord lengths at the reference point when the pattern was drawn: the pattern file's
+    reference line, else the stored position's."""
+    if {"left_mm", "right_mm"} <= ref.keys():
+        return (ref["left_mm"], ref["right_mm"])
+    if stored is not None:
+        return stored.ref_mm
+    raise InputError(f"{file}: error: no reference line and no stored position: "
+                     f"draw the pattern again")
+
+
+def _fitted(args, old, pat, measured: list, need: int):
+    """(the fit, how many pairs it used): the outliers it left out are said, and a fit on too
+    few pairs, or whose pairs do not fit together, is refused."""
+    import numpy as np
+
+    from vplotter.calibration import fit
+
+    ids = sorted(pat.marks)
+    index = {k: i for i, k in enumerate(ids)}
+    steps = np.array([pat.marks[k].steps for k in ids], dtype=float)
+    a = np.array([index[p.a] for p in measured])
+    b = np.array([index[p.b] for p in measured])
+    dist = np.array([p.distance_mm for p in measured])
+    res, outliers = fit.fit(old, steps, a, b, dist, args.fit_spacing)
+    for k in outliers:
+        p = measured[k]
+        r = res.residual_mm[k]
+        print(f"{p.where}: pair {p.a}-{p.b}: measured {p.distance_mm:.2f} mm, the fit says "
+              f"{p.distance_mm + r:.2f} mm ({r:+.2f} mm): an outlier, left out (a typo, or two "
+              f"rows swapped?)")
+    good = int(res.used.sum())
+    if good < need:
+        raise InputError(f"{args.file}: error: only {good} of {len(measured)} measured pairs fit "
+                         f"together; the fit needs at least {need}: check the outliers above "
+                         f"and measure them again")
+    if not res.rms_mm <= fit.RMS_MAX_MM:
+        raise InputError(f"{args.file}: error: the {good} measured pairs left do not fit "
+                         f"together (they are {res.rms_mm:.1f} mm off on average, a tape "
+                         f"measure does better than {fit.RMS_MAX_MM:g} mm): check the "
+                         f"measurements and the mark numbers")
+    return res, good
+
+
+def _rounded(machine, keys):
+    """The fitted values as they will be written (everything else is computed from them)."""
+    import dataclasses
+
+    new = dataclasses.replace(machine, **{
+        k: round(getattr(machine, k), 5 if k == "stretch" else 4) for k in keys})
+    if new.stretch < 0:
+        new = dataclasses.replace(new, stretch=0.0)
+    return new
+
+
+def _origin(cfg, reference, new):
+    """(the calibrated point in G-code mm with the old values, the new [origin] that keeps
+    the pen there)."""
+    import numpy as np
+
+    from vplotter import kinematics
+
+    kin_old = kinematics.from_config(cfg)
+    home = kin_old.to_gcode(kin_old.forward(np.array([reference])))[0]
+    here = new.kin().forward(np.array([[new.ref_left_mm, new.ref_right_mm]]))[0]
+    return home, (round(float(here[0] - home[0]), 4), round(float(here[1] + home[1]), 4))
+
+
+def _report(args, cfg, old, new, res, keys, measured, good, home, origin) -> None:
+    """The old and new values, the residuals and how much straight lines bent before and
+    bend now."""
+    from vplotter.calibration import fit
+
+    print(f"{'parameter':<24}{'old':>12}{'new':>12}{'uncertainty':>14}")
+    for k, sig in zip(keys, res.sigma):
+        unit, dec = UNITS[k]
+        print(f"{k:<24}{getattr(old, k):>12.{dec}f}{getattr(new, k):>12.{dec}f}"
+              f"{'±':>6}{sig:.{dec}f} {unit}")
+    print(f"{'origin (x_mm, y_mm)':<24}{cfg.origin.x_mm:>6.2f},{cfg.origin.y_mm:.2f}"
+          f"{origin[0]:>6.2f},{origin[1]:.2f}  (keeps the calibrated point at "
+          f"X{home[0]:.3f} Y{home[1]:.3f})")
+    print(f"residuals (fit - measured), rms {res.rms_mm:.2f} mm over {good} pairs:")
+    for p, r, used in zip(measured, res.residual_mm, res.used):
+        print(f"  {p.a:>3}-{p.b:<3} {p.distance_mm:9.2f} mm  {r:+7.2f}"
+              f"{'' if used else '  (left out)'}")
+    pg = cfg.page
+    cx, cy = (pg.x_min_mm + pg.x_max_mm) / 2, (pg.y_min_mm + pg.y_max_mm) / 2
+    spread = _spread(new, res)
+    for label, a_g, b_g in (("horizontal", (cx - 150, cy), (cx + 150, cy)),
+                            ("vertical", (cx, cy - 150), (cx, cy + 150))):
+        before = fit.line_bend_mm(old, new, (cfg.origin.x_mm, cfg.origin.y_mm), a_g, b_g)
+        after = max(fit.line_bend_mm(new, t, origin, a_g, b_g) for t in spread)
+        print(f"a 300 mm {label} line through the page centre bends {before:.2f} mm with the old "
+              f"values, {after:.2f} mm with the new (within the fit's uncertainty)")
+    if args.fit_spacing:
+        print("note: the drawing depends only on anchor_distance_mm - cord_spacing_mm; "
+              "anchor_distance_mm was kept")
+
+
+def _config_text(path: Path, fit_spacing: bool, new, origin) -> str:
+    """config.toml with the new values (comments and layout kept); refused if it would not
+    load."""
+    import tomllib
+
+    import tomlkit
+
+    from vplotter import config
+
+    doc = tomlkit.parse(path.read_text(encoding="utf-8"))
+    if fit_spacing:
+        doc.setdefault("gondola", tomlkit.table())["cord_spacing_mm"] = new.cord_spacing_mm
+    else:
+        doc["machine"]["anchor_distance_mm"] = new.anchor_distance_mm
+    doc["origin"]["x_mm"], doc["origin"]["y_mm"] = origin
+    doc["motors"]["left_spool_circumference_mm"] = new.left_circumference_mm
+    doc["motors"]["right_spool_circumference_mm"] = new.right_circumference_mm
+    doc.setdefault("cords", tomlkit.table())["stretch"] = new.stretch
+    text = tomlkit.dumps(doc)
+    config.from_dict(tomllib.loads(text), str(path))     # refuse a config that would not load
+    return text
 
 
 def _same_reference(pos, reference: dict) -> bool:

@@ -18,7 +18,7 @@ saves on a denser spacing.
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Callable
 
 import numpy as np
@@ -121,9 +121,36 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
         raise ConfigError("error: a photo is sized with --width or --height (or the page), "
                           "not --scale")
     w, h = size_mm(load.aspect(path), opts, page, placement.margin_mm)
+    picture, layers, inks = _pictures(path, opts, w, h, owned)
+    put, shift, A, b = _frame(placement, page, w, h)
+    # the dots come in the order of their tour (`stipple._dots`), better than any other
+    how = "keep" if opts.style == "stipple" and not opts.tsp else "greedy"
+    d = _Drawings(style, opts, picture, layers, inks, put, shift, A, b, start_xy, how,
+                  method == "best" and how == "greedy")
+    notes = [f"photo: {opts.style}, {w:.0f} x {h:.0f} mm, pen {opts.pen_mm:g} mm"]
+    if layers is not None:
+        from vplotter.inputs.image import cmyk
+
+        notes.append(f"{'cmyk' if opts.cmyk else 'colours'}: {len(inks)} pens, light to dark, "
+                     f"ink asked for (mean coverage): {cmyk.shares(layers, inks)}")
+    if opts.spacing_mm is not None:
+        if opts.max_time_s is not None:
+            raise ConfigError("error: give --spacing or --max-time, not both")
+        what = image.describe(opts.style, opts.spacing_mm, opts.pen_mm, picture, **d.extra)
+        return (d.final(d.make(opts.spacing_mm)[0]),
+                notes + [f"spacing {opts.spacing_mm:g} mm (--spacing)", what])
+    if plot_time is None:
+        raise ConfigError("error: a photo needs --spacing here (no planner to time a budget)")
+    return _budgeted(d, plot_time, max(w, h), notes)
+
+
+def _pictures(path: str, opts: PhotoOptions, w: float, h: float, owned: tuple):
+    """(the picture the notes describe, the pens' layers or None, their inks or None): the
+    image loaded at its size on the wall, one layer per pen with --cmyk or --colours."""
+    from vplotter.inputs.image import load
+
     tone = dict(pen_mm=opts.pen_mm, contrast=opts.contrast, brightness=opts.brightness,
                 invert=opts.invert)
-    layers = None
     if opts.cmyk and opts.colours:
         raise ConfigError("error: give --cmyk or --colours, not both")
     if opts.cmyk or opts.colours:
@@ -132,11 +159,14 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
         inks = cmyk.INKS if opts.cmyk else cmyk.inks_for(pens_of(opts.colours, owned))
         layers = cmyk.layers(load.load_rgb(path, w, h, **tone), w, h, os.path.basename(path),
                              inks)
-        picture = layers[-1]                          # the darkest pen's layer: for the notes
-    else:
-        picture = load.load(path, w, h, **tone)
-    # the picture's centre on the page's centre, then rotate, align and offset as asked: the
-    # picture's frame is placed (the same for every density), and must lie on the page
+        return layers[-1], layers, inks               # the darkest pen's layer: for the notes
+    return load.load(path, w, h, **tone), None, None
+
+
+def _frame(placement: place.Placement, page: place.Box, w: float, h: float):
+    """(the placement, the shift of the picture's centre to the page's, and the matrix A, b
+    that then rotates, aligns and offsets it as asked): the picture's frame is placed (the
+    same for every density), and must lie on the page."""
     put = replace(placement, fit=False)
     shift = page.centre - np.array([w / 2, h / 2])
     frame = np.array([[0.0, 0.0], [w, 0.0], [w, h], [0.0, h]]) + shift
@@ -150,91 +180,119 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
                           f"off the page (X {page.x_min:g}..{page.x_max:g}, Y {page.y_min:g}.."
                           f"{page.y_max:g}{reach}): give a smaller --width or --height, or "
                           f"move it (--offset, --align)")
-    extra = {"tsp": True} if opts.tsp else {}
+    return put, shift, A, b
 
-    drawn_last: dict = {}      # the last drawings made: the fitted curve's first try is one
-                               # its search already drew, and so may be a search's repeat
 
-    def draw(spacing: float, curve=None):
+@dataclass
+class _Drawings:
+    """A photo's drawings at a spacing and tone curve: the style's own strokes in picture mm
+    (the last DRAWN_KEPT remembered: the fitted curve's first try is one its search already
+    drew, and so may be a search's repeat), placed on the page in a quick order (`make`), and
+    in the order they are drawn in (`final`)."""
+
+    style: Callable
+    opts: PhotoOptions
+    picture: object
+    layers: list | None
+    inks: tuple | None
+    put: place.Placement
+    shift: np.ndarray
+    A: np.ndarray
+    b: np.ndarray
+    start_xy: tuple
+    how: str                 # the quick order
+    improve: bool            # the final order improves it ("best")
+    drawn_last: dict = field(default_factory=dict)
+
+    @property
+    def extra(self) -> dict:
+        return {"tsp": True} if self.opts.tsp else {}
+
+    def draw(self, spacing: float, curve=None):
         """The style's own strokes in picture mm (curve: the tone curve, None: the style's)."""
         key = (spacing, curve)
+        drawn_last, opts = self.drawn_last, self.opts
         if key not in drawn_last:
-            if layers is not None:                    # every pen's layer: one budget
-                made = cmyk.strokes(style, opts.style, layers, spacing, opts.pen_mm, inks,
-                                    **extra)
+            if self.layers is not None:               # every pen's layer: one budget
+                from vplotter.inputs.image import cmyk
+
+                made = cmyk.strokes(self.style, opts.style, self.layers, spacing, opts.pen_mm,
+                                    self.inks, **self.extra)
             else:
-                made = style(picture, spacing, opts.pen_mm, **extra,
-                             **({} if curve is None else {"curve": curve}))
+                made = self.style(self.picture, spacing, opts.pen_mm, **self.extra,
+                                  **({} if curve is None else {"curve": curve}))
             while len(drawn_last) >= DRAWN_KEPT:
                 drawn_last.pop(next(iter(drawn_last)))
             drawn_last[key] = made
         return drawn_last[key]
 
-    # the dots come in the order of their tour (`stipple._dots`), better than any other
-    how = "keep" if opts.style == "stipple" and not opts.tsp else "greedy"
-    improve = method == "best" and how == "greedy"
-
-    def final(placed: list[Stroke]) -> list[Stroke]:
+    def final(self, placed: list[Stroke]) -> list[Stroke]:
         """A drawing in its quick order -> in the order it is drawn in."""
-        return order.order(placed, "best", start_xy) if improve else placed
+        return order.order(placed, "best", self.start_xy) if self.improve else placed
 
-    def make(spacing: float, curve=None):
+    def make(self, spacing: float, curve=None):
         """(placed strokes in a quick order, the style's own strokes in picture mm)."""
-        made = draw(spacing, curve)
-        moved = [replace(s, pts=s.pts + shift, line=i + 1) for i, s in enumerate(made)]
-        if not put.identity:
-            moved = place.apply(moved, A, b)
-        return order.order(moved, how, start_xy), made
+        made = self.draw(spacing, curve)
+        moved = [replace(s, pts=s.pts + self.shift, line=i + 1) for i, s in enumerate(made)]
+        if not self.put.identity:
+            moved = place.apply(moved, self.A, self.b)
+        return order.order(moved, self.how, self.start_xy), made
 
-    notes = [f"photo: {opts.style}, {w:.0f} x {h:.0f} mm, pen {opts.pen_mm:g} mm"]
-    if layers is not None:
-        notes.append(f"{'cmyk' if opts.cmyk else 'colours'}: {len(inks)} pens, light to dark, "
-                     f"ink asked for (mean coverage): {cmyk.shares(layers, inks)}")
-    if opts.spacing_mm is not None:
-        if opts.max_time_s is not None:
-            raise ConfigError("error: give --spacing or --max-time, not both")
-        what = image.describe(opts.style, opts.spacing_mm, opts.pen_mm, picture, **extra)
-        return (final(make(opts.spacing_mm)[0]),
-                notes + [f"spacing {opts.spacing_mm:g} mm (--spacing)", what])
-    if plot_time is None:
-        raise ConfigError("error: a photo needs --spacing here (no planner to time a budget)")
+
+def _budgeted(d: _Drawings, plot_time, longest_mm: float, notes: list[str]):
+    """The drawing that fits the budget (and the notes): the densest spacing, the tone curve
+    that draws the picture best, the final order and the time it saves spent on density."""
+    from vplotter.inputs import image
+
+    opts, picture = d.opts, d.picture
     budget_s = opts.max_time_s or budget.DEFAULT_S
-    start = START_PENS[opts.kind] * opts.pen_mm
     lo = opts.pen_mm * (1.2 if opts.style == "stipple" else 1.0)
-    hi = max(w, h) / 4
+    hi = longest_mm / 4
     timed = lambda made: plot_time(made[0])                    # noqa: E731
-    curve = None
-    dots = opts.style == "stipple" and not opts.tsp and layers is None
-    if dots:           # the search on each spacing's own curve (no walk: smooth in spacing)
-        from vplotter.inputs.image import stipple
-
-        def own(sp: float) -> float:
-            return stipple.cap_gamma(picture, sp, opts.pen_mm)
-    (drawn, raw), choice = budget.fit((lambda sp: make(sp, own(sp))) if dots else make, timed,
-                                      budget_s, start, lo, hi, POWER[opts.kind])
-    if dots:           # then the walk once, at the spacing found, and a refit on its curve
-        curve = own(choice.spacing_mm)
-        g = stipple.tone_gamma(picture, choice.spacing_mm, opts.pen_mm)
-        try:
-            (drawn, raw), again = budget.fit(lambda sp: make(sp, g), timed, budget_s,
-                                             choice.spacing_mm, lo, hi, POWER[opts.kind],
-                                             most=CURVE_TRIES)
-            choice, curve = replace(again, tries=choice.tries + again.tries), g
-        except ConfigError:                   # the walk's curve takes longer even sparser
-            pass
-    if (opts.style in CURVES or opts.tsp) and layers is None:
-        drawn, choice, curve, said = pick_curve(picture, opts, draw, make, timed, budget_s, lo,
-                                                hi, raw, drawn, choice)
+    drawn, raw, choice, curve = _search(d, timed, budget_s, lo, hi)
+    if (opts.style in CURVES or opts.tsp) and d.layers is None:
+        drawn, choice, curve, said = pick_curve(picture, opts, d.draw, d.make, timed, budget_s,
+                                                lo, hi, raw, drawn, choice)
         notes.append(said)
-    drawn, choice = budget.fill(drawn, choice, lambda sp: make(sp, curve)[0], final,
+    drawn, choice = budget.fill(drawn, choice, lambda sp: d.make(sp, curve)[0], d.final,
                                 plot_time, budget_s, lo, POWER[opts.kind])
     notes.append(choice.text())
-    notes.append(image.describe(opts.style, choice.spacing_mm, opts.pen_mm, picture, **extra,
+    notes.append(image.describe(opts.style, choice.spacing_mm, opts.pen_mm, picture, **d.extra,
                                 **({} if curve is None else {"curve": curve})))
     if opts.max_time_s is None:
         notes.append(f"no --max-time: the budget for a photo is {budget.clock_text(budget_s)} "
                      f"by default")
     return drawn, notes
+
+
+def _search(d: _Drawings, timed, budget_s: float, lo: float, hi: float):
+    """(placed strokes, the style's own strokes, budget.Choice, the tone curve or None): the
+    densest spacing within the budget, on the style's own curve. Stipples search on each
+    spacing's own curve (smooth in spacing), then take the walk's curve once, at the spacing
+    found, and search again with it."""
+    opts = d.opts
+    start = START_PENS[opts.kind] * opts.pen_mm
+    if not (opts.style == "stipple" and not opts.tsp and d.layers is None):
+        (drawn, raw), choice = budget.fit(d.make, timed, budget_s, start, lo, hi,
+                                          POWER[opts.kind])
+        return drawn, raw, choice, None
+    from vplotter.inputs.image import stipple
+
+    def own(sp: float) -> float:
+        return stipple.cap_gamma(d.picture, sp, opts.pen_mm)
+
+    (drawn, raw), choice = budget.fit(lambda sp: d.make(sp, own(sp)), timed, budget_s, start,
+                                      lo, hi, POWER[opts.kind])
+    curve = own(choice.spacing_mm)
+    g = stipple.tone_gamma(d.picture, choice.spacing_mm, opts.pen_mm)
+    try:
+        (drawn, raw), again = budget.fit(lambda sp: d.make(sp, g), timed, budget_s,
+                                         choice.spacing_mm, lo, hi, POWER[opts.kind],
+                                         most=CURVE_TRIES)
+        choice, curve = replace(again, tries=choice.tries + again.tries), g
+    except ConfigError:                       # the walk's curve takes longer even sparser
+        pass
+    return drawn, raw, choice, curve
 
 
 def pens_of(names: tuple[str, ...], owned: tuple = ()) -> list[tuple[str, str]]:

@@ -14,9 +14,12 @@ from dataclasses import dataclass
 from typing import Callable, Iterable, Iterator
 
 from vplotter.errors import InputError, unreadable
+from vplotter.inputs.gcode_pen import (CLASSIC, END_M, PEN_MODES, PenDialect,  # noqa: F401
+                                       detect_pen_mode)
 from vplotter.inputs.gcode_tools import (Tools, comment_pen, comment_text, pen_message,
                                          scan, tool_name)
-from vplotter.inputs.gcode_words import ALLOWED_LETTERS, _blank, tokenize  # noqa: F401
+from vplotter.inputs.gcode_words import (ALLOWED_LETTERS, LineWords, _blank,  # noqa: F401
+                                        sort_words, tokenize)
 
 MM_PER_INCH = 25.4
 MAX_VALUE = 1e6  # mm for X Y Z I J R, seconds for P: anything larger is a typo
@@ -24,7 +27,6 @@ MAX_VALUE = 1e6  # mm for X Y Z I J R, seconds for P: anything larger is a typo
 IGNORED_G = {40.0, 49.0, 54.0, 61.0, 64.0, 80.0, 94.0}
 IGNORED_M = {7.0, 8.0, 9.0}
 MOTION_G = {0.0, 1.0, 2.0, 3.0}
-END_M = {2.0, 30.0}
 UNSUPPORTED_HINTS = {18.0: " (only the XY plane, G17, is drawn)",
                      19.0: " (only the XY plane, G17, is drawn)",
                      41.0: " (cutter compensation)", 42.0: " (cutter compensation)",
@@ -80,47 +82,6 @@ Record = Move | Pen | Dwell | Pause
 Warn = Callable[[str], None]
 
 
-@dataclass(frozen=True)
-class PenDialect:
-    """How a file moves the pen (config.toml [gcode]; the defaults are the classic rules).
-
-    pen: 'auto' (the first Z word or M280 P<m280_servo> decides; neither: M3/M5), 'z', 'm3' or
-    'm280'. In each mode the other pen commands change nothing."""
-
-    pen: str = "auto"
-    z_down_below_mm: float = 0.0              # Z below this is down (G-code mm)
-    m3_down: bool = True                      # M3 lowers and M5 lifts (false: the reverse)
-    m280_servo: int = 0                       # M280 P<this> is the pen servo
-    m280_up_s: tuple[float, float] = (70.0, 180.0)    # S (servo angle) in this range: up
-    m280_down_s: tuple[float, float] = (0.0, 50.0)    # S in this range: down
-
-
-CLASSIC = PenDialect()
-PEN_MODES = {"z": "z", "m3": "m", "m280": "s"}
-
-
-def detect_pen_mode(lines: Iterable[str], servo: int | None = None) -> str:
-    """'z' if a Z word comes before the program end (Inkscape gcodetools, CamBam), else 'm'
-    (M3/M5). With `servo`, an M280 P<servo> (Makelangelo) that comes before any Z word gives
-    's'. A line that does not tokenize ends the search: parsing will report it."""
-    for raw in lines:
-        low = raw.lower()
-        if "z" not in low and "m" not in low:  # cheap: most lines need no tokenizing
-            continue
-        try:
-            words = tokenize(raw, "")
-        except InputError:
-            return "m"
-        if any(letter == "Z" for letter, _, _ in words):
-            return "z"
-        if servo is not None and any(letter == "M" and value == 280.0 for letter, value, _ in words):
-            if any(letter == "P" and value == servo for letter, value, _ in words):
-                return "s"
-        if any(letter == "M" and value in END_M for letter, value, _ in words):
-            return "m"
-    return "m"
-
-
 def _fmt_code(letter: str, value: float) -> str:
     return f"{letter}{int(value)}" if value == int(value) else f"{letter}{value:g}"
 
@@ -155,37 +116,48 @@ class Parser:
             if not self.after_end_line and not _blank(raw.replace("%", "")):
                 self.after_end_line = line
             return
-        words = tokenize(raw, f"{self.name}:{line}")
+        where = f"{self.name}:{line}"
+        words = tokenize(raw, where)
         if not words:
             return
-        seen: dict[str, int] = {}
-        g_codes: list[tuple[float, int]] = []
-        m_codes: list[tuple[float, int]] = []
-        vals: dict[str, tuple[float, int]] = {}
-        for idx, (letter, value, col) in enumerate(words):
-            if letter == "N":
-                if idx != 0:
-                    raise self._err(line, col, "N line number must come first on the line")
-                continue
-            if letter == "G":
-                g_codes.append((value, col))
-            elif letter == "M":
-                m_codes.append((value, col))
+        b = sort_words(raw, words, line, where)
+        if b.g_codes:
+            self._g_codes(b)
+        if b.vals:
+            self._check_range(b)
+        if b.m_codes:
+            self._m_codes(b)
+        self._check_words(b)
+        # the records, in order: tool change, pen, dwell, move, pause
+        if b.change is not None:
+            yield from self._change(line, *b.change)
+        if b.pen_change is not None and b.pen_change != self.pen_down:
+            self.pen_down = b.pen_change
+            yield Pen(line, b.pen_col, b.pen_change)
+        if b.dwell_col:
+            yield Dwell(line, b.dwell_col, b.vals["P"][0])
+        if b.has_xy or (b.has_arc_words and self.motion in (2.0, 3.0)):
+            yield from self._move(b.vals, line, b.motion_col)
+        if b.stop is not None:
+            code, col = _fmt_code("M", b.stop[0]), b.stop[1]
+            pen = comment_pen(raw, where)
+            if pen is not None:
+                yield from self._change(line, pen, col, code)
             else:
-                if letter in seen:
-                    raise self._err(line, col, f"{letter} appears twice on the line")
-                seen[letter] = col
-                vals[letter] = (value, col)
-        motion = None
-        motion_col = words[0][2]
-        dwell_col = 0
-        for value, col in g_codes:
+                yield from self._pause(line, col, comment_text(raw) or f"{code}: program pause")
+        if b.end_col:
+            self.ended = True
+
+    def _g_codes(self, b: LineWords) -> None:
+        """The G codes: the motion and dwell of the line; units and distance modes change the
+        parser's state here, before the values are read."""
+        for value, col in b.g_codes:
             if value in MOTION_G:
-                if motion is not None:
-                    raise self._err(line, col, "two motion codes (G0-G3) on one line")
-                motion, motion_col = value, col
+                if b.motion is not None:
+                    raise self._err(b.line, col, "two motion codes (G0-G3) on one line")
+                b.motion, b.motion_col = value, col
             elif value == 4.0:
-                dwell_col = col
+                b.dwell_col = col
             elif value == 17.0:
                 pass
             elif value in (20.0, 21.0):
@@ -193,107 +165,102 @@ class Parser:
             elif value in (90.0, 91.0):
                 self.relative = value == 91.0
             elif value in IGNORED_G:
-                key = _fmt_code("G", value)
-                self.ignored[key] = self.ignored.get(key, 0) + 1
+                self._ignore(_fmt_code("G", value))
             else:
                 hint = UNSUPPORTED_HINTS.get(value, "")
-                raise self._err(line, col, f"unsupported code {_fmt_code('G', value)}{hint}")
+                raise self._err(b.line, col, f"unsupported code {_fmt_code('G', value)}{hint}")
+
+    def _check_range(self, b: LineWords) -> None:
         for letter in "XYZIJRP":
-            if letter in vals:
-                value, col = vals[letter]
+            if letter in b.vals:
+                value, col = b.vals[letter]
                 size = abs(value) * (1.0 if letter == "P" else self.scale)
                 if size > MAX_VALUE:
                     unit = "s" if letter == "P" else "mm"
-                    raise self._err(line, col, f"{letter}{value:g} is out of range "
-                                               f"(at most {MAX_VALUE:.0f} {unit})")
-        pen_change: bool | None = None
-        pen_col = 0
-        end_col = m6_col = 0
-        stop: tuple[float, int] | None = None
-        servo_line = False
-        for value, col in m_codes:
+                    raise self._err(b.line, col, f"{letter}{value:g} is out of range "
+                                                 f"(at most {MAX_VALUE:.0f} {unit})")
+
+    def _m_codes(self, b: LineWords) -> None:
+        """The M codes: pen (M3/M5, M280), program end, tool change, pause."""
+        for value, col in b.m_codes:
             if value in (3.0, 5.0):
                 if self.pen_mode == "m":  # in a Z-pen file M3/M5 drive a spindle: ignored
-                    pen_change, pen_col = (value == 3.0) == self.dialect.m3_down, col
+                    b.pen_change, b.pen_col = (value == 3.0) == self.dialect.m3_down, col
                 elif self.pen_mode == "s":
                     self._ignore(_fmt_code("M", value))
             elif value == 280.0:
-                servo_line = True
-                change = self._servo(vals, line, col)
+                b.servo_line = True
+                change = self._servo(b.vals, b.line, col)
                 if change is not None:
-                    pen_change, pen_col = change, col
+                    b.pen_change, b.pen_col = change, col
             elif value in END_M:
-                end_col = col
+                b.end_col = col
             elif value == 6.0:
-                m6_col = col
+                b.m6_col = col
             elif value in (0.0, 1.0):
-                stop = (value, col)
+                b.stop = (value, col)
             elif value in IGNORED_M:
-                key = _fmt_code("M", value)
-                self.ignored[key] = self.ignored.get(key, 0) + 1
+                self._ignore(_fmt_code("M", value))
             else:
-                raise self._err(line, col, f"unsupported code {_fmt_code('M', value)}")
-        if "S" in vals and not servo_line:
+                raise self._err(b.line, col, f"unsupported code {_fmt_code('M', value)}")
+
+    def _check_words(self, b: LineWords) -> None:
+        """S, T, P and F; then the dwell, the motion and the coordinates of the line, and Z."""
+        vals = b.vals
+        if "S" in vals and not b.servo_line:
             self._ignore("S")
-        change = self._tool(raw, vals if not servo_line else {}, line, m6_col)
-        if ("P" in vals and not dwell_col and not servo_line
-                and not any(v == 64.0 for v, _ in g_codes)):
-            raise self._err(line, vals["P"][1], "P word without G4 (dwell)")
+        if b.m6_col or "T" in vals:
+            b.change = self._tool(b.raw, vals if not b.servo_line else {}, b.line, b.m6_col)
+        if ("P" in vals and not b.dwell_col and not b.servo_line
+                and not any(v == 64.0 for v, _ in b.g_codes)):
+            raise self._err(b.line, vals["P"][1], "P word without G4 (dwell)")
         if "F" in vals:
             f, col = vals["F"]
             if not f > 0:
-                raise self._err(line, col, f"feed F must be above 0 (got {f:g})")
+                raise self._err(b.line, col, f"feed F must be above 0 (got {f:g})")
             self.feed_mm_s = f * self.scale / 60.0
+        if b.dwell_col:
+            self._check_dwell(b)
+        # the modal motion code; coordinates need one, arc words need G2/G3
+        if b.motion is not None:
+            self.motion = b.motion
+        b.has_xy = "X" in vals or "Y" in vals
+        b.has_arc_words = any(k in vals for k in "IJR")
+        if (b.has_xy or b.has_arc_words) and self.motion is None:
+            letter = next(k for k in "XYIJR" if k in vals)
+            raise self._err(b.line, vals[letter][1],
+                            "coordinates without a motion code (G0/G1/G2/G3)")
+        if b.has_arc_words and self.motion in (0.0, 1.0):
+            letter = next(k for k in "IJR" if k in vals)
+            raise self._err(b.line, vals[letter][1], f"{letter} is only allowed on arcs (G2/G3)")
+        if "Z" in vals:
+            self._z(b)
 
-        if dwell_col and servo_line:
-            raise self._err(line, dwell_col, "G4 (dwell) and M280 cannot share a line (both use P)")
+    def _check_dwell(self, b: LineWords) -> None:
+        line, vals, dwell_col = b.line, b.vals, b.dwell_col
+        if dwell_col and b.servo_line:
+            raise self._err(line, dwell_col,
+                            "G4 (dwell) and M280 cannot share a line (both use P)")
         if dwell_col:
             extra = [k for k in "XYZIJR" if k in vals]
-            if extra or motion is not None:
-                col = vals[extra[0]][1] if extra else motion_col
+            if extra or b.motion is not None:
+                col = vals[extra[0]][1] if extra else b.motion_col
                 raise self._err(line, col, "G4 (dwell) cannot share a line with a move")
             if "P" not in vals:
                 raise self._err(line, dwell_col, "G4 needs P (seconds)")
             p, col = vals["P"]
             if p < 0:
                 raise self._err(line, col, f"dwell P must not be negative (got {p:g})")
-        if motion is not None:
-            self.motion = motion
-        has_xy = "X" in vals or "Y" in vals
-        has_arc_words = any(k in vals for k in "IJR")
-        if (has_xy or has_arc_words) and self.motion is None:
-            letter = next(k for k in "XYIJR" if k in vals)
-            raise self._err(line, vals[letter][1], "coordinates without a motion code (G0/G1/G2/G3)")
-        if has_arc_words and self.motion in (0.0, 1.0):
-            letter = next(k for k in "IJR" if k in vals)
-            raise self._err(line, vals[letter][1], f"{letter} is only allowed on arcs (G2/G3)")
 
-        if "Z" in vals:
-            z, zcol = vals["Z"]
-            z *= self.scale
-            self.z = (self.z or 0.0) + z if self.relative else z
-            if self.pen_mode == "z":
-                pen_change, pen_col = self.z < self.dialect.z_down_below_mm, zcol
-            elif self.pen_mode == "s":
-                self._ignore("Z")
-        if change is not None:
-            yield from self._change(line, *change)
-        if pen_change is not None and pen_change != self.pen_down:
-            self.pen_down = pen_change
-            yield Pen(line, pen_col, pen_change)
-        if dwell_col:
-            yield Dwell(line, dwell_col, vals["P"][0])
-        if has_xy or (has_arc_words and self.motion in (2.0, 3.0)):
-            yield from self._move(vals, line, motion_col)
-        if stop is not None:
-            code, col = _fmt_code("M", stop[0]), stop[1]
-            pen = comment_pen(raw, f"{self.name}:{line}")
-            if pen is not None:
-                yield from self._change(line, pen, col, code)
-            else:
-                yield from self._pause(line, col, comment_text(raw) or f"{code}: program pause")
-        if end_col:
-            self.ended = True
+    def _z(self, b: LineWords) -> None:
+        """Z: the new height (modal, G91-relative); it moves the pen in Z mode."""
+        z, zcol = b.vals["Z"]
+        z *= self.scale
+        self.z = (self.z or 0.0) + z if self.relative else z
+        if self.pen_mode == "z":
+            b.pen_change, b.pen_col = self.z < self.dialect.z_down_below_mm, zcol
+        elif self.pen_mode == "s":
+            self._ignore("Z")
 
     def _tool(self, raw: str, vals: dict, line: int, m6_col: int) -> tuple | None:
         """The tool change of a line: (pen, col, code) or None (T on an M280 line is the
@@ -369,7 +336,8 @@ class Parser:
                                            f"(at most {MAX_VALUE:.0f} mm)")
         self.x, self.y = x1, y1
         if self.motion in (0.0, 1.0):
-            yield Move(line, col, x0, y0, x1, y1, 0, rapid=self.motion == 0.0, feed_mm_s=self.feed_mm_s)
+            yield Move(line, col, x0, y0, x1, y1, 0, rapid=self.motion == 0.0,
+                       feed_mm_s=self.feed_mm_s)
             return
         arc = -1 if self.motion == 2.0 else 1
         if "R" in vals:
@@ -419,7 +387,8 @@ class Parser:
                       f"the lines after it are ignored")
         if self.ignored:
             codes = ", ".join(f"{k} x{v}" if v > 1 else k for k, v in sorted(self.ignored.items()))
-            self.warn(f"{self.name}: warning: ignored codes that change nothing for a pen plotter: {codes}")
+            self.warn(f"{self.name}: warning: ignored codes that change nothing for a pen "
+                      f"plotter: {codes}")
 
 
 def _stderr(msg: str) -> None:

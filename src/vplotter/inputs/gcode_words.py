@@ -1,5 +1,6 @@
 """G-code words: one line split into (letter, value, column) words, comments and checksums
-handled. Shared by the reader (`gcode.py`) and its tool-change scan (`gcode_tools.py`)."""
+handled (`tokenize`), then sorted (`sort_words`: G and M codes, the other letters once each).
+Shared by the reader (`gcode.py`) and its tool-change scan (`gcode_tools.py`)."""
 
 from __future__ import annotations
 
@@ -88,3 +89,53 @@ def tokenize(raw: str, where: str) -> list[tuple[str, float, int]]:
         else:
             raise InputError(f"{where}:{i + 1}: error: unexpected character {ch!r}")
     return words
+
+
+class LineWords:
+    """One line's words and what they ask, between the parser's checks and its records (a
+    plain class: one is made per line, and the class holds the defaults of what most lines
+    do not ask)."""
+
+    motion: float | None = None                  # G0-G3 on this line
+    dwell_col: int = 0                           # G4
+    pen_change: bool | None = None               # True: down, False: up
+    pen_col: int = 0
+    end_col: int = 0                             # M2/M30
+    m6_col: int = 0
+    stop: tuple[float, int] | None = None        # M0/M1: (code, col)
+    servo_line: bool = False                     # M280
+    change: tuple | None = None                  # the tool change: (pen, col, code)
+    has_xy: bool = False
+    has_arc_words: bool = False
+
+    def __init__(self, raw: str, line: int, motion_col: int,
+                 vals: dict[str, tuple[float, int]], g_codes: list[tuple[float, int]],
+                 m_codes: list[tuple[float, int]]):
+        self.raw = raw
+        self.line = line
+        self.motion_col = motion_col
+        self.vals = vals                         # letter -> (value, col), once each
+        self.g_codes = g_codes                   # (value, col), in line order
+        self.m_codes = m_codes
+
+
+def sort_words(raw: str, words: list, line: int, where: str) -> LineWords:
+    """Sort a line's words: G and M codes (any number), the other letters (once each)."""
+    g_codes: list[tuple[float, int]] = []
+    m_codes: list[tuple[float, int]] = []
+    vals: dict[str, tuple[float, int]] = {}
+    for idx, (letter, value, col) in enumerate(words):
+        if letter == "N":
+            if idx != 0:
+                raise InputError(f"{where}:{col}: error: N line number must come first on "
+                                 f"the line")
+            continue
+        if letter == "G":
+            g_codes.append((value, col))
+        elif letter == "M":
+            m_codes.append((value, col))
+        else:
+            if letter in vals:
+                raise InputError(f"{where}:{col}: error: {letter} appears twice on the line")
+            vals[letter] = (value, col)
+    return LineWords(raw, line, words[0][2], vals, g_codes, m_codes)

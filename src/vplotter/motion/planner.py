@@ -46,114 +46,24 @@ stop in what it knows.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Iterator
 
 import numpy as np
 
-from vplotter.motion.refine import (CORNER_SHARE, MIN_SLOPE, SHARP_TRY, TAU_S,  # noqa: F401
-                                    refine, sharp_shares)
+# The blocks, the corner rule and the profile are modules of their own; their names stay
+# importable from here.
+from vplotter.motion.blocks import Block, Turn, _slice, _split  # noqa: F401
+from vplotter.motion.corners import CORNER_CEIL, CORNER_TOP, RETRY_GAIN  # noqa: F401
+from vplotter.motion.profile import BEND_SHARE, RETRY_MIN, RETRY_ROUNDS  # noqa: F401
+from vplotter.motion.profile import motor_path, profile  # noqa: F401
+from vplotter.motion.refine import CORNER_SHARE, MIN_SLOPE, SHARP_TRY, TAU_S  # noqa: F401
+from vplotter.motion.refine import refine, sharp_shares  # noqa: F401
 
 RATE_MARGIN = 0.998    # of max_step_rate: step times are rounded to microseconds
 ACCEL_MARGIN = 0.96    # of max_accel
 SHARP_SHARE = 0.25     # what a chord's sharp corner is taken to get (pipeline._chord_turn)
-BEND_SHARE = 0.4       # most of it the bending along a piece may take at the speed cap
-RETRY_GAIN = 1.2       # later plans: corners keep what they take at this x the best plan's speed
-RETRY_ROUNDS = 3       # plans after the first (the quickest is kept)
-RETRY_MIN = 1e-3       # no further round after one that won less than this share of the time
-CORNER_CEIL = 0.9      # a corner and the bending next to it take at most this together (first plan)
-CORNER_TOP = 0.98      # and in later plans, on a curve, where the ramps next to it leave that
 
 WINDOW = 2048          # pieces committed per planning round
-
-
-@dataclass
-class Block:
-    """Planned straight pieces; arrays have one row per piece (N) or per vertex (N + 1)."""
-
-    verts: np.ndarray      # (N+1, 2) machine mm
-    cords: np.ndarray      # (N+1, M) motor coordinates at the vertices (mm)
-    d: np.ndarray          # (N,) piece lengths mm
-    v0: np.ndarray         # entry speed mm/s
-    vp: np.ndarray         # peak (cruise) speed
-    v1: np.ndarray         # exit speed
-    a: np.ndarray          # path acceleration mm/s^2 used on the ramps
-    line: np.ndarray       # (N,) G-code line of each piece
-    drawing: np.ndarray    # (N,) pen down?
-    cap: np.ndarray        # (N,) pen speed cap from the G-code and config (mm/s)
-    stop: np.ndarray       # (N,) the machine stops at the end of this piece (pen, dwell)
-    events: list           # what happens at each stop, in order (one list per True in stop)
-
-    @property
-    def e(self) -> np.ndarray:
-        diff = np.diff(self.verts, axis=0)
-        return diff / self.d[:, None]
-
-    @property
-    def d_acc(self) -> np.ndarray:
-        return (self.vp ** 2 - self.v0 ** 2) / (2 * self.a)
-
-    @property
-    def d_dec(self) -> np.ndarray:
-        return (self.vp ** 2 - self.v1 ** 2) / (2 * self.a)
-
-    def phase_times(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Durations of the accelerate, cruise and decelerate phases of each piece."""
-        t_acc = (self.vp - self.v0) / self.a
-        t_dec = (self.vp - self.v1) / self.a
-        d_cru = np.maximum(self.d - self.d_acc - self.d_dec, 0.0)
-        return t_acc, d_cru / self.vp, t_dec
-
-    @property
-    def durations(self) -> np.ndarray:
-        t_acc, t_cru, t_dec = self.phase_times()
-        return t_acc + t_cru + t_dec
-
-    def phase_table(self, t_start: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
-        """Per piece and phase (row 3 * piece + phase: accelerate, cruise, decelerate): the
-        time the phase starts (from t_start of each piece, default 0), the path distance it
-        starts at, the speed it starts with and its path acceleration; and per piece the
-        distances where cruising and decelerating start."""
-        n = len(self.d)
-        t_acc, t_cru, t_dec = self.phase_times()
-        d_acc = self.d_acc
-        d_cru = np.maximum(self.d - d_acc - self.d_dec, 0.0)
-        t0 = np.zeros(n) if t_start is None else t_start
-        T = np.column_stack((t0, t0 + t_acc, t0 + t_acc + t_cru)).ravel()
-        S = np.column_stack((np.zeros(n), d_acc, d_acc + d_cru)).ravel()
-        V = np.column_stack((self.v0, self.vp, self.vp)).ravel()
-        A = np.column_stack((self.a, np.zeros(n), -self.a)).ravel()
-        return T, S, V, A, d_acc, d_acc + d_cru
-
-    def time_at(self, piece: np.ndarray, s: np.ndarray, table=None) -> np.ndarray:
-        """Time since the piece started (or since the table's t_start) at which the pen has
-        gone s mm along it: t = T + 2 sigma / (v + sqrt(v^2 + 2 a sigma)), sigma = s - S, in the
-        phase that holds s (one formula for the three phases; a = 0 while cruising)."""
-        T, S, V, A, s_cru, s_dec = table if table is not None else self.phase_table()
-        k = 3 * piece + (s > s_cru[piece]) + (s > s_dec[piece])
-        sig = s - S[k]
-        v = V[k]
-        return T[k] + 2.0 * sig / np.maximum(v + np.sqrt(np.maximum(v * v + 2.0 * A[k] * sig, 0.0)),
-                                              1e-300)
-
-
-@dataclass
-class Turn:
-    """The motors move to q (motor coordinates) while the pen stands still (the polar table
-    turning at the centre), from rest to rest, between two Blocks."""
-
-    q: np.ndarray
-    line: int
-
-
-def motor_path(kin, verts: np.ndarray, q0) -> tuple[np.ndarray, np.ndarray]:
-    """Motor coordinates before and after each vertex of a polyline that starts with the motors
-    at q0 (the same where the kinematics has no place to turn in place)."""
-    path = getattr(kin, "path", None)
-    if path is not None:
-        return path(verts, q0)
-    q = kin.inverse(verts)
-    return q, q
 
 
 class Planner:
@@ -271,8 +181,8 @@ class Planner:
         self._u_entry = float(u[n])
         self._start_q = q_in[n]       # a turn at vertex n is made in the next round
         # the committed end vertex is exactly pts[raw_keep - 1], where the kept pieces start
-        self._reset(pts[raw_keep:], raw_cap[raw_keep:], raw_line[raw_keep:], raw_draw[raw_keep:],
-                    block.verts[n])
+        self._reset(pts[raw_keep:], raw_cap[raw_keep:], raw_line[raw_keep:],
+                    raw_draw[raw_keep:], block.verts[n])
 
     def _reset(self, pts, cap, line, draw, start) -> None:
         self._pts = [pts] if len(pts) else []
@@ -316,171 +226,6 @@ class Planner:
         return verts, cap[piece], line[piece], draw[piece], stop[piece] & end, origin[piece]
 
     def _profile(self, verts, cap, line, draw, stop, u_entry, events, q0):
-        kin = self.kin
-        q_in, q_out = motor_path(kin, verts, q0)
-        turns = np.flatnonzero(np.any(q_in != q_out, axis=1))
-        diff = np.diff(verts, axis=0)
-        d = np.hypot(diff[:, 0], diff[:, 1])
-        e = diff / d[:, None]
-        k0 = kin.slope(verts[:-1], e)
-        k1 = kin.slope(verts[1:], e)
-        kmax = np.maximum(np.abs(k0), np.abs(k1))
-        # the bend is largest at an end or (for other machine kinds) inside: ends and middle
-        mid = 0.5 * (verts[:-1] + verts[1:])
-        bend = np.maximum(np.maximum(np.abs(kin.bend(verts[:-1], e)), np.abs(kin.bend(verts[1:], e))),
-                          np.abs(kin.bend(mid, e)))
-        acc = self.a_cord                                         # (M,)
-        v_rate = (self.v_cord / np.maximum(kmax, 1e-9)).min(axis=1)
-        v_bend = np.sqrt(BEND_SHARE * acc / np.maximum(bend, 1e-12)).min(axis=1)
-        vcap = np.minimum(np.minimum(cap, v_rate), v_bend)
-        n = len(d)
-        # corners: the budget each one takes, at most CORNER_SHARE, and the vertex speed
-        corner = np.zeros((n + 1, len(acc)))
-        u_lim = np.empty(n + 1)
-        u_lim[0] = u_entry
-        if n > 1:
-            jump = np.abs(k0[1:] - k1[:-1])                       # (n-1, M)
-            ds = np.minimum(d[1:], d[:-1])[:, None]
-            vc = np.minimum(vcap[1:], vcap[:-1])
-            # what the corner takes passed at the highest speed its pieces allow
-            use = jump * vc[:, None] * np.maximum(1.0 / TAU_S, vc[:, None] / ds)
-
-            def corner_speed(budget):
-                # jump * v * max(1/TAU, v/ds) <= budget  <=>  both limits, for every motor
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    v_tau = np.where(jump > 0, budget * TAU_S / jump, np.inf).min(axis=1)
-                    v_ds = np.where(jump > 0, np.sqrt(budget * ds / jump), np.inf).min(axis=1)
-                return np.minimum(np.minimum(v_tau, v_ds), vc)
-
-            # A corner on a curve (the next one follows within TAU) may take much of the
-            # budget: the pen goes round at that speed without speeding up or slowing down.
-            # A lone sharp corner is passed slowly anyway; the pieces around it get more.
-            v_hi = corner_speed(CORNER_SHARE * acc)
-            curve = v_hi * TAU_S >= ds[:, 0]
-            # a sharp corner: the share that passes it and the pieces next to it quickest
-            share = np.full(n - 1, CORNER_SHARE)
-            # (where even the least share passes it at full speed, the least is quickest)
-            low = corner_speed(SHARP_TRY[0] * acc) >= vc
-            share[~curve & low] = SHARP_TRY[0]
-            sharp = np.flatnonzero(~curve & ~low)
-            if len(sharp):
-                far = np.concatenate(([np.inf], v_hi, [np.inf]))
-                share[sharp] = sharp_shares(jump[sharp], acc, kmax[sharp], kmax[sharp + 1],
-                                             d[sharp], d[sharp + 1], vcap[sharp], vcap[sharp + 1],
-                                             vc[sharp], ds[sharp, 0], far[sharp], far[sharp + 2])
-            share = share[:, None] * acc
-            # and never so much that the bending leaves the ramps nothing
-            bent_hi = (bend * (vcap ** 2)[:, None])
-            bent_end = np.maximum(bent_hi[1:], bent_hi[:-1])
-            ceil = np.maximum(CORNER_CEIL * acc - bent_end, 0.0)
-            corner[1:n] = np.minimum(np.minimum(use, share), ceil)
-            corner[1:n][stop[:-1]] = 0.0                         # passed standing still
-            # the most a corner may keep in the later plans
-            top = np.zeros_like(corner)
-            top[1:n] = np.minimum(use, np.where(curve[:, None], np.maximum(CORNER_TOP * acc - bent_end, 0.0),
-                                                np.minimum(share, ceil)))
-            top[1:n][stop[:-1]] = 0.0
-        bent = bend * (vcap ** 2)[:, None]
-        u_lim[0] = min(u_lim[0], vcap[0] ** 2)
-        zero = np.zeros(n + 1, dtype=bool)
-        zero[1:][stop] = True
-        zero[n] = True
-        zero[turns] = True                                        # the motors turn at rest
-
-        def planned(reserve):
-            """Vertex speeds and ramp accelerations with `reserve` of the budget kept for
-            each corner: the corner is passed at most at what that allows, the pieces next
-            to it speed up and slow down with what bending and the corners at its ends leave.
-            Then the corners take what they need at the speeds planned (no more: those speeds
-            become limits) and the pieces next to them get the rest."""
-            lim = u_lim.copy()
-            if n > 1:
-                lim[1:n] = corner_speed(reserve[1:n]) ** 2
-            lim[zero] = 0.0
-            a = ((acc - np.maximum(reserve[:-1], reserve[1:]) - bent)
-                 / np.maximum(kmax, MIN_SLOPE)).min(axis=1)
-            u = _passes(lim, 2.0 * a * d)
-            if n > 1:
-                v = np.sqrt(u[1:n])[:, None]
-                used = reserve.copy()
-                used[1:n] = np.minimum(reserve[1:n], jump * v * np.maximum(1.0 / TAU_S, v / ds))
-                a = ((acc - np.maximum(used[:-1], used[1:]) - bent)
-                     / np.maximum(kmax, MIN_SLOPE)).min(axis=1)
-                u = _passes(np.minimum(lim, u), 2.0 * a * d)
-            return u, a
-
-        u, a = planned(corner)
-        if n > 1:
-            # Again, a few times, with each corner keeping what it takes a little above the
-            # speed of the quickest plan so far, but no more than the ramps next to it leave
-            # at that plan (and at least what it takes at that plan): where the ramps limited
-            # a corner they get more, where the corner limited the speed it gets what the
-            # ramps do not use (up to CORNER_TOP on a curve: the pen goes round at an even
-            # speed). Every plan keeps every limit; the quickest is kept.
-            best = _time(u, a, d, vcap)
-            slope = np.maximum(kmax, MIN_SLOPE)
-            for _ in range(int(RETRY_ROUNDS)):
-                v = np.sqrt(u[1:n])[:, None]
-                now = jump * v * np.maximum(1.0 / TAU_S, v / ds)
-                v = np.minimum(v * RETRY_GAIN, vc[:, None])
-                again = top.copy()
-                again[1:n] = np.minimum(top[1:n], jump * v * np.maximum(1.0 / TAU_S, v / ds))
-                need = np.abs(np.diff(u))[:, None] / (2.0 * d[:, None]) * slope + bent
-                room = acc - np.maximum(need[1:], need[:-1])
-                again[1:n] = np.minimum(again[1:n], np.maximum(room, np.minimum(now, again[1:n])))
-                u2, a2 = planned(again)
-                t2 = _time(u2, a2, d, vcap)
-                if t2 >= best:
-                    break                   # the next round would plan the same again
-                u, a, best, gain = u2, a2, t2, best - t2
-                if gain < RETRY_MIN * best:
-                    break                   # little more to win
-        inc = 2.0 * a * d
-        u0, u1 = u[:-1], u[1:]
-        up = np.minimum(vcap ** 2, (u0 + u1 + inc) / 2.0)
-        up = np.maximum(up, np.maximum(u0, u1))
-        block = Block(verts, q_out, d, np.sqrt(u0), np.sqrt(up), np.sqrt(u1), a, line, draw, cap,
-                      stop, events)
-        return block, u, q_in, turns
-
-
-
-
-def _time(u, a, d, vcap) -> float:
-    """Time of the trapezoids through squared vertex speeds u."""
-    u0, u1 = u[:-1], u[1:]
-    up = np.maximum(np.minimum(vcap ** 2, (u0 + u1 + 2.0 * a * d) / 2.0), np.maximum(u0, u1))
-    vp = np.sqrt(up)
-    d_cru = np.maximum(d - (2.0 * up - u0 - u1) / (2.0 * a), 0.0)
-    return float(((2.0 * vp - np.sqrt(u0) - np.sqrt(u1)) / a + d_cru / np.maximum(vp, 1e-300)).sum())
-
-
-def _passes(u_lim: np.ndarray, inc: np.ndarray) -> np.ndarray:
-    """Largest squared vertex speeds within u_lim that the pieces can speed up and slow down
-    between (u[j+1] - u[j] <= inc[j] both ways): a backward and a forward pass."""
-    r = np.concatenate((np.cumsum(inc[::-1])[::-1], [0.0]))   # r[j] = sum inc[j:]
-    u = r + np.minimum.accumulate((u_lim - r)[::-1])[::-1]
-    f = np.concatenate(([0.0], np.cumsum(inc)))
-    u = f + np.minimum.accumulate(u - f)
-    return np.maximum(u, 0.0)
-
-
-def _slice(b: Block, i: int, j: int) -> Block:
-    return Block(b.verts[i:j + 1], b.cords[i:j + 1], b.d[i:j], b.v0[i:j], b.vp[i:j], b.v1[i:j],
-                 b.a[i:j], b.line[i:j], b.drawing[i:j], b.cap[i:j], b.stop[i:j],
-                 b.events[int(b.stop[:i].sum()):int(b.stop[:j].sum())])
-
-
-def _split(b: Block, q_in: np.ndarray, turns: np.ndarray, n: int) -> Iterator[Block | Turn]:
-    """The first n pieces of b, cut into Blocks at the vertices where the motors turn in place
-    (a Turn between them); a turn at vertex n is left for the next round."""
-    i = 0
-    for j in [*turns[turns < n].tolist(), n]:
-        if j > i:
-            part = _slice(b, i, j)
-            part.cords = part.cords.copy()
-            part.cords[-1] = q_in[j]       # the motors before the turn at j
-            yield part
-        if j < n:
-            yield Turn(b.cords[j].copy(), int(b.line[min(j, len(b.line) - 1)]))
-        i = j
+        """The planned Block of a window and its vertex speeds (`profile.profile`)."""
+        return profile(self.kin, self.v_cord, self.a_cord, verts, cap, line, draw, stop,
+                       u_entry, events, q0)

@@ -39,15 +39,32 @@ def refine(kin, v_cord, a_cord, verts, cap, line, draw, stop, origin):
     e = diff / d[:, None]
     k0s, k1s = kin.slope(verts[:-1], e), kin.slope(verts[1:], e)
     k0, k1 = np.abs(k0s), np.abs(k1s)
-    acc = a_cord
     with np.errstate(divide="ignore"):
         vr0 = (v_cord / np.maximum(k0, 1e-9)).min(axis=1)
         vr1 = (v_cord / np.maximum(k1, 1e-9)).min(axis=1)
     vcap = np.minimum(cap, np.minimum(vr0, vr1))
-    piece_parts, s_parts = [], []
-    # rate: equal parts where the limit changes by more than RATE_STEP along the piece.
-    # Each motor's |slope| runs one way along a piece (pieces are cut where it is zero),
-    # so its limit lies between its values at the two ends.
+    piece_parts, s_parts = _rate_cuts(v_cord, k0, k1, d, cap)
+    if n > 1:
+        jump = np.abs(k0s[1:] - k1s[:-1])
+        piece, s = _sharp_cuts(a_cord, jump, k0, k1, d, cap, vcap, vr0, vr1, stop)
+        piece_parts += piece
+        s_parts += s
+    if not piece_parts:
+        return verts, cap, line, draw, stop, origin
+    piece, s, end = _kept_cuts(piece_parts, s_parts, d)
+    if len(piece) == n:
+        return verts, cap, line, draw, stop, origin
+    new = verts[piece] + e[piece] * s[:, None]
+    new[end] = verts[1:][piece[end]]
+    verts = np.vstack((verts[:1], new))
+    return verts, cap[piece], line[piece], draw[piece], stop[piece] & end, origin[piece]
+
+
+def _rate_cuts(v_cord, k0, k1, d, cap) -> tuple[list, list]:
+    """Equal parts where the rate limit changes by more than RATE_STEP along the piece: the
+    pieces cut and where (lists of arrays). Each motor's |slope| runs one way along a piece
+    (pieces are cut where it is zero), so its limit lies between its values at the two
+    ends."""
     with np.errstate(divide="ignore"):
         m0 = v_cord / np.maximum(k0, 1e-9)
         m1 = v_cord / np.maximum(k1, 1e-9)
@@ -58,45 +75,48 @@ def refine(kin, v_cord, a_cord, verts, cap, line, draw, stop, origin):
     parts = np.minimum(parts, np.maximum(np.floor(d / RATE_PART_MM), 1.0)).astype(np.int64)
     parts = np.minimum(parts, MAX_PARTS)
     many = np.flatnonzero(parts > 1)
-    if len(many):
-        c = parts[many] - 1
-        piece = np.repeat(many, c)
-        j = np.arange(len(piece)) - np.repeat(np.cumsum(c) - c, c) + 1
-        piece_parts.append(piece)
-        s_parts.append(d[piece] * j / parts[piece])
-    if n > 1:
-        # sharp corners: the speed there is at most v_hi (the corner taking CORNER_SHARE)
-        jump = np.abs(k0s[1:] - k1s[:-1])
-        ds = np.minimum(d[1:], d[:-1])[:, None]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            v_tau = np.where(jump > 0, CORNER_SHARE * acc * TAU_S / jump, np.inf).min(axis=1)
-            v_ds = np.where(jump > 0, np.sqrt(CORNER_SHARE * acc * ds / jump), np.inf).min(axis=1)
-        v_hi = np.minimum(np.minimum(v_tau, v_ds), np.minimum(vcap[1:], vcap[:-1]))
-        sharp = (v_hi * TAU_S < ds[:, 0]) & ~stop[:-1] & (jump.max(axis=1) > 1e-6)
-        # How far the pen may go within t of the corner, whatever the parts' own limits
-        # come out as. The corner is an end of both parts next to it, so: the corner is
-        # passed at most at v_tau (the jump alone over TAU at CORNER_SHARE); on each part
-        # the speed stays within the cap and the rate limit at the corner, and the path
-        # acceleration within acc / max(|slope at the corner|, MIN_SLOPE). Each part next
-        # to the corner is then at least v_hi x TAU long: `_profile` sees a sharp corner
-        # there too.
-        t = NEAR_TAU * TAU_S
-        v_c = np.minimum(v_tau, np.maximum(cap[1:], cap[:-1]))
-        a_in = (acc / np.maximum(k1[:-1], MIN_SLOPE)).min(axis=1)
-        a_out = (acc / np.maximum(k0[1:], MIN_SLOPE)).min(axis=1)
-        reach_in = np.minimum(v_c * t + 0.5 * a_in * t * t, np.minimum(cap[:-1], vr1[:-1]) * t)
-        reach_out = np.minimum(v_c * t + 0.5 * a_out * t * t, np.minimum(cap[1:], vr0[1:]) * t)
-        end_cut = sharp & (reach_in < 0.5 * d[:-1])
-        start_cut = sharp & (reach_out < 0.5 * d[1:])
-        i = np.flatnonzero(end_cut)
-        piece_parts.append(i)
-        s_parts.append(d[i] - reach_in[i])
-        i = np.flatnonzero(start_cut)
-        piece_parts.append(i + 1)
-        s_parts.append(reach_out[i])
-    if not piece_parts:
-        return verts, cap, line, draw, stop, origin
-    piece = np.concatenate(piece_parts + [np.arange(n)])
+    if not len(many):
+        return [], []
+    c = parts[many] - 1
+    piece = np.repeat(many, c)
+    j = np.arange(len(piece)) - np.repeat(np.cumsum(c) - c, c) + 1
+    return [piece], [d[piece] * j / parts[piece]]
+
+
+def _sharp_cuts(acc, jump, k0, k1, d, cap, vcap, vr0, vr1, stop) -> tuple[list, list]:
+    """Next to each sharp corner (the speed there at most v_hi, the corner taking
+    CORNER_SHARE), the part the pen covers within NEAR_TAU x TAU_S of it: the pieces cut
+    and where (lists of arrays)."""
+    ds = np.minimum(d[1:], d[:-1])[:, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        v_tau = np.where(jump > 0, CORNER_SHARE * acc * TAU_S / jump, np.inf).min(axis=1)
+        v_ds = np.where(jump > 0, np.sqrt(CORNER_SHARE * acc * ds / jump), np.inf).min(axis=1)
+    v_hi = np.minimum(np.minimum(v_tau, v_ds), np.minimum(vcap[1:], vcap[:-1]))
+    sharp = (v_hi * TAU_S < ds[:, 0]) & ~stop[:-1] & (jump.max(axis=1) > 1e-6)
+    # How far the pen may go within t of the corner, whatever the parts' own limits
+    # come out as. The corner is an end of both parts next to it, so: the corner is
+    # passed at most at v_tau (the jump alone over TAU at CORNER_SHARE); on each part
+    # the speed stays within the cap and the rate limit at the corner, and the path
+    # acceleration within acc / max(|slope at the corner|, MIN_SLOPE). Each part next
+    # to the corner is then at least v_hi x TAU long: `_profile` sees a sharp corner
+    # there too.
+    t = NEAR_TAU * TAU_S
+    v_c = np.minimum(v_tau, np.maximum(cap[1:], cap[:-1]))
+    a_in = (acc / np.maximum(k1[:-1], MIN_SLOPE)).min(axis=1)
+    a_out = (acc / np.maximum(k0[1:], MIN_SLOPE)).min(axis=1)
+    reach_in = np.minimum(v_c * t + 0.5 * a_in * t * t, np.minimum(cap[:-1], vr1[:-1]) * t)
+    reach_out = np.minimum(v_c * t + 0.5 * a_out * t * t, np.minimum(cap[1:], vr0[1:]) * t)
+    end_cut = sharp & (reach_in < 0.5 * d[:-1])
+    start_cut = sharp & (reach_out < 0.5 * d[1:])
+    i = np.flatnonzero(end_cut)
+    o = np.flatnonzero(start_cut)
+    return [i, o + 1], [d[i] - reach_in[i], reach_out[o]]
+
+
+def _kept_cuts(piece_parts: list, s_parts: list, d: np.ndarray):
+    """The cuts in order along the path, each piece's end included, without those that
+    would leave a part shorter than MIN_PART_MM: piece, distance along it, is-its-end."""
+    piece = np.concatenate(piece_parts + [np.arange(len(d))])
     s = np.concatenate(s_parts + [d])
     order = np.lexsort((s, piece))
     piece, s = piece[order], s[order]
@@ -105,13 +125,7 @@ def refine(kin, v_cord, a_cord, verts, cap, line, draw, stop, origin):
     first = np.concatenate(([True], piece[1:] != piece[:-1]))
     prev[first] = 0.0
     good = end | ((s - prev > MIN_PART_MM) & (d[piece] - s > MIN_PART_MM))
-    piece, s, end = piece[good], s[good], end[good]
-    if len(piece) == n:
-        return verts, cap, line, draw, stop, origin
-    new = verts[piece] + e[piece] * s[:, None]
-    new[end] = verts[1:][piece[end]]
-    verts = np.vstack((verts[:1], new))
-    return verts, cap[piece], line[piece], draw[piece], stop[piece] & end, origin[piece]
+    return piece[good], s[good], end[good]
 
 
 def sharp_shares(jump, acc, k_in, k_out, d_in, d_out, cap_in, cap_out, vc, ds, far_in, far_out):
@@ -131,6 +145,6 @@ def sharp_shares(jump, acc, k_in, k_out, d_in, d_out, cap_in, cap_out, vc, ds, f
                       (d_out, k_out, np.minimum(cap_out, far_out))):
         a = (1.0 - used) * (acc / np.maximum(k, MIN_SLOPE)).min(axis=1)
         v_top = np.maximum(np.minimum(np.sqrt(v_c * v_c + 2.0 * a * L), cap), v_c)
-        t = t + ((v_top - v_c) / a
-                 + np.maximum(L - (v_top ** 2 - v_c ** 2) / (2.0 * a), 0.0) / np.maximum(v_top, 1e-300))
+        cruise = np.maximum(L - (v_top ** 2 - v_c ** 2) / (2.0 * a), 0.0)
+        t = t + ((v_top - v_c) / a + cruise / np.maximum(v_top, 1e-300))
     return SHARP_TRY[np.argmin(t, axis=0)]

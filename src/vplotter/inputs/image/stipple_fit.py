@@ -34,6 +34,8 @@ more or larger jumps, other peak sizes: within 0.003.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 CELL_MM = 1.0      # the fitting grid
@@ -55,32 +57,62 @@ def fitted(pts: np.ndarray, darkness, width_mm: float, height_mm: float,
     correlation they reached: on the fitting grid, the last round's, 0.0 when nothing could
     be fitted)."""
     from PIL import Image
-    from scipy.ndimage import gaussian_filter, maximum_filter
 
-    n = len(pts)
-    if n < 2:
+    if len(pts) < 2:
         return pts, 0.0
     cols = max(2, round(width_mm / cell_mm))
     rows = max(2, round(height_mm / cell_mm))
-    cw, ch = width_mm / cols, height_mm / rows
-    sig = (SIGMA_MM / ch, SIGMA_MM / cw)
-
-    def blur(a):
-        return gaussian_filter(a, sig, mode="reflect", truncate=3.0)
-
+    g = _Grid(cols, rows, width_mm / cols, height_mm / rows, height_mm)
     d = np.asarray(Image.fromarray(np.asarray(darkness, dtype=np.float32), mode="F")
                    .resize((cols, rows), Image.BOX), dtype=np.float32)
-    dc = blur(d)
-    dc = dc - dc.mean()
-    nd = float(np.sqrt((dc * dc).sum()))
-    if not nd > 0:
+    dc = g.blur(d)
+    g.dc = dc = dc - dc.mean()
+    g.nd = float(np.sqrt((dc * dc).sum()))
+    if not g.nd > 0:
         return pts, 0.0
     pts = np.array(pts, dtype=np.float64)
     hi = np.array([width_mm, height_mm]) - INSET
-    def state(pts):
+    peak = max(3, 2 * round(PEAK_MM / 2 / cell_mm) + 1)
+    r = 0.0
+    for k in range(rounds + 1):
+        got = g.state(pts)
+        r, field = got[0], got[1]
+        if field is None or k == rounds:
+            break
+        if teleport and k % JUMP_EVERY == JUMP_EVERY - 1 and k < JUMP_UNTIL * rounds:
+            pts, got = _jump(g, pts, got, peak, stay, hi)
+            r = got[0]
+        move = _step(g, got, step_mm * (1.0 - 0.8 * k / max(rounds - 1, 1)))
+        if move is None:
+            break
+        pts = np.clip(pts + move, INSET, hi)
+    return pts, r
+
+
+@dataclass
+class _Grid:
+    """The fitting grid (cols x rows cells of cw x ch mm over a picture height_mm high) and
+    the picture's blurred darkness on it, less its mean (dc; nd its norm)."""
+
+    cols: int
+    rows: int
+    cw: float
+    ch: float
+    height_mm: float
+    dc: np.ndarray | None = None
+    nd: float = 0.0
+
+    def blur(self, a: np.ndarray) -> np.ndarray:
+        from scipy.ndimage import gaussian_filter
+
+        sig = (SIGMA_MM / self.ch, SIGMA_MM / self.cw)
+        return gaussian_filter(a, sig, mode="reflect", truncate=3.0)
+
+    def state(self, pts: np.ndarray):
         """(r, the field dr/dI blurred, the dots' cells and bilinear weights)."""
-        x = pts[:, 0] / cw - 0.5
-        y = (height_mm - pts[:, 1]) / ch - 0.5
+        cols, rows, dc, nd = self.cols, self.rows, self.dc, self.nd
+        x = pts[:, 0] / self.cw - 0.5
+        y = (self.height_mm - pts[:, 1]) / self.ch - 0.5
         x0 = np.clip(np.floor(x).astype(np.intp), 0, cols - 2)
         y0 = np.clip(np.floor(y).astype(np.intp), 0, rows - 2)
         fx, fy = np.clip(x - x0, 0, 1), np.clip(y - y0, 0, 1)
@@ -88,57 +120,59 @@ def fitted(pts: np.ndarray, darkness, width_mm: float, height_mm: float,
         cells = (y0 * cols + x0, y0 * cols + x0 + 1, (y0 + 1) * cols + x0,
                  (y0 + 1) * cols + x0 + 1)
         acc = np.bincount(np.concatenate(cells), np.concatenate(w), rows * cols)
-        ink = blur(acc.reshape(rows, cols).astype(np.float32))
+        ink = self.blur(acc.reshape(rows, cols).astype(np.float32))
         ic = ink - ink.mean()
         ni = float(np.sqrt((ic * ic).sum()))
         if not ni > 0:
             return 0.0, None, cells, w
         r = float((ic * dc).sum()) / (ni * nd)
-        return r, blur((dc / (ni * nd) - r * ic / (ni * ni)).astype(np.float32)), cells, w
+        return r, self.blur((dc / (ni * nd) - r * ic / (ni * ni)).astype(np.float32)), cells, w
 
-    peak = max(3, 2 * round(PEAK_MM / 2 / cell_mm) + 1)
-    r = 0.0
-    for k in range(rounds + 1):
-        r, field, cells, w = state(pts)
-        if field is None or k == rounds:
-            break
 
-        def at(a):
-            return sum(a.ravel()[c] * wt for c, wt in zip(cells, w))
+def _at(a: np.ndarray, cells, w) -> np.ndarray:
+    """The grid values `a` at the dots (bilinear)."""
+    return sum(a.ravel()[c] * wt for c, wt in zip(cells, w))
 
-        if teleport and k % JUMP_EVERY == JUMP_EVERY - 1 and k < JUMP_UNTIL * rounds:
-            # the dots where ink is least wanted to the places where it is most wanted
-            top = np.flatnonzero(((field == maximum_filter(field, size=peak)) &
-                                  (field > 0)).ravel())
-            top = top[np.argsort(-field.ravel()[top], kind="stable")]
-            worst = np.argsort(at(field), kind="stable")
-            if stay is not None:                     # these dots only move, never jump
-                worst = worst[~stay[worst]]
-            m = min(len(top), len(worst), max(1, int(JUMP_SHARE * n)))
-            while m >= 1:
-                row, col = np.divmod(top[:m], cols)
-                new = pts.copy()
-                new[worst[:m]] = np.column_stack([(col + 0.5) * cw, height_mm - (row + 0.5) * ch])
-                new = np.clip(new, INSET, hi)
-                got = state(new)
-                if got[0] > r:
-                    pts = new
-                    r, field, cells, w = got
-                    break
-                m //= 2
-        gy, gx = np.gradient(field)
 
-        g = np.column_stack([at(gx) / cw, -at(gy) / ch])
-        size = np.hypot(*g.T)
-        top = float(np.percentile(size, 90))
-        if not top > 0:
-            break
-        step = step_mm * (1.0 - 0.8 * k / max(rounds - 1, 1))
-        move = g * (step / top)
-        longest = np.hypot(*move.T)
-        move *= np.minimum(1.0, step / np.maximum(longest, 1e-12))[:, None]
-        pts = np.clip(pts + move, INSET, hi)
-    return pts, r
+def _jump(g: _Grid, pts: np.ndarray, got, peak: int, stay, hi):
+    """The dots where ink is least wanted to the places where it is most wanted, if r rises
+    (else half as many are tried): (the dots, their state)."""
+    from scipy.ndimage import maximum_filter
+
+    r, field, cells, w = got
+    top = np.flatnonzero(((field == maximum_filter(field, size=peak)) &
+                          (field > 0)).ravel())
+    top = top[np.argsort(-field.ravel()[top], kind="stable")]
+    worst = np.argsort(_at(field, cells, w), kind="stable")
+    if stay is not None:                     # these dots only move, never jump
+        worst = worst[~stay[worst]]
+    m = min(len(top), len(worst), max(1, int(JUMP_SHARE * len(pts))))
+    while m >= 1:
+        row, col = np.divmod(top[:m], g.cols)
+        new = pts.copy()
+        new[worst[:m]] = np.column_stack([(col + 0.5) * g.cw, g.height_mm - (row + 0.5) * g.ch])
+        new = np.clip(new, INSET, hi)
+        tried = g.state(new)
+        if tried[0] > r:
+            return new, tried
+        m //= 2
+    return pts, got
+
+
+def _step(g: _Grid, got, step: float) -> np.ndarray | None:
+    """Every dot's move along its gradient: the 90th percentile of the moves `step` long and
+    none longer; None where there is no gradient."""
+    _, field, cells, w = got
+    gy, gx = np.gradient(field)
+    grad = np.column_stack([_at(gx, cells, w) / g.cw, -_at(gy, cells, w) / g.ch])
+    size = np.hypot(*grad.T)
+    top = float(np.percentile(size, 90))
+    if not top > 0:
+        return None
+    move = grad * (step / top)
+    longest = np.hypot(*move.T)
+    move *= np.minimum(1.0, step / np.maximum(longest, 1e-12))[:, None]
+    return move
 
 
 def correlation(pts: np.ndarray, darkness, width_mm: float, height_mm: float,

@@ -94,16 +94,77 @@ def _improve(pts: np.ndarray, t: np.ndarray, nbr: np.ndarray, rounds: int = 30) 
     (point a moved between b and its successor or predecessor) for b among a's neighbours, on
     the closed tour t. Candidates are found vectorised; the moves are made one at a time in
     order of gain (each checked again first), reversing the shorter side of the tour."""
-    n = len(t)
-    xs, ys = pts[:, 0].tolist(), pts[:, 1].tolist()
-    t = t.copy()
-    pos = np.empty(n, dtype=np.int64)
-    pos[t] = np.arange(n)
+    ring = _Ring(pts, t)
+    X, Y = pts[:, 0], pts[:, 1]
+    A = np.repeat(np.arange(len(t)), nbr.shape[1])
+    B = nbr.ravel()
+    dab = np.hypot(X[A] - X[B], Y[A] - Y[B])
+    for _ in range(rounds):
+        found = _candidates(ring.t, X, Y, A, B, dab)
+        if found is None:
+            break
+        made = 0
+        for kd, ci in zip(*found):
+            made += ring.try_move(kd, int(A[ci]), int(B[ci]))
+        if made == 0:
+            break
+    return ring.t
 
-    def d(a, b):
+
+def _candidates(t: np.ndarray, X: np.ndarray, Y: np.ndarray, A: np.ndarray, B: np.ndarray,
+                dab: np.ndarray):
+    """The moves of a round that gain on the tour t, best first: (kinds, candidates) as lists
+    (kind 0, 1: 2-opt from a's successor or predecessor side; 2, 3: a moved next to b's
+    successor or predecessor; candidate: an index into the pairs A, B), None if none gains."""
+    n = len(t)
+
+    def dv(p, q):
+        return np.hypot(X[p] - X[q], Y[p] - Y[q])
+
+    succ, pred = np.empty_like(t), np.empty_like(t)
+    succ[t], pred[t] = np.roll(t, -1), np.roll(t, 1)
+    es, ep = dv(np.arange(n), succ), dv(np.arange(n), pred)
+    rem = es + ep - dv(pred, succ)            # saved by taking a point out
+    kinds, cands, gains = [], [], []
+    # a 2-opt move gains only if one of its new edges (a, b) is shorter than the old
+    # edge at a: from a's successor side, or from its predecessor side
+    for kd, (near, fn) in enumerate(((es, succ), (ep, pred))):
+        c = np.flatnonzero(dab < near[A])
+        a, b = A[c], B[c]
+        g = near[a] + near[b] - dab[c] - dv(fn[a], fn[b])
+        kinds.append(np.full(len(c), kd)), cands.append(c), gains.append(g)
+    c = np.flatnonzero(dab < rem[A])
+    a, b = A[c], B[c]
+    for kd, (near, fn) in ((2, (es, succ)), (3, (ep, pred))):
+        g = rem[a] - dab[c] + near[b] - dv(a, fn[b])
+        kinds.append(np.full(len(c), kd)), cands.append(c), gains.append(g)
+    kind, c, g = np.concatenate(kinds), np.concatenate(cands), np.concatenate(gains)
+    keep = g > 1e-9
+    if not keep.any():
+        return None
+    kind, c, g = kind[keep], c[keep], g[keep]
+    sel = np.argsort(-g, kind="stable")
+    return kind[sel].tolist(), c[sel].tolist()
+
+
+class _Ring:
+    """A closed tour being improved: t (the points in tour order) and pos (each point's
+    position in t), changed in place."""
+
+    def __init__(self, pts: np.ndarray, t: np.ndarray):
+        self.n = n = len(t)
+        self.xs, self.ys = pts[:, 0].tolist(), pts[:, 1].tolist()
+        self.t = t.copy()
+        self.pos = np.empty(n, dtype=np.int64)
+        self.pos[self.t] = np.arange(n)
+
+    def d(self, a: int, b: int) -> float:
+        xs, ys = self.xs, self.ys
         return math.hypot(xs[a] - xs[b], ys[a] - ys[b])
 
-    def reverse(i, j):                 # reverse positions i..j (cyclic, i <= j as positions)
+    def reverse(self, i: int, j: int) -> None:
+        """Reverse positions i..j (cyclic, i <= j as positions)."""
+        t, pos, n = self.t, self.pos, self.n
         ln = (j - i) % n + 1
         if 2 * ln > n:                 # the other side instead: same tour, fewer to move
             i, j = (j + 1) % n, (i - 1) % n
@@ -120,69 +181,34 @@ def _improve(pts: np.ndarray, t: np.ndarray, nbr: np.ndarray, rounds: int = 30) 
             t[idx] = seg
             pos[seg] = idx
 
-    X, Y = pts[:, 0], pts[:, 1]
-    A = np.repeat(np.arange(n), nbr.shape[1])
-    B = nbr.ravel()
-    dab = np.hypot(X[A] - X[B], Y[A] - Y[B])
-
-    def dv(p, q):
-        return np.hypot(X[p] - X[q], Y[p] - Y[q])
-
-    for _ in range(rounds):
-        succ, pred = np.empty_like(t), np.empty_like(t)
-        succ[t], pred[t] = np.roll(t, -1), np.roll(t, 1)
-        es, ep = dv(np.arange(n), succ), dv(np.arange(n), pred)
-        rem = es + ep - dv(pred, succ)            # saved by taking a point out
-        kinds, cands, gains = [], [], []
-        # a 2-opt move gains only if one of its new edges (a, b) is shorter than the old
-        # edge at a: from a's successor side, or from its predecessor side
-        for kd, (near, fn) in enumerate(((es, succ), (ep, pred))):
-            c = np.flatnonzero(dab < near[A])
-            a, b = A[c], B[c]
-            g = near[a] + near[b] - dab[c] - dv(fn[a], fn[b])
-            kinds.append(np.full(len(c), kd)), cands.append(c), gains.append(g)
-        c = np.flatnonzero(dab < rem[A])
-        a, b = A[c], B[c]
-        for kd, (near, fn) in ((2, (es, succ)), (3, (ep, pred))):
-            g = rem[a] - dab[c] + near[b] - dv(a, fn[b])
-            kinds.append(np.full(len(c), kd)), cands.append(c), gains.append(g)
-        kind, c, g = np.concatenate(kinds), np.concatenate(cands), np.concatenate(gains)
-        keep = g > 1e-9
-        if not keep.any():
-            break
-        kind, c, g = kind[keep], c[keep], g[keep]
-        sel = np.argsort(-g, kind="stable")
-        a, b = A, B
-        made = 0
-        for kd, ci in zip(kind[sel].tolist(), c[sel].tolist()):
-            x, y = int(a[ci]), int(b[ci])
-            i, j = int(pos[x]), int(pos[y])
-            if kd == 0:                # (x, sx) (y, sy) -> (x, y) (sx, sy)
-                sx, sy = int(t[(i + 1) % n]), int(t[(j + 1) % n])
-                if sx == y or sy == x:
-                    continue
-                if d(x, sx) + d(y, sy) - d(x, y) - d(sx, sy) > 1e-9:
-                    reverse((i + 1) % n, j)
-                    made += 1
-            elif kd == 1:              # (px, x) (py, y) -> (x, y) (px, py)
-                px, py = int(t[(i - 1) % n]), int(t[(j - 1) % n])
-                if px == y or py == x:
-                    continue
-                if d(x, px) + d(y, py) - d(x, y) - d(px, py) > 1e-9:
-                    reverse(j, (i - 1) % n)
-                    made += 1
-            else:                      # x moved between y and its successor/predecessor
-                px, sx = int(t[(i - 1) % n]), int(t[(i + 1) % n])
-                z = int(t[(j + 1) % n]) if kd == 2 else int(t[(j - 1) % n])
-                if x in (y, z) or n < 4:
-                    continue
-                g = d(px, x) + d(x, sx) - d(px, sx) + d(y, z) - d(y, x) - d(x, z)
-                if g > 1e-9:
-                    _move(t, pos, i, j if kd == 2 else (j - 1) % n, n)
-                    made += 1
-        if made == 0:
-            break
-    return t
+    def try_move(self, kd: int, x: int, y: int) -> bool:
+        """Make the move of kind kd for points x, y if it still gains on the tour as it is."""
+        t, n, d = self.t, self.n, self.d
+        i, j = int(self.pos[x]), int(self.pos[y])
+        if kd == 0:                # (x, sx) (y, sy) -> (x, y) (sx, sy)
+            sx, sy = int(t[(i + 1) % n]), int(t[(j + 1) % n])
+            if sx == y or sy == x:
+                return False
+            if d(x, sx) + d(y, sy) - d(x, y) - d(sx, sy) > 1e-9:
+                self.reverse((i + 1) % n, j)
+                return True
+        elif kd == 1:              # (px, x) (py, y) -> (x, y) (px, py)
+            px, py = int(t[(i - 1) % n]), int(t[(j - 1) % n])
+            if px == y or py == x:
+                return False
+            if d(x, px) + d(y, py) - d(x, y) - d(px, py) > 1e-9:
+                self.reverse(j, (i - 1) % n)
+                return True
+        else:                      # x moved between y and its successor/predecessor
+            px, sx = int(t[(i - 1) % n]), int(t[(i + 1) % n])
+            z = int(t[(j + 1) % n]) if kd == 2 else int(t[(j - 1) % n])
+            if x in (y, z) or n < 4:
+                return False
+            g = d(px, x) + d(x, sx) - d(px, sx) + d(y, z) - d(y, x) - d(x, z)
+            if g > 1e-9:
+                _move(t, self.pos, i, j if kd == 2 else (j - 1) % n, n)
+                return True
+        return False
 
 
 def _move(t: np.ndarray, pos: np.ndarray, i: int, j: int, n: int) -> None:
@@ -222,7 +248,8 @@ def split(path: np.ndarray, picture: Picture, spacing_mm: float, gamma: float,
         allowed = np.minimum(GAP * spacing_mm / np.sqrt(rho_ends), MAX_EDGE * asked)
     f = (np.arange(EDGE_SAMPLES) + 0.5) / EDGE_SAMPLES
     along = a[:, None, :] + (b - a)[:, None, :] * f[None, :, None]
-    dark = (picture if paper is None else paper).at(along.reshape(-1, 2)).reshape(len(a), EDGE_SAMPLES)
+    seen = picture if paper is None else paper
+    dark = seen.at(along.reshape(-1, 2)).reshape(len(a), EDGE_SAMPLES)
     white = np.mean(dark < WHITE, axis=1) * length
     cuts = np.flatnonzero((length > allowed) | (white > WHITE_RUN * asked)) + 1
     return np.split(path, cuts)

@@ -1,0 +1,107 @@
+"""The junction rule of the planner (see `planner`): what each corner of a window takes of the
+motors' acceleration budget, and the vertex speed that allows.
+
+At a vertex the cord speeds change at once by v x |slope change| (`jump`); inside one window
+TAU_S that counts as an acceleration of jump x v x max(1 / TAU_S, v / ds), ds the shorter of
+the two pieces (`Corners.takes`). `corners` gives each corner its share of the budget for the
+first plan (CORNER_SHARE on a curve, the quickest of SHARP_TRY at a lone sharp corner, never
+more than CORNER_CEIL with the bending next to it) and the most it may keep in the later ones
+(`Corners.again`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from vplotter.motion.refine import CORNER_SHARE, SHARP_TRY, TAU_S, sharp_shares
+
+RETRY_GAIN = 1.2       # later plans: corners keep what they take at this x the best plan's speed
+CORNER_CEIL = 0.9      # a corner and the bending next to it take at most this together (first plan)
+CORNER_TOP = 0.98      # and in later plans, on a curve, where the ramps next to it leave that
+
+
+@dataclass
+class Corners:
+    """The n - 1 inner corners of a window of n pieces; arrays have one row per corner."""
+
+    jump: np.ndarray       # (n-1, M) |slope change| of each motor's cord
+    ds: np.ndarray         # (n-1, 1) the shorter of the two pieces
+    vc: np.ndarray         # (n-1,) the slower of the two pieces' speed caps
+    corner: np.ndarray     # (n+1, M) the budget each vertex keeps in the first plan
+    top: np.ndarray        # (n+1, M) the most it may keep in the later plans
+
+    def takes(self, v: np.ndarray) -> np.ndarray:
+        """What each corner takes passed at speeds v (n-1, 1)."""
+        return self.jump * v * np.maximum(1.0 / TAU_S, v / self.ds)
+
+    def speed(self, budget: np.ndarray) -> np.ndarray:
+        """The highest corner speeds within `budget` (n-1, M), for every motor:
+        jump * v * max(1/TAU, v/ds) <= budget  <=>  both limits."""
+        jump = self.jump
+        with np.errstate(divide="ignore", invalid="ignore"):
+            v_tau = np.where(jump > 0, budget * TAU_S / jump, np.inf).min(axis=1)
+            v_ds = np.where(jump > 0, np.sqrt(budget * self.ds / jump), np.inf).min(axis=1)
+        return np.minimum(np.minimum(v_tau, v_ds), self.vc)
+
+    def again(self, u: np.ndarray, d: np.ndarray, slope: np.ndarray, bent: np.ndarray,
+              acc: np.ndarray) -> np.ndarray:
+        """The budgets of a later plan after the plan of squared vertex speeds u: each corner
+        keeps what it takes at RETRY_GAIN x those speeds (within `top`), but no more than the
+        ramps next to it leave at that plan, and at least what it takes at that plan."""
+        n = len(d)
+        v = np.sqrt(u[1:n])[:, None]
+        now = self.takes(v)
+        v = np.minimum(v * RETRY_GAIN, self.vc[:, None])
+        top = self.top
+        again = top.copy()
+        again[1:n] = np.minimum(top[1:n], self.takes(v))
+        need = np.abs(np.diff(u))[:, None] / (2.0 * d[:, None]) * slope + bent
+        room = acc - np.maximum(need[1:], need[:-1])
+        again[1:n] = np.minimum(again[1:n], np.maximum(room, np.minimum(now, again[1:n])))
+        return again
+
+
+def corners(k0, k1, kmax, d, vcap, bent, acc, stop) -> Corners:
+    """The corners of a window of n > 1 pieces: k0, k1 the slopes at each piece's ends, kmax
+    the larger, d the lengths, vcap the speed caps, bent what bending takes at the cap, acc
+    the budget (M,), stop the pieces after which the machine stands still."""
+    n = len(d)
+    jump = np.abs(k0[1:] - k1[:-1])                       # (n-1, M)
+    ds = np.minimum(d[1:], d[:-1])[:, None]
+    vc = np.minimum(vcap[1:], vcap[:-1])
+    c = Corners(jump, ds, vc, np.zeros((n + 1, len(acc))), np.zeros((n + 1, len(acc))))
+    # what the corner takes passed at the highest speed its pieces allow
+    use = c.takes(vc[:, None])
+    # A corner on a curve (the next one follows within TAU) may take much of the
+    # budget: the pen goes round at that speed without speeding up or slowing down.
+    # A lone sharp corner is passed slowly anyway; the pieces around it get more.
+    v_hi = c.speed(CORNER_SHARE * acc)
+    curve = v_hi * TAU_S >= ds[:, 0]
+    share = _shares(c, curve, v_hi, acc, kmax, d, vcap)[:, None] * acc
+    # and never so much that the bending leaves the ramps nothing
+    bent_end = np.maximum(bent[1:], bent[:-1])
+    ceil = np.maximum(CORNER_CEIL * acc - bent_end, 0.0)
+    c.corner[1:n] = np.minimum(np.minimum(use, share), ceil)
+    c.corner[1:n][stop[:-1]] = 0.0                         # passed standing still
+    # the most a corner may keep in the later plans
+    on_curve = np.maximum(CORNER_TOP * acc - bent_end, 0.0)
+    c.top[1:n] = np.minimum(use, np.where(curve[:, None], on_curve, np.minimum(share, ceil)))
+    c.top[1:n][stop[:-1]] = 0.0
+    return c
+
+
+def _shares(c: Corners, curve, v_hi, acc, kmax, d, vcap) -> np.ndarray:
+    """Each corner's share of the budget: CORNER_SHARE on a curve; at a sharp corner the
+    share that passes it and the pieces next to it quickest."""
+    share = np.full(len(curve), CORNER_SHARE)
+    # (where even the least share passes it at full speed, the least is quickest)
+    low = c.speed(SHARP_TRY[0] * acc) >= c.vc
+    share[~curve & low] = SHARP_TRY[0]
+    sharp = np.flatnonzero(~curve & ~low)
+    if len(sharp):
+        far = np.concatenate(([np.inf], v_hi, [np.inf]))
+        share[sharp] = sharp_shares(c.jump[sharp], acc, kmax[sharp], kmax[sharp + 1],
+                                     d[sharp], d[sharp + 1], vcap[sharp], vcap[sharp + 1],
+                                     c.vc[sharp], c.ds[sharp, 0], far[sharp], far[sharp + 2])
+    return share

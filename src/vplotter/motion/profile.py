@@ -1,0 +1,157 @@
+"""The speed profile of one look-ahead window (see `planner`): per piece the speed cap its
+motors allow (step rate, bending), per vertex the corner budgets (`corners`), then the
+trapezoids: the largest vertex speeds the ramps can reach between the limits (a backward and
+a forward pass), planned again a few times with the corners keeping what they use (the
+quickest plan is kept)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from vplotter.motion.blocks import Block
+from vplotter.motion.corners import Corners, corners
+from vplotter.motion.refine import MIN_SLOPE
+
+BEND_SHARE = 0.4       # most of it the bending along a piece may take at the speed cap
+RETRY_ROUNDS = 3       # plans after the first (the quickest is kept)
+RETRY_MIN = 1e-3       # no further round after one that won less than this share of the time
+
+
+def motor_path(kin, verts: np.ndarray, q0) -> tuple[np.ndarray, np.ndarray]:
+    """Motor coordinates before and after each vertex of a polyline that starts with the motors
+    at q0 (the same where the kinematics has no place to turn in place)."""
+    path = getattr(kin, "path", None)
+    if path is not None:
+        return path(verts, q0)
+    q = kin.inverse(verts)
+    return q, q
+
+
+@dataclass
+class Window:
+    """The pieces of a window as the profile sees them; arrays have one row per piece (N) or
+    per vertex (N + 1), M motors."""
+
+    d: np.ndarray          # (N,) lengths mm
+    kmax: np.ndarray       # (N, M) the larger |slope| of each cord at the piece's two ends
+    vcap: np.ndarray       # (N,) the speed cap: the G-code's, the step rate's, the bending's
+    bent: np.ndarray       # (N, M) what the bending takes at the cap
+    acc: np.ndarray        # (M,) the acceleration budget of each cord
+    u_lim: np.ndarray      # (N+1,) squared vertex speed limits (the entry, then the caps)
+    zero: np.ndarray       # (N+1,) the machine stands still there (stops, turns, the end)
+    corners: Corners | None  # with more than one piece
+
+
+def window(kin, v_cord, a_cord, verts, cap, stop, u_entry, turns) -> Window:
+    """The speed caps, bends and corners of the pieces through verts."""
+    diff = np.diff(verts, axis=0)
+    d = np.hypot(diff[:, 0], diff[:, 1])
+    e = diff / d[:, None]
+    k0 = kin.slope(verts[:-1], e)
+    k1 = kin.slope(verts[1:], e)
+    kmax = np.maximum(np.abs(k0), np.abs(k1))
+    # the bend is largest at an end or (for other machine kinds) inside: ends and middle
+    mid = 0.5 * (verts[:-1] + verts[1:])
+    bend = np.maximum(np.abs(kin.bend(verts[:-1], e)), np.abs(kin.bend(verts[1:], e)))
+    bend = np.maximum(bend, np.abs(kin.bend(mid, e)))
+    acc = a_cord                                              # (M,)
+    v_rate = (v_cord / np.maximum(kmax, 1e-9)).min(axis=1)
+    v_bend = np.sqrt(BEND_SHARE * acc / np.maximum(bend, 1e-12)).min(axis=1)
+    vcap = np.minimum(np.minimum(cap, v_rate), v_bend)
+    n = len(d)
+    bent = bend * (vcap ** 2)[:, None]
+    c = corners(k0, k1, kmax, d, vcap, bent, acc, stop) if n > 1 else None
+    u_lim = np.empty(n + 1)
+    u_lim[0] = min(u_entry, vcap[0] ** 2)
+    zero = np.zeros(n + 1, dtype=bool)
+    zero[1:][stop] = True
+    zero[n] = True
+    zero[turns] = True                                        # the motors turn at rest
+    return Window(d, kmax, vcap, bent, acc, u_lim, zero, c)
+
+
+def profile(kin, v_cord, a_cord, verts, cap, line, draw, stop, u_entry, events, q0):
+    """The planned Block of the pieces through verts, entered at squared speed u_entry with the
+    motors at q0; and the squared vertex speeds, the motors before each vertex and the
+    vertices where they turn in place."""
+    q_in, q_out = motor_path(kin, verts, q0)
+    turns = np.flatnonzero(np.any(q_in != q_out, axis=1))
+    w = window(kin, v_cord, a_cord, verts, cap, stop, u_entry, turns)
+    if w.corners is None:
+        u, a = _planned(w, np.zeros((len(w.d) + 1, len(w.acc))))
+    else:
+        u, a = _retried(w, *_planned(w, w.corners.corner))
+    d, vcap = w.d, w.vcap
+    inc = 2.0 * a * d
+    u0, u1 = u[:-1], u[1:]
+    up = np.minimum(vcap ** 2, (u0 + u1 + inc) / 2.0)
+    up = np.maximum(up, np.maximum(u0, u1))
+    block = Block(verts, q_out, d, np.sqrt(u0), np.sqrt(up), np.sqrt(u1), a, line, draw, cap,
+                  stop, events)
+    return block, u, q_in, turns
+
+
+def _planned(w: Window, reserve: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Vertex speeds and ramp accelerations with `reserve` of the budget kept for
+    each corner: the corner is passed at most at what that allows, the pieces next
+    to it speed up and slow down with what bending and the corners at its ends leave.
+    Then the corners take what they need at the speeds planned (no more: those speeds
+    become limits) and the pieces next to them get the rest."""
+    n, c, d = len(w.d), w.corners, w.d
+    lim = w.u_lim.copy()
+    if c is not None:
+        lim[1:n] = c.speed(reserve[1:n]) ** 2
+    lim[w.zero] = 0.0
+    a = ((w.acc - np.maximum(reserve[:-1], reserve[1:]) - w.bent)
+         / np.maximum(w.kmax, MIN_SLOPE)).min(axis=1)
+    u = _passes(lim, 2.0 * a * d)
+    if c is not None:
+        v = np.sqrt(u[1:n])[:, None]
+        used = reserve.copy()
+        used[1:n] = np.minimum(reserve[1:n], c.takes(v))
+        a = ((w.acc - np.maximum(used[:-1], used[1:]) - w.bent)
+             / np.maximum(w.kmax, MIN_SLOPE)).min(axis=1)
+        u = _passes(np.minimum(lim, u), 2.0 * a * d)
+    return u, a
+
+
+def _retried(w: Window, u: np.ndarray, a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Again, a few times, with each corner keeping what it takes a little above the
+    speed of the quickest plan so far, but no more than the ramps next to it leave
+    at that plan (and at least what it takes at that plan): where the ramps limited
+    a corner they get more, where the corner limited the speed it gets what the
+    ramps do not use (up to CORNER_TOP on a curve: the pen goes round at an even
+    speed). Every plan keeps every limit; the quickest is kept."""
+    best = _time(u, a, w.d, w.vcap)
+    slope = np.maximum(w.kmax, MIN_SLOPE)
+    for _ in range(int(RETRY_ROUNDS)):
+        u2, a2 = _planned(w, w.corners.again(u, w.d, slope, w.bent, w.acc))
+        t2 = _time(u2, a2, w.d, w.vcap)
+        if t2 >= best:
+            break                   # the next round would plan the same again
+        u, a, best, gain = u2, a2, t2, best - t2
+        if gain < RETRY_MIN * best:
+            break                   # little more to win
+    return u, a
+
+
+def _time(u, a, d, vcap) -> float:
+    """Time of the trapezoids through squared vertex speeds u."""
+    u0, u1 = u[:-1], u[1:]
+    up = np.maximum(np.minimum(vcap ** 2, (u0 + u1 + 2.0 * a * d) / 2.0), np.maximum(u0, u1))
+    vp = np.sqrt(up)
+    d_cru = np.maximum(d - (2.0 * up - u0 - u1) / (2.0 * a), 0.0)
+    ramps = (2.0 * vp - np.sqrt(u0) - np.sqrt(u1)) / a
+    return float((ramps + d_cru / np.maximum(vp, 1e-300)).sum())
+
+
+def _passes(u_lim: np.ndarray, inc: np.ndarray) -> np.ndarray:
+    """Largest squared vertex speeds within u_lim that the pieces can speed up and slow down
+    between (u[j+1] - u[j] <= inc[j] both ways): a backward and a forward pass."""
+    r = np.concatenate((np.cumsum(inc[::-1])[::-1], [0.0]))   # r[j] = sum inc[j:]
+    u = r + np.minimum.accumulate((u_lim - r)[::-1])[::-1]
+    f = np.concatenate(([0.0], np.cumsum(inc)))
+    u = f + np.minimum.accumulate(u - f)
+    return np.maximum(u, 0.0)
