@@ -71,6 +71,8 @@ def test_a_registered_reader_is_drawn(xy_file, capsys):
     out, err = capsys.readouterr()
     assert "Traceback" not in err and "error" not in err
     assert f"{xy_file}: 1 strokes placed and ordered in" in out
+    assert main(["--config", cfg, "info", str(xy_file)]) == 0      # named by its title
+    assert capsys.readouterr().out.startswith(f"{xy_file}: point list, 20 x 20 mm")
 
 
 # ------------------------------------------------------------------ file_kind

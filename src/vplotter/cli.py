@@ -14,8 +14,8 @@ from typing import Callable
 
 from vplotter.commands import draw, files, live, machine, pictures, serial, serve
 from vplotter.commands import text as text_cmd
-from vplotter.commands.common import eprint
-from vplotter.errors import BusyError, VplotterError
+from vplotter.commands.common import eprint, error_line, exit_code
+from vplotter.errors import VplotterError
 
 
 COMMANDS: dict[str, tuple[Callable, Callable, str]] = {
@@ -77,27 +77,13 @@ def main(argv: list[str] | None = None) -> int:
     handler = COMMANDS[args.command][0]
     try:
         return _run(handler, args, argv)
-    except VplotterError as e:
-        msg = str(e)
-        if isinstance(e, BusyError) and e.holder:
-            from vplotter.machine import live
-
-            msg = live.busy_line(e.holder)
-        if isinstance(e, BusyError) or "error:" in msg:
-            eprint(msg if not msg.startswith("error:") else f"vplotter: {msg}")
-        else:
-            eprint(f"vplotter: {msg}" if e.exit_code >= 128 else f"vplotter: error: {msg}")
-        return e.exit_code
-    except KeyboardInterrupt:
-        eprint("vplotter: interrupted")
-        return 130
     except BrokenPipeError:
         return 1
-    except Exception as e:  # noqa: BLE001 - the last line of defence
-        if args.debug:
+    except (VplotterError, KeyboardInterrupt, Exception) as e:   # noqa: BLE001 - the last line
+        if args.debug and not isinstance(e, (VplotterError, KeyboardInterrupt)):
             raise
-        eprint(f"vplotter: internal error: {type(e).__name__}: {e} (rerun with --debug for details)")
-        return 1
+        eprint(error_line(e))       # commands/common.py: the web's answers use the same line
+        return exit_code(e)
 
 
 def _run(handler, args, argv) -> int:

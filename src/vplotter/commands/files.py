@@ -118,9 +118,9 @@ def cmd_info(args, argv=None) -> int:
     if args.json:
         say(json.dumps(out))
         return 0
-    kind = {"gcode": "G-code", "svg": "SVG", "dxf": "DXF", "image": "photo",
-            "text": "text"}[best.kind]
-    say(f"{args.file}: {kind}, {out['width_mm']:g} x "
+    from vplotter.readers import reader_of
+
+    say(f"{args.file}: {reader_of(best.kind).title}, {out['width_mm']:g} x "
         f"{out['height_mm']:g} mm; drawn extent X {ext[0]:.2f}..{ext[2]:.2f} "
         f"Y {ext[1]:.2f}..{ext[3]:.2f} mm")
     say(f"  {out['strokes']} strokes, drawn {out['drawn_mm'] / 1000:.2f} m")
