@@ -22,3 +22,20 @@ def test_every_section_is_described_and_no_other():
 
 def test_descriptions_are_one_line():
     assert [k for k, text in DESCRIPTIONS.items() if "\n" in text or "|" in text] == []
+
+
+def test_the_reference_in_configuration_md_is_current():
+    """docs/configuration.md holds the generated tables (readable on GitHub); after a schema
+    change `python docs/hooks/config_reference.py` writes them anew."""
+    import importlib.util
+    from pathlib import Path
+
+    hook = Path(__file__).resolve().parent.parent / "docs" / "hooks" / "config_reference.py"
+    spec = importlib.util.spec_from_file_location("config_reference", hook)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    text = mod.PAGE.read_text(encoding="utf-8")
+    assert "| `anchor_distance_mm` |" in text
+    assert mod.render(text) == text, "run: python docs/hooks/config_reference.py"
+    stale = text.replace("| `anchor_distance_mm` |", "| `anchor_distance` |")
+    assert mod.render(stale) == text

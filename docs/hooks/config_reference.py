@@ -1,14 +1,24 @@
-"""MkDocs hook: the tables of docs/configuration.md, generated from the config schema.
+"""The tables of docs/configuration.md, generated from the config schema.
 
-`<!-- config-reference -->` in configuration.md is replaced at build time by one table per
-section of `vplotter.config.SCHEMA` (key, type, default, range or choices, what it applies to)
-with the one-line descriptions of `vplotter.config.keys`. A key without a description fails
-the build (tests/test_config_docs.py says the same earlier).
+Between `<!-- config-reference:start -->` and `<!-- config-reference:end -->` configuration.md
+holds one table per section of `vplotter.config.SCHEMA` (key, type, default, range or choices,
+what it applies to) with the one-line descriptions of `vplotter.config.keys`, written into the
+file so that it reads the same on GitHub as on the site. After a change to the schema:
+
+    python docs/hooks/config_reference.py      # rewrites the tables in docs/configuration.md
+
+As an MkDocs hook it fails the build when the file is not current, and so does
+tests/test_config_docs.py (CI runs both). A key without a description fails both too.
 """
 
 from __future__ import annotations
 
-PLACEHOLDER = "<!-- config-reference -->"
+import re
+from pathlib import Path
+
+START = "<!-- config-reference:start -->"
+END = "<!-- config-reference:end -->"
+PAGE = Path(__file__).resolve().parent.parent / "configuration.md"
 TYPES = {"float": "number", "int": "whole number", "str": "choice", "text": "text",
          "pins": "4 BCM pins", "bool": "true/false", "range": "[low, high]",
          "url": "http(s) URL"}
@@ -90,7 +100,21 @@ def reference() -> str:
     return "\n".join(out)
 
 
+def render(markdown: str) -> str:
+    """`markdown` with the tables between the two markers made anew."""
+    block = re.compile(re.escape(START) + ".*?" + re.escape(END), re.S)
+    if not block.search(markdown):
+        raise ValueError(f"configuration.md has no {START} ... {END} block")
+    return block.sub(lambda _: f"{START}\n\n{reference()}\n{END}", markdown, count=1)
+
+
 def on_page_markdown(markdown, page, config, files):
-    if PLACEHOLDER in markdown:
-        return markdown.replace(PLACEHOLDER, reference())
+    if START in markdown and render(markdown) != markdown:
+        raise ValueError("docs/configuration.md is not current: run "
+                         "`python docs/hooks/config_reference.py` and commit it")
     return markdown
+
+
+if __name__ == "__main__":
+    text = PAGE.read_text(encoding="utf-8")
+    PAGE.write_text(render(text), encoding="utf-8")

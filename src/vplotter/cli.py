@@ -19,7 +19,8 @@ from vplotter.errors import VplotterError
 
 
 COMMANDS: dict[str, tuple[Callable, Callable, str]] = {
-    "draw": (draw.cmd_draw, draw.add_draw, "draw a G-code or SVG file"),
+    "draw": (draw.cmd_draw, draw.add_draw,
+             "draw a file: G-code, SVG, DXF, text (.txt) or a photo"),
     "estimate": (draw.cmd_estimate, draw.add_estimate, "validate a file and print the plot time"),
     "info": (files.cmd_info, files.add_info,
              "size, extent, strokes, travel and time of a file (file order and --order best)"),
@@ -53,9 +54,59 @@ COMMANDS: dict[str, tuple[Callable, Callable, str]] = {
 }
 
 
+class Parser(argparse.ArgumentParser):
+    """argparse with one-line usage errors: what is wrong, the nearest option or choice when
+    a word is mistyped, and where the full usage is (`vplotter draw --help`)."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {usage_error(self, message)}\n")
+
+
+def _near(word: str, words) -> str | None:
+    import difflib
+
+    found = difflib.get_close_matches(word, list(words), n=1, cutoff=0.6)
+    return found[0] if found else None
+
+
+def _options(parser: argparse.ArgumentParser) -> list[str]:
+    return [o for a in parser._actions for o in a.option_strings if o.startswith("--")]
+
+
+def usage_error(parser: argparse.ArgumentParser, message: str) -> str:
+    """argparse's `message` for a person, on one line."""
+    import re
+
+    m = re.match(r"argument (\S+): invalid choice: '(.*)' \(choose from (.*)\)$", message)
+    if m:
+        what, word = m.group(1), m.group(2)
+        choices = [c.strip(" '") for c in m.group(3).split(",")]
+        near = _near(word, choices)
+        if what == "COMMAND":
+            return (f"'{word}' is not a command" + (f"; did you mean '{near}'?" if near else "")
+                    + f" (vplotter --help lists them)")
+        what = what if what.startswith("-") else f"the {what}"
+        return (f"{what} {word}: not a choice" + (f"; did you mean {near}?" if near else "")
+                + f" (choose from {', '.join(choices)})")
+    m = re.match(r"unrecognized arguments: (.*)$", message)
+    if m:
+        word = m.group(1).split()[0]
+        if word.startswith("-"):
+            near = _near(word.split("=")[0], _options(parser))
+            return (f"unknown option {word}" + (f"; did you mean {near}?" if near else "")
+                    + f" ({parser.prog} --help lists the options)")
+        return f"unexpected argument {word!r} ({parser.prog} --help says what it takes)"
+    return f"{message} ({parser.prog} --help)"
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="vplotter", description="Drive a hanging wall plotter (V-plotter) from a Raspberry Pi.")
+    from vplotter import __version__
+
+    parser = Parser(
+        prog="vplotter",
+        description="Drive a hanging wall plotter (V-plotter) from a Raspberry Pi: draw G-code, "
+                    "SVG, DXF, text (.txt) and photos (PNG, JPEG, WebP, BMP, TIFF, GIF).")
+    parser.add_argument("--version", action="version", version=f"vplotter {__version__}")
     parser.add_argument("--config", default="config.toml", metavar="PATH",
                         help="machine configuration (default: ./config.toml)")
     parser.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
@@ -68,7 +119,10 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     try:
-        args = parser.parse_args(argv)
+        args, extra = parser.parse_known_args(argv)
+        if extra:       # named by the command's own parser, which knows its options
+            sub = _subparser(parser, getattr(args, "command", None)) or parser
+            sub.error(f"unrecognized arguments: {' '.join(extra)}")
     except SystemExit as e:  # argparse: usage errors are exit 2, --help is 0
         return int(e.code or 0)
     if not args.command:
@@ -84,6 +138,13 @@ def main(argv: list[str] | None = None) -> int:
             raise
         eprint(error_line(e))       # commands/common.py: the web's answers use the same line
         return exit_code(e)
+
+
+def _subparser(parser: argparse.ArgumentParser, name: str | None):
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            return action.choices.get(name)
+    return None
 
 
 def _run(handler, args, argv) -> int:

@@ -15,7 +15,8 @@ from vplotter.errors import ConfigError, MachineError
 def add_draw(p: argparse.ArgumentParser) -> None:
     from vplotter.file_options import add_file_options
 
-    p.add_argument("file", help="G-code (.ngc, .gcode, .nc) or SVG (.svg, .svgz) file")
+    p.add_argument("file", help="the drawing: G-code, SVG, DXF, text (.txt) or a photo "
+                                "(PNG, JPEG, WebP, BMP, TIFF, GIF)")
     add_machine_options(p)
     p.add_argument("--strict", action="store_true",
                    help="treat warnings about inconsistent arcs as errors")
@@ -342,7 +343,8 @@ def cmd_estimate(args, argv=None) -> int:
 def add_estimate(p) -> None:
     from vplotter.file_options import add_file_options
 
-    p.add_argument("file", help="G-code or SVG file")
+    p.add_argument("file", help="the drawing: G-code, SVG, DXF, text (.txt) or a photo "
+                                "(PNG, JPEG, WebP, BMP, TIFF, GIF)")
     p.add_argument("--strict", action="store_true", help="treat arc warnings as errors")
     add_file_options(p)
 

@@ -55,7 +55,8 @@ def _plot_time(cfg, pos, xy, path: str):
 def add_info(p: argparse.ArgumentParser) -> None:
     from vplotter.file_options import add_file_options
 
-    p.add_argument("file", help="G-code or SVG file")
+    p.add_argument("file", help="the drawing: G-code, SVG, DXF, text (.txt) or a photo "
+                                "(PNG, JPEG, WebP, BMP, TIFF, GIF)")
     p.add_argument("--json", action="store_true", help="print the figures as one JSON object")
     p.add_argument("--strict", action="store_true", help="treat arc warnings as errors")
     add_file_options(p)
@@ -171,7 +172,8 @@ def _r(v):
 def add_convert(p: argparse.ArgumentParser) -> None:
     from vplotter.file_options import add_file_options
 
-    p.add_argument("file", help="G-code or SVG file")
+    p.add_argument("file", help="the drawing: G-code, SVG, DXF, text (.txt) or a photo "
+                                "(PNG, JPEG, WebP, BMP, TIFF, GIF)")
     p.add_argument("-o", "--output", required=True, metavar="OUT.ngc",
                    help="G-code file to write ('-' for standard output)")
     p.add_argument("--strict", action="store_true", help="treat arc warnings as errors")

@@ -26,7 +26,8 @@ def _check_picture_options(args) -> None:
 def add_preview(p: argparse.ArgumentParser) -> None:
     from vplotter.file_options import add_file_options
 
-    p.add_argument("file", help="drawing to preview (G-code or SVG)")
+    p.add_argument("file", help="the drawing to preview: G-code, SVG, DXF, text (.txt) or a "
+                   "photo (PNG, JPEG, WebP, BMP, TIFF, GIF)")
     _add_picture_options(p)
     p.add_argument("--strict", action="store_true",
                    help="treat warnings about inconsistent arcs as errors")

@@ -1,0 +1,69 @@
+"""Warnings of one kind become one line with a count and the first place."""
+
+from __future__ import annotations
+
+from hypothesis import given, strategies as st
+
+from vplotter.commands.warnings import Collector
+
+
+def arc(line: int, r0: float, r1: float) -> str:
+    return (f"car.ngc:{line}:5: warning: arc end radius {r1:.4f} differs from start radius "
+            f"{r0:.4f} by {abs(r1 - r0):.4f} mm; drawing a spiral")
+
+
+def collected(messages, verbose=False) -> list[str]:
+    lines: list[str] = []
+    c = Collector(verbose=verbose, out=lines.append)
+    for m in messages:
+        c(m)
+    c.flush()
+    return lines
+
+
+def test_many_arcs_are_one_line_with_the_count_and_the_first_place():
+    lines = collected([arc(12 + i, 10.0, 11.0 + i) for i in range(500)])
+    assert lines == ["car.ngc: warning: 500 arcs whose end radius differs from the start "
+                     "(first at 12:5): drawn as spirals; --verbose lists them"]
+
+
+def test_one_warning_is_printed_as_it_was_given():
+    assert collected([arc(7, 1.0, 2.0)]) == [arc(7, 1.0, 2.0)]
+
+
+def test_kinds_keep_the_order_they_first_came_in():
+    other = "car.ngc:3:1: warning: <use> target '#a' not found"
+    lines = collected([arc(2, 1, 2), other, arc(9, 1, 3), "car.ngc: warning: program ended"])
+    assert [ln.split(": warning: ")[1][:9] for ln in lines] == ["2 arcs wh", "<use> tar",
+                                                                "program e"]
+
+
+def test_an_unknown_kind_that_repeats_is_counted_too():
+    lines = collected([f"a.svg:{i}:1: warning: <use> target '#n{i}' not found" for i in (4, 8)])
+    assert lines == ["a.svg: warning: 2 warnings like this one at 4:1: <use> target '#n4' not "
+                     "found; --verbose lists them"]
+
+
+def test_verbose_lists_every_warning_as_it_comes():
+    msgs = [arc(i, 1, 2) for i in range(1, 4)]
+    assert collected(msgs, verbose=True) == msgs
+
+
+def test_a_failed_command_drops_what_it_held():
+    lines: list[str] = []
+    c = Collector(out=lines.append)
+    c(arc(1, 1, 2))
+    c.drop()
+    c.flush()
+    assert lines == []
+
+
+@given(st.lists(st.tuples(st.sampled_from(["a.ngc", "b.svg"]), st.integers(1, 10**6),
+                          st.floats(0, 1e4, allow_nan=False)), max_size=60))
+def test_every_warning_is_counted_once(items):
+    msgs = [f"{f}:{n}:1: warning: arc end radius {r:.4f} differs from start radius 0.0000 by "
+            f"{r:.4f} mm; drawing a spiral" for f, n, r in items]
+    lines = collected(msgs)
+    total = sum(int(ln.split(": warning: ")[1].split()[0]) if "--verbose" in ln else 1
+                for ln in lines)
+    assert total == len(msgs) and len(lines) == len({f for f, _, _ in items})
