@@ -575,7 +575,7 @@ def test_sample_inkscape_layers():
         ("Frame", True), ("Arcs", True), ("Stars", True), ("Construction", True), ("Sketch", False)]
     # the title is drawn; the flowRoot sits in the hidden layer
     assert d.skipped == {"text": 0, "image": 0, "hidden": 5}
-    assert len(w) == 1 and "'#missing'" in w[0]
+    assert w == []           # the bundled sample draws without a warning (missing <use>: below)
     by = {}
     for s in d.strokes:
         by.setdefault(s.src, []).append(s)

@@ -67,3 +67,40 @@ def test_every_warning_is_counted_once(items):
     total = sum(int(ln.split(": warning: ")[1].split()[0]) if "--verbose" in ln else 1
                 for ln in lines)
     assert total == len(msgs) and len(lines) == len({f for f, _, _ in items})
+
+
+# ------------------------------------------------------------------ as a person sees them
+def _cli(capsys, argv):
+    from vplotter.cli import main
+
+    from support import REPO
+
+    code = main(["--config", str(REPO / "config.toml"), *argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_the_quick_start_prints_no_warning(capsys):
+    from support import REPO
+
+    code, out, err = _cli(capsys, ["draw", str(REPO / "gcode_samples" / "car.ngc"), "--dry-run"])
+    assert code == 0 and "plot time" in out
+    assert "warning" not in err
+
+
+def test_five_hundred_arc_warnings_are_one_line(capsys, tmp_path):
+    lines = ["G0 X-100 Y0", "M3"]
+    for i in range(1, 1001):                   # every other move an arc ending off its radius
+        x = i * 0.25 - 100
+        lines.append(f"G2 X{x:g} Y0 I0.05 J-3" if i % 2 else f"G1 X{x:g} Y0")
+    f = tmp_path / "many.ngc"
+    f.write_text("\n".join(lines) + "\nM5\n")
+    for command in (["estimate", str(f)], ["draw", str(f), "--dry-run"],
+                    ["convert", str(f), "-o", str(tmp_path / "o.ngc"), "--scale", "0.5"]):
+        code, _, err = _cli(capsys, command)
+        warned = [ln for ln in err.splitlines() if ": warning:" in ln]
+        assert code == 0 and len(warned) == 1, err
+        assert warned[0].startswith(f"{f}: warning: 500 arcs whose end radius differs from the "
+                                    f"start (first at 3:1): drawn as spirals")
+    code, _, err = _cli(capsys, ["estimate", str(f), "--strict"])      # an error: one line
+    assert code == 2 and err.count("\n") <= 2 and ": warning:" not in err

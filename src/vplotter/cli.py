@@ -14,6 +14,7 @@ from typing import Callable
 
 from vplotter.commands import draw, files, live, machine, pictures, serial, serve
 from vplotter.commands import text as text_cmd
+from vplotter.commands import warnings
 from vplotter.commands.common import eprint, error_line, exit_code
 from vplotter.errors import VplotterError
 
@@ -129,11 +130,15 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 2
     handler = COMMANDS[args.command][0]
+    warnings.begin(verbose=bool(getattr(args, "verbose", False)))
     try:
-        return _run(handler, args, argv)
+        code = _run(handler, args, argv)
+        warnings.flush()
+        return code
     except BrokenPipeError:
         return 1
     except (VplotterError, KeyboardInterrupt, Exception) as e:   # noqa: BLE001 - the last line
+        warnings.drop()             # an error is the only line of a failed command
         if args.debug and not isinstance(e, (VplotterError, KeyboardInterrupt)):
             raise
         eprint(error_line(e))       # commands/common.py: the web's answers use the same line

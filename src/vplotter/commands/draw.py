@@ -131,6 +131,7 @@ def _validate(args, cfg, pos, begin, s):
     the record numbers match), then the validation pass: the whole file, page limits and
     exact plot time before anything moves. (prep, summary or None if stopped, lines said)."""
     from vplotter import pipeline
+    from vplotter.commands import warnings
     from vplotter.commands.files import prepare_file
 
     start = (pos.extra.get("resume") or {}).get("start") if args.resume else None
@@ -139,6 +140,7 @@ def _validate(args, cfg, pos, begin, s):
     summary = pipeline.validate(cfg, prep.records(), pos.counts, pos.ref_mm, args.file, begin,
                                 lambda: s.stop_pending, where=prep.where, park=prep.start_xy)
     said: list[str] = []
+    warnings.flush()                # what reading the file found, before the summary
     if summary is not None:
         # published before the summary is printed: whoever sees the summary finds it
         s.go_live(summary.time_s)
@@ -325,6 +327,7 @@ def wait_enter(stdin, stop, poll_s: float = POLL_S, go=lambda: False,
 
 def cmd_estimate(args, argv=None) -> int:
     from vplotter import pipeline
+    from vplotter.commands import warnings
     from vplotter.commands.files import prepare_file
 
     cfg = load_config(args)
@@ -332,6 +335,7 @@ def cmd_estimate(args, argv=None) -> int:
     prep = prepare_file(args, cfg, pos)
     summary = pipeline.validate(cfg, prep.records(), pos.counts, pos.ref_mm, args.file,
                                 where=prep.where)
+    warnings.flush()
     for line in _ordered(prep):
         say(line)
     for line in summary.pen_lines():

@@ -15,15 +15,15 @@ def prepare_file(args, cfg, pos, warn=None, start_xy=None, say_notes=True, **cha
     """prepare() for a command (with some options changed): the travel starts where the pen
     is, or at start_xy (a resumed draw keeps the order it was started with). What a photo's
     budget chose is said on stderr (say_notes)."""
-    from vplotter.commands import jog
+    from vplotter.commands import jog, warnings
     from vplotter.prepare import prepare
 
     if changes:
         args = argparse.Namespace(**{**vars(args), **changes})
     xy = jog.pen_xy(cfg, pos, pos.counts) if start_xy is None else start_xy
-    extra = {"warn": warn} if warn is not None else {}
     prep = prepare(args.file, cfg, args, start_xy=(float(xy[0]), float(xy[1])),
-                   plot_time=_plot_time(cfg, pos, xy, args.file), **extra)
+                   plot_time=_plot_time(cfg, pos, xy, args.file),
+                   warn=warnings.warn if warn is None else warn)
     if say_notes:
         for note in prep.notes:
             eprint(f"note: {note}")
@@ -79,6 +79,7 @@ def _timed(cfg, pos, prep, with_summary: bool = False):
 
 
 def cmd_info(args, argv=None) -> int:
+    from vplotter.commands import warnings
     from vplotter.drawing import pens, place
 
     cfg = load_config(args)
@@ -101,6 +102,7 @@ def cmd_info(args, argv=None) -> int:
     height = drawing.height_mm if drawing.height_mm is not None else ext[3] - ext[1]
     t_keep, s_keep, problem = _timed(cfg, pos, keep)
     t_best, s_best, _, timed = _timed(cfg, pos, best, with_summary=True)
+    warnings.flush()                # what reading the file found, then the problem, then info
     if problem:
         eprint(problem)
     skipped = {k: int(drawing.skipped.get(k, 0)) for k in ("text", "image", "hidden")}

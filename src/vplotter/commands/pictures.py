@@ -43,6 +43,7 @@ def cmd_preview(args, argv=None) -> int:
     from vplotter import kinematics, pipeline
     from vplotter.motion.segment import CHORD_SHARE
     from vplotter.drawing import render
+    from vplotter.commands import warnings
     from vplotter.commands.files import prepare_file
 
     _check_picture_options(args)
@@ -69,6 +70,7 @@ def cmd_preview(args, argv=None) -> int:
                              np.concatenate(travel) if travel else np.zeros((0, 2, 2)))
         what = "strokes from red (first) to violet (last), travel in grey"
     render.write(pic, args.output)
+    warnings.flush()
     say(f"{args.file}: {summary.text()}")
     say(f"{args.output}: {pic.width_px} x {pic.height_px} px, {what}")
     return 0

@@ -196,6 +196,10 @@ def cmd_serve(args, argv=None) -> int:
     import secrets
     import socket
 
+    from vplotter.commands import warnings
+
+    warnings.end()          # a server runs until stopped: its warnings go to its log as they come
+
     from vplotter.config import state_dir
 
     if not 0 <= args.port <= 65535:

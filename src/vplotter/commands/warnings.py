@@ -78,3 +78,40 @@ def line(kind: _Kind) -> str:
                     f"--verbose lists them")
     return (f"{kind.file}: warning: {kind.count} warnings like this one at {kind.place}: "
             f"{kind.text}; --verbose lists them")
+
+
+# ------------------------------------------------------------------ the command's collector
+_active: Collector | None = None
+
+
+def begin(verbose: bool = False) -> Collector:
+    """A command starts (cli.main): its warnings are collected until flush()."""
+    global _active
+    _active = Collector(verbose=verbose)
+    return _active
+
+
+def end() -> None:
+    """No collecting (a server that runs until stopped): warnings go out as they come."""
+    global _active
+    _active = None
+
+
+def warn(message: str) -> None:
+    """The `warn` the commands give the readers: collected while a command runs."""
+    if _active is not None:
+        _active(message)
+    else:
+        print(message, file=sys.stderr, flush=True)
+
+
+def flush() -> None:
+    """Say the warnings collected so far (before a summary, before anything moves)."""
+    if _active is not None:
+        _active.flush()
+
+
+def drop() -> None:
+    """A failed command: its error is its only line."""
+    if _active is not None:
+        _active.drop()
