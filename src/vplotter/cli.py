@@ -55,7 +55,8 @@ COMMANDS: dict[str, tuple[Callable, Callable, str]] = {
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
-        prog="vplotter", description="Drive a hanging wall plotter (V-plotter) from a Raspberry Pi.")
+        prog="vplotter",
+        description="Drive a hanging wall plotter (V-plotter) from a Raspberry Pi.")
     parser.add_argument("--config", default="config.toml", metavar="PATH",
                         help="machine configuration (default: ./config.toml)")
     parser.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
@@ -96,7 +97,8 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as e:  # noqa: BLE001 - the last line of defence
         if args.debug:
             raise
-        eprint(f"vplotter: internal error: {type(e).__name__}: {e} (rerun with --debug for details)")
+        eprint(f"vplotter: internal error: {type(e).__name__}: {e} "
+               f"(rerun with --debug for details)")
         return 1
 
 
