@@ -1,7 +1,7 @@
 """The package tree, drawn from the imports (lazy ones inside functions included): no module
 imports itself back through others, the folders of src/vplotter/ form layers (no folder imports
 one that imports it back), no module passes 500 lines, no function 80 lines and no line 100
-characters."""
+characters; and no test file imports another (what they share is in tests/support/)."""
 
 from __future__ import annotations
 
@@ -168,3 +168,16 @@ def test_no_line_passes_100_characters():
         if lines:
             long[where] = lines
     assert long == {}
+
+
+def test_no_test_file_imports_another():
+    """What test files share is in tests/support/, not in another test file."""
+    found = {}
+    for p in sorted((Path(REPO) / "tests").glob("test_*.py")):
+        for node in ast.walk(ast.parse(p.read_text(), str(p))):
+            names = ([node.module or ""] if isinstance(node, ast.ImportFrom)
+                     else [a.name for a in node.names] if isinstance(node, ast.Import) else [])
+            bad = [n for n in names if n.split(".")[0].startswith("test_")]
+            if bad:
+                found.setdefault(p.name, []).extend(bad)
+    assert found == {}
