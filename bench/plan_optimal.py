@@ -26,6 +26,7 @@ from bench.reference import topp
 
 from vplotter import config, kinematics, pipeline
 from vplotter.inputs import gcode
+from vplotter.motion.steps import Dwell, Motion, PenMove, Wait
 
 MACHINES = {"seed": os.path.join(ROOT, "config.toml"),
             "wall1m": os.path.join(ROOT, "tests", "data", "wall1m.toml"),
@@ -97,10 +98,10 @@ def detail(name, path, top=15):
     ops = pipeline.plan(cfg, records(path), counts, ref, path, pipeline.Summary())
     runs, cur, lines = [], 0.0, []
     for op in ops:
-        if op[0] == "motion":
-            cur += float(op[1].durations.sum())
-            lines.append(int(op[1].line[0]))
-        elif op[0] in ("pen", "dwell", "pause") and cur:
+        if isinstance(op, Motion):
+            cur += float(op.block.durations.sum())
+            lines.append(int(op.block.line[0]))
+        elif isinstance(op, (PenMove, Dwell, Wait)) and cur:
             runs.append((cur, lines[0]))
             cur, lines = 0.0, []
     if cur:

@@ -9,6 +9,10 @@ from hypothesis import settings
 
 from support import REPO
 
+# helpers whose asserts check what a test sees: rewritten as the tests' own are, so a failure
+# shows the values
+pytest.register_assert_rewrite("support.cli", "support.web")
+
 settings.register_profile("vplotter", derandomize=True, database=None, deadline=None)
 settings.load_profile("vplotter")
 

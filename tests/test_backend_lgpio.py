@@ -11,9 +11,10 @@ import sys
 import numpy as np
 import pytest
 
+from support.backends import (cfg, concat, make_rows, parts, pen_changes,  # noqa: F401 (fixtures)
+                              rechunk, row_changes)
 from support.fake_lgpio import (COLD_WRITE_US, HOT_WRITE_US, FakeLgpio, SimClock,
                                 expected_coil_changes, pulse)
-from test_backends import cfg, concat, make_rows, parts, pen_changes, rechunk, row_changes  # noqa: F401 (fixtures)
 from vplotter import config
 from vplotter.machine import state
 from vplotter.backends import create, lgpio_setup

@@ -1,109 +1,29 @@
 """Backends without a Raspberry Pi: the shared software timing loop on a simulated clock, the
 lgpio backend on a stand-in lgpio that simulates its C thread (tests/support/fake_lgpio.py),
-gpiozero on
-its MockFactory, and one contract every backend keeps. Nothing here really sleeps."""
+gpiozero on its MockFactory, and one contract every backend keeps. Nothing here really sleeps.
+The drawing, rows and mock pins the backends' tests share are in tests/support/backends.py."""
 
 from __future__ import annotations
 
-import random
-import sys
-
 import numpy as np
 import pytest
-from gpiozero.pins.mock import MockFactory, MockPWMPin
+from gpiozero.pins.mock import MockFactory
 
+from support.backends import (FIELDS, LogPin, cfg, concat, gpiozero_backend,  # noqa: F401
+                              make_rows, mock_outputs, parts, pen_changes, row_changes, steady)
 from support.fake_lgpio import FakeLgpio, SimClock
-from vplotter import config, kinematics, pipeline
-from vplotter.machine import state
-from vplotter.inputs import gcode
 from vplotter.backends import create
 from vplotter.backends.realtime import Player
 from vplotter.errors import BackendError
-from vplotter.machine.ahead import stretches as _split
 from vplotter.motion.schedule import Rows
-
-from support import REPO
-
-SHORT = """G21
-G0 X0 Y0
-G1 Z-1 F100
-G1 X3 Y0 F240
-G1 X3 Y2
-G4 P0.2
-G1 X0 Y2
-G0 Z5
-G0 X1 Y1
-M2
-"""
-FIELDS = ("t_us", "coils", "pen_us", "line", "steps")
-
-
-@pytest.fixture(scope="module")
-def cfg():
-    return config.load(REPO / "config.toml")
-
-
-@pytest.fixture(scope="module")
-def parts(cfg, tmp_path_factory):
-    """A short drawing (pen down, two lines, a dwell, pen up, travel: 4.8 s) in the parts
-    `vplotter draw` hands to the backend."""
-    path = tmp_path_factory.mktemp("g") / "short.ngc"
-    path.write_text(SHORT)
-    kin = kinematics.from_config(cfg)
-    cords = kin.inverse(kin.to_machine(np.array([[0.0, 0.0]])))[0]
-    pos = state.Position.at_cords(cords[0], cords[1], cfg.motors.steps_per_unit)
-    out = []
-    for rows in pipeline.stream(cfg, gcode.read(str(path)), pos.counts, pos.ref_mm):
-        out.extend(_split(rows))
-    return out
-
-
-def concat(parts) -> Rows:
-    return Rows.concat(list(parts))
-
-
-def rechunk(parts, seed: int) -> list[Rows]:
-    """The same rows cut at random places (chunks of 1..40 rows)."""
-    rows, rng, out, i = concat(parts), random.Random(seed), [], 0
-    while i < len(rows):
-        j = min(len(rows), i + rng.randint(1, 40))
-        out.append(Rows(*(getattr(rows, f)[i:j] for f in FIELDS)))
-        i = j
-    return out
 
 
 def index(parts, part) -> int:
     return next(i for i, p in enumerate(parts) if p is part)
 
 
-def make_rows(t, coils, pen) -> Rows:
-    n = len(t)
-    return Rows(np.asarray(t, np.int64), np.asarray(coils, np.uint8), np.asarray(pen, np.int32),
-                np.zeros(n, np.int64), np.zeros((n, 2), np.int64))
-
-
 def head(rows: Rows, n: int) -> Rows:
     return Rows(*(getattr(rows, f)[:n] for f in FIELDS))
-
-
-def row_changes(parts) -> list[tuple[int, int]]:
-    """(t_us, coil word) of every row that changes the coil word: what a software-timed
-    backend writes, row by row (rows at equal times included)."""
-    out, word = [], 0
-    for t, w in zip(concat(parts).t_us.tolist(), concat(parts).coils.tolist()):
-        if w != word:
-            out.append((t, w))
-            word = w
-    return out
-
-
-def pen_changes(parts) -> list[tuple[int, int]]:
-    out, pen = [], 0
-    for t, p in zip(concat(parts).t_us.tolist(), concat(parts).pen_us.tolist()):
-        if p != pen:
-            out.append((t, p))
-            pen = p
-    return out
 
 
 # ---------------------------------------------------------------- the software timing loop
@@ -158,13 +78,6 @@ def test_player_does_not_drift_when_sleep_overshoots(parts):
     assert late.max() < 10_000 and abs(late[-50:].mean() - late[:50].mean()) < 5_000
 
 
-def steady(n=400, gap_us=1500) -> Rows:
-    """A motor stepping at a steady rate (energised throughout)."""
-    t = np.arange(n, dtype=np.int64) * gap_us
-    words = np.array([1, 3, 2, 6, 4, 12, 8, 9] * (n // 8 + 1), np.uint8)[:n]
-    return make_rows(t, words, np.zeros(n))
-
-
 def test_player_pauses_instead_of_racing_when_the_motors_stand_still():
     """Rows late while the coils are released shift the timeline: the next stroke starts
     with its planned timing, the settle after a pen change is kept whole."""
@@ -199,36 +112,6 @@ def lgpio_backend(cfg, clock, lg=None, **kw):
 
 
 # ---------------------------------------------------------------- gpiozero on MockFactory
-class LogPin(MockPWMPin):
-    """A mock pin that logs its changes with the simulated time."""
-
-    log: list = []
-    clock: SimClock | None = None
-
-    def _change_state(self, value):
-        changed = super()._change_state(value)
-        if changed:
-            LogPin.log.append((LogPin.clock.ns, self.info.name, value))
-        return changed
-
-
-def gpiozero_backend(cfg, clock, factory=None):
-    LogPin.log, LogPin.clock = [], clock
-    factory = factory or MockFactory(pin_class=LogPin)
-    b = create("gpiozero", cfg, pin_factory=factory, clock=clock.now, sleep=clock.sleep,
-               spin_us=200)
-    return b, factory
-
-
-def mock_outputs(cfg, factory) -> tuple[int, int]:
-    """(coil word, pen pulse width) on the mock pins now."""
-    pins = [*cfg.motors.left_pins, *cfg.motors.right_pins]
-    word = sum(int(bool(factory.pin(f"GPIO{p}").state)) << i for i, p in enumerate(pins))
-    pen = factory.pin(f"GPIO{cfg.pen.pin}")
-    width = 0 if pen.frequency is None else int(round(pen.state * 1e6 / pen.frequency))
-    return word, width
-
-
 def coil_words_from_log(cfg, log, start_ns, grouped: bool = True):
     """Single-pin changes as (t_us, coil word) changes: grouped by time, or one per change."""
     bit = {f"GPIO{p}": i for i, p in enumerate([*cfg.motors.left_pins, *cfg.motors.right_pins])}

@@ -3,16 +3,13 @@ never holds a traceback, and an error is exactly one line containing "error:".""
 
 from __future__ import annotations
 
-import random
 from pathlib import Path
 
 import pytest
 
-from vplotter.cli import main
+from support.cli import GARBAGE, run
 
 SAMPLES = Path(__file__).resolve().parent.parent / "gcode_samples"
-
-GARBAGE = random.Random(20190).randbytes(400)
 
 # G-code inputs of the commands that read a file, and the exit status they must give.
 GCODE = {
@@ -58,18 +55,6 @@ def _write(path: Path, content) -> str:
     elif content is not None:
         path.write_bytes(content)
     return str(path)
-
-
-def run(capsys, argv: list[str]) -> tuple[int, str, str]:
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    assert "Traceback" not in err and "Traceback" not in out
-    errors = [line for line in err.splitlines() if "error:" in line]
-    if code == 0:
-        assert errors == [], err
-    else:
-        assert len(errors) == 1, err
-    return code, out, err
 
 
 @pytest.mark.parametrize("kind", GCODE)

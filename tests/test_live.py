@@ -19,7 +19,7 @@ from vplotter.machine import live, lock, state
 from vplotter.cli import main
 
 from support import REPO
-from test_safety import SHORT  # the same short drawing
+from support.signals import SHORT  # the same short drawing as test_safety.py's
 
 MEDIUM = """G21 G90
 G01 Z-1 F600

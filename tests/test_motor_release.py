@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from support import tracecheck as tc
-from test_safety import interrupt_after
+from support.signals import interrupt_after
 from vplotter.motion import drivers
 from vplotter.cli import main
 from vplotter.config import load

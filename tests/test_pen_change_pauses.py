@@ -499,7 +499,7 @@ def test_the_servo_backends_take_each_pens_own_pulse(tmp_path):
     """gpiozero's servo spans every pulse width the pens use; lgpio refuses one it cannot make
     when it opens, before anything moves."""
     from support.fake_lgpio import FakeLgpio, SimClock
-    from test_backends import gpiozero_backend, make_rows, mock_outputs
+    from support.backends import gpiozero_backend, make_rows, mock_outputs
     from vplotter.backends import create
     from vplotter.errors import BackendError
 

@@ -85,12 +85,6 @@ def test_a_pen_change_in_the_plan_stands_at_the_change_point():
     assert summary.drawn_mm == pytest.approx(40.0) and summary.travel_mm > 60.0
 
 
-def test_steps_read_as_the_tuples_they_were():
-    assert tuple(PenMove(True, 3)[:]) == ("pen", True, 3)
-    assert Wait(BLUE)[0] == "pause" and Wait(BLUE)[1] is BLUE
-    assert Finish(False)[:] == ("finish", False)
-
-
 def test_the_reach_check_belongs_to_the_machine_kind():
     pts = np.array([[10.0, 0.0], [70.0, 0.0], [80.0, 0.0]])
     assert KIN.check_move(KIN.to_machine(pts), np.zeros(2)) == -1

@@ -7,6 +7,7 @@ from vplotter import config, kinematics
 from vplotter.motion.planner import RATE_MARGIN, Planner
 from vplotter.motion.refine import MAX_PARTS
 from vplotter.motion.schedule import Scheduler
+from vplotter.motion.steps import Dwell, Motion, PenMove
 
 from support import REPO
 
@@ -132,15 +133,15 @@ def test_pen_changes_are_stops_inside_the_look_ahead(monkeypatch):
     counts, ref = _start()
     ops = list(pipeline.plan(CFG, gcode.read(str(STROKES), warn=lambda m: None), counts, ref,
                              "strokes", pipeline.Summary()))
-    pens = [op for op in ops if op[0] == "pen"]
+    pens = [op for op in ops if isinstance(op, PenMove)]
     recs = [r for r in gcode.read(str(STROKES), warn=lambda m: None) if isinstance(r, gcode.Pen)]
-    assert [(p[1], p[2]) for p in pens] == [(r.down, r.line) for r in recs]   # all, in order
+    assert [(p.down, p.line) for p in pens] == [(r.down, r.line) for r in recs]   # all, in order
     assert len(rounds) < len(pens) / 4          # many strokes planned in one look-ahead round
     for op, nxt in zip(ops, ops[1:]):
-        if op[0] == "motion" and nxt[0] in ("pen", "dwell"):
-            assert op[1].v1[-1] == 0.0 and op[1].stop[-1]       # standing still at a pen change
-        if op[0] == "pen" and nxt[0] == "motion":
-            assert nxt[1].v0[0] == 0.0
+        if isinstance(op, Motion) and isinstance(nxt, (PenMove, Dwell)):
+            assert op.block.v1[-1] == 0.0 and op.block.stop[-1]   # standing still at a pen change
+        if isinstance(op, PenMove) and isinstance(nxt, Motion):
+            assert nxt.block.v0[0] == 0.0
 
 
 @given(st.lists(st.tuples(st.floats(-100, 100), st.floats(-100, 100), st.floats(-100, 100),
@@ -170,7 +171,7 @@ def test_corners_and_ramps_share_the_acceleration_budget():
     acc = CFG.motors.max_accel * ACCEL_MARGIN / SPM
     ops = pipeline.plan(CFG, gcode.read(str(STROKES), warn=lambda m: None), counts, ref,
                         "strokes", pipeline.Summary())
-    for b in (op[1] for op in ops if op[0] == "motion"):
+    for b in (op.block for op in ops if isinstance(op, Motion)):
         e = b.e
         k0, k1 = KIN.slope(b.verts[:-1], e), KIN.slope(b.verts[1:], e)
         kmax = np.maximum(np.maximum(np.abs(k0), np.abs(k1)), 0.25)

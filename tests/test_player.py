@@ -15,8 +15,8 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from support import tracecheck as tc
+from support.backends import SHORT, concat, make_rows, steady
 from support.fake_lgpio import SimClock
-from test_backends import SHORT, concat, make_rows, steady
 from vplotter import config, kinematics, pipeline
 from vplotter.machine import state
 from vplotter.backends import create

@@ -270,7 +270,7 @@ def test_calibrate_jog_and_a_stored_position_of_another_machine(tmp_path, capsys
 def test_jog_by_motor_and_resume_after_ctrl_c(tmp_path, capsys, monkeypatch):
     import signal
 
-    from test_safety import interrupt_after
+    from support.signals import interrupt_after
 
     assert main(["--config", str(POLAR), "calibrate", "--at", "0", "0"]) == 0
     g = REPO / "gcode_samples" / "polar" / "pole.ngc"

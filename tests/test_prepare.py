@@ -376,7 +376,7 @@ def test_interrupted_ordered_draw_resumes_on_the_placed_path(capsys, config_path
 
     from scipy.spatial import cKDTree
 
-    from test_safety import interrupt_after
+    from support.signals import interrupt_after
     from vplotter.machine import state
     from vplotter.backends.fake import FakeBackend
 

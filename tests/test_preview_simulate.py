@@ -14,7 +14,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 from PIL import Image
 
-from test_cli_errors import GARBAGE, run
+from support.cli import GARBAGE, run
 from vplotter import config, kinematics
 from vplotter.drawing import render
 from vplotter.machine import trace
@@ -440,7 +440,7 @@ def test_preview_shows_the_placed_and_ordered_drawing(capsys, config_path, tmp_p
 
 def test_simulate_refuses_what_it_cannot_decode_yet(capsys, config_path, tmp_path):
     """A step/dir machine's trace is not coil patterns: one line, exit 2 (not a wrong picture)."""
-    from test_stepdir import stepdir_toml
+    from support.stepdir import stepdir_toml
 
     c = tmp_path / "sd.toml"
     c.write_text(stepdir_toml(config_path), encoding="utf-8")

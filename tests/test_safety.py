@@ -19,34 +19,13 @@ from vplotter.backends.fake import FakeBackend
 from vplotter.cli import main
 
 from support import REPO
+from support.signals import SHORT, interrupt_after
 
 CIRCLES = REPO / "gcode_samples" / "circles.ngc"
 
 
 def run(config_path, *argv):
     return main(["--config", str(config_path), *argv])
-
-
-def interrupt_after(monkeypatch, rows_before_signal, signum):
-    """Make the fake backend receive `signum` after playing that many rows in total."""
-    played = {"n": 0, "sent": False}
-    orig = FakeBackend.play
-
-    def play(self, rows):
-        left = rows_before_signal - played["n"]
-        if self.stop_requested:
-            return 0
-        if not played["sent"] and 0 <= left < len(rows):
-            played["sent"] = True
-            os.kill(os.getpid(), signum)        # handled before the next line runs
-            part = rows[:left]
-            played["n"] += left
-            return orig(self, part) if left else 0
-        played["n"] += len(rows)
-        return orig(self, rows)
-
-    monkeypatch.setattr(FakeBackend, "play", play)
-    return orig
 
 
 def cords_at_end(trace_path, cfg, start_xy):
@@ -361,18 +340,6 @@ def test_interactive_jog_in_a_terminal(config_path, tmp_path):
     assert xy == pytest.approx([-2.0, 4.0], abs=0.01)
 
 
-SHORT = """G21 G90
-G00 Z5
-G00 X2 Y2
-G01 Z-1 F600
-G01 X6 Y2
-G01 X6 Y6
-G02 X2 Y6 R2
-G01 X2 Y2
-G00 Z5
-G00 X0 Y0
-M2
-"""
 
 
 @pytest.mark.parametrize("signum,after_s", [(signal.SIGINT, 1.3), (signal.SIGTERM, 2.1)])

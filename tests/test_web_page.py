@@ -11,7 +11,7 @@ import pytest
 
 from vplotter.cli import main
 
-from test_web import DRAWING, serve  # noqa: F401 - the server fixture
+from support.web import DRAWING, serve  # noqa: F401 - the server fixture
 
 webdriver = pytest.importorskip("selenium.webdriver", reason="selenium is not installed "
                                 "(pip install selenium)")

@@ -33,7 +33,9 @@ def parse_duration(text: str) -> float:
     if re.fullmatch(r"\d+(\.\d+)?", s):
         value = float(s)
     else:
-        m = re.fullmatch(r"(?:(\d+(?:\.\d+)?)h)?(?:(\d+(?:\.\d+)?)m(?:in)?)?(?:(\d+(?:\.\d+)?)s)?", s)
+        m = re.fullmatch(r"(?:(\d+(?:\.\d+)?)h)?"
+                         r"(?:(\d+(?:\.\d+)?)m(?:in)?)?"
+                         r"(?:(\d+(?:\.\d+)?)s)?", s)
         if not s or m is None or not any(m.groups()):
             raise ConfigError(f"error: --max-time: {text!r} is not a duration (examples: 2h, "
                               f"45m, 1h30m, 5400)")
@@ -109,9 +111,9 @@ def fit(make: Callable[[float], object], plot_time: Callable[[object], float], b
         s, t = attempt(guess)
     if best is None:
         s_max, t_max = max(tries)
-        raise ConfigError(f"error: --max-time {clock_text(budget_s)} is too short for this picture: "
-                          f"even at the widest spacing ({s_max:.2f} mm) it takes {clock_text(t_max)}; "
-                          f"give more time or a smaller --width")
+        raise ConfigError(f"error: --max-time {clock_text(budget_s)} is too short for this "
+                          f"picture: even at the widest spacing ({s_max:.2f} mm) it takes "
+                          f"{clock_text(t_max)}; give more time or a smaller --width")
     s, drawing, t = best
     return drawing, Choice(s, t, budget_s, tries, _short(s, t, budget_s, min_mm, UNDER))
 

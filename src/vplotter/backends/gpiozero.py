@@ -1,14 +1,14 @@
 """gpiozero backend: any pin factory gpiozero supports (lgpio, RPi.GPIO, pigpio, native, mock),
 timed in software by `realtime.Player` (absolute deadlines, sleep then spin).
 
-Coils are DigitalOutputDevices (written through their `pin.state`, the fastest public path).
-The pen: on gpiozero's lgpio factory (what gpiozero uses on a Pi) the player writes the servo
-pulses itself through lgpio (`realtime.Player`'s pulse trains: the configured width to the
-microsecond, every pulse whole), because gpiozero sets PWM through a duty cycle in whole percent
-(gpiozero issue 1209: 500 us is sent as 400 us). Other factories get a gpiozero Servo whose min/max pulse widths
-are the pen's up/down widths (value -1/+1, None stops the pulses); it needs a factory with PWM
-(software PWM is fine); gpiozero's mock factory gets a PWM-capable mock pen pin
-(GPIOZERO_PIN_FACTORY=mock simulates the whole machine).
+Coils are DigitalOutputDevices (written through their `pin.state`, the fastest public path). The
+pen: on gpiozero's lgpio factory (what gpiozero uses on a Pi) the player writes the servo pulses
+itself through lgpio (`realtime.Player`'s pulse trains: the configured width to the microsecond,
+every pulse whole), because gpiozero sets PWM through a duty cycle in whole percent (gpiozero issue
+1209: 500 us is sent as 400 us). Other factories get a gpiozero Servo whose min/max pulse widths are
+the pen's up/down widths (value -1/+1, None stops the pulses); it needs a factory with PWM (software
+PWM is fine); gpiozero's mock factory gets a PWM-capable mock pen pin (GPIOZERO_PIN_FACTORY=mock
+simulates the whole machine).
 """
 
 from __future__ import annotations

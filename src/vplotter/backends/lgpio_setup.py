@@ -109,10 +109,11 @@ _latency_fd: int | None = None
 
 
 def tight_timers() -> None:
-    """Timer slack 1 ns for this thread and the threads it starts: Linux lets a sleeping
-    thread wake up to 50 us late by default, which every write the player times would show. Where allowed (root), also ask for no
-    deep CPU idle states while the process runs (/dev/cpu_dma_latency 0, as cyclictest does):
-    a CPU waking from one makes the next edge later; the request ends with the process."""
+    """Timer slack 1 ns for this thread and the threads it starts: Linux lets a sleeping thread wake
+    up to 50 us late by default, which every write the player times would show. Where allowed
+    (root), also ask for no deep CPU idle states while the process runs (/dev/cpu_dma_latency 0, as
+    cyclictest does): a CPU waking from one makes the next edge later; the request ends with the
+    process."""
     global _latency_fd
     if not sys.platform.startswith("linux"):
         return

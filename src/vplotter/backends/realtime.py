@@ -137,8 +137,8 @@ def _first_coil(pattern: int) -> int:
 
 
 def bit_order(old: int, new: int) -> tuple[int, ...]:
-    """The 4-bit coil patterns to write, one bit at a time, to go from `old` to `new` (the last
-    one is `new`). Every pattern in between is one a stepper (and tests/tracecheck/) accepts:
+    """The 4-bit coil patterns to write, one bit at a time, to go from `old` to `new` (the last one
+    is `new`). Every pattern in between is one a stepper (and tests/support/tracecheck/) accepts:
 
     - release of two neighbouring coils i, i+1: i+1 goes first, so the pattern left for a moment
       is coil i alone (a neighbour in the half-step table), and

@@ -22,7 +22,8 @@ def open_port(cfg, timeout_s: float | None = None) -> Link:
         raise BackendError("pyserial is not installed (pip install pyserial)") from None
     ser = cfg.serial
     try:
-        port = serial.Serial(ser.port, ser.baud, timeout=READ_TIMEOUT_S, write_timeout=ser.timeout_s)
+        port = serial.Serial(ser.port, ser.baud, timeout=READ_TIMEOUT_S,
+                             write_timeout=ser.timeout_s)
     except (serial.SerialException, OSError, ValueError) as e:
         raise BackendError(f"cannot open the serial port {ser.port}: {e}") from None
     link = Link(port, ser.port, ser.timeout_s)
@@ -63,8 +64,9 @@ class SerialBackend(Backend):
         if st.state == "Alarm":
             self.close()
             raise BackendError(f"the controller on {self.cfg.serial.port} is in its alarm state "
-                               f"(it lost its position or wants homing); put the pen where vplotter "
-                               f"thinks it is, then unlock it with $X in `vplotter serial console`")
+                               f"(it lost its position or wants homing); put the pen where "
+                               f"vplotter thinks it is, then unlock it with $X in "
+                               f"`vplotter serial console`")
         if not st.state.startswith(("Idle", "Hold")):
             self.close()
             raise BackendError(f"the controller on {self.cfg.serial.port} is busy ({st.state})")

@@ -127,7 +127,8 @@ def write(path: str | Path, pattern: Pattern) -> None:
     lines = [HEADER]
     if ref:
         lines.append("# reference " + " ".join(f"{k}={v:.6f}" for k, v in ref.items()))
-    lines.append("# measure the centre-to-centre distance of each pair's dots in mm into distance_mm")
+    lines.append("# measure the centre-to-centre distance of each pair's dots in mm "
+                 "into distance_mm")
     lines.append(",".join(COLUMNS))
     for m in pattern.marks.values():
         steps = m.steps if m.steps is not None else ("", "")
@@ -167,7 +168,8 @@ def read(path: str | Path) -> Pattern:
                     try:
                         reference[k] = float(v)
                     except ValueError:
-                        raise InputError(f"{p}:{no}:1: error: bad reference value {item!r}") from None
+                        raise InputError(
+                            f"{p}:{no}:1: error: bad reference value {item!r}") from None
             continue
         cells = [c.strip() for c in row]
         if not any(cells):

@@ -132,7 +132,8 @@ def check_on_page(cfg, x: float, y: float, what: str) -> None:
     pg = cfg.page
     if not (pg.x_min_mm <= x <= pg.x_max_mm and pg.y_min_mm <= y <= pg.y_max_mm):
         raise MachineError(f"error: {what} X{x:.3f} Y{y:.3f} is outside the page "
-                           f"(X {pg.x_min_mm:g}..{pg.x_max_mm:g}, Y {pg.y_min_mm:g}..{pg.y_max_mm:g})")
+                           f"(X {pg.x_min_mm:g}..{pg.x_max_mm:g}, "
+                           f"Y {pg.y_min_mm:g}..{pg.y_max_mm:g})")
 
 
 def run_records(args, cfg, command: str, pos, records) -> int:
@@ -141,8 +142,8 @@ def run_records(args, cfg, command: str, pos, records) -> int:
 
     summary = pipeline.validate(cfg, records, pos.counts, pos.ref_mm, command)
     with session(args, cfg, command, pos) as s:
-        s.play(pipeline.replay(cfg, summary.plan, pos.counts, pos.ref_mm) if summary.plan is not None
-               else stream_rows(cfg, records, pos, command))
+        s.play(pipeline.replay(cfg, summary.plan, pos.counts, pos.ref_mm)
+               if summary.plan is not None else stream_rows(cfg, records, pos, command))
     return 0
 
 

@@ -162,7 +162,8 @@ def _say_pens(rows: list[dict], timed, pen_order: str) -> None:
     say(f"  {len(rows)} pen{'s' if len(rows) > 1 else ''}{order}:")
     for r in rows:
         t = f", for {clock_text(times[r['name']])}" if r["name"] in times else ""
-        say(f"    {r['name']} ({r['colour']}): {r['strokes']} stroke{'s' if r['strokes'] != 1 else ''}, drawn "
+        say(f"    {r['name']} ({r['colour']}): "
+            f"{r['strokes']} stroke{'s' if r['strokes'] != 1 else ''}, drawn "
             f"{r['drawn_mm'] / 1000:.2f} m{t}")
 
 

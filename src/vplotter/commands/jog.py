@@ -71,7 +71,8 @@ def _read_key(fd: int) -> str:
 
 def interactive(args, cfg, pos, session) -> int:
     if not sys.stdin.isatty():
-        raise ConfigError("error: interactive jog needs a terminal; use --dx/--dy or --left/--right")
+        raise ConfigError("error: interactive jog needs a terminal; "
+                          "use --dx/--dy or --left/--right")
     import termios
     import tty
 

@@ -84,7 +84,8 @@ def status_object(cfg, pos=None, holder=None, drawing=None, snapshot: bool = Tru
         "clean": None if running else pos.clean,
         "last_stop": "running" if running else ("clean" if pos.clean else "unclean"),
         "uncertainty_mm": round(uncertainty_mm(cfg, pos), 4),
-        "resume": None if running else pos.extra.get("resume") or None, "state_file": str(state.state_path()),
+        "resume": None if running else pos.extra.get("resume") or None,
+        "state_file": str(state.state_path()),
         "pen_in": pos.extra.get("pen_in"),      # the pen put in last: {"pen", "index", "count"}
         "pen_change": None if running else pos.extra.get("pen_change"),   # stopped waiting
         "busy": _busy(holder), "drawing": drawing}

@@ -62,7 +62,8 @@ def cmd_calibrate(args, argv=None) -> int:
     kin = kinematics.from_config(cfg)
     values = args.at if args.at is not None else args.cords
     if not all(math.isfinite(v) and abs(v) < 1e5 for v in values):
-        raise ConfigError(f"error: {' '.join(f'{v:g}' for v in values)} is not a position on a wall")
+        raise ConfigError(f"error: {' '.join(f'{v:g}' for v in values)} "
+                          f"is not a position on a wall")
     if cfg.machine.kind == "polar":
         cords = _polar_cords(cfg, kin, args)
     elif args.at is not None:
@@ -131,7 +132,8 @@ def add_pen(p) -> None:
     p.add_argument("action", choices=("up", "down", "cycle"))
     p.add_argument("--up-us", type=int, help="try this pen-up pulse width (us) instead of config")
     p.add_argument("--down-us", type=int, help="try this pen-down pulse width (us)")
-    p.add_argument("--hold", type=float, default=1.0, help="cycle: seconds to stay down (default 1)")
+    p.add_argument("--hold", type=float, default=1.0,
+                   help="cycle: seconds to stay down (default 1)")
     add_machine_options(p)
 
 

@@ -65,7 +65,8 @@ def draw(args, argv, cfg, pos, begin, on_pause=None) -> int:
             if s.stop_xy is not None:
                 s.resume_from(s.stop_xy)
             xy = np.where(np.abs(s.stop_xy or (0.0, 0.0)) < 5e-4, 0.0, s.stop_xy or (0.0, 0.0))
-            where = f"{args.file}:{s.line}: stopped" if s.line else f"{args.file}: stopped before drawing"
+            where = (f"{args.file}:{s.line}: stopped" if s.line
+                     else f"{args.file}: stopped before drawing")
             if isinstance(e, Interrupted):
                 eprint(f"{where} at X{xy[0]:.3f} Y{xy[1]:.3f}; pen lifted"
                        f"{'' if s.dry_run else ', position saved'}")
@@ -127,12 +128,14 @@ def compare_settings(cfg, settings: dict[int, float]) -> list[str]:
         elif num in (110, 111):
             bad = have > want * 1.02 if cfg.serial.axes == "motors" else have < want * 0.98
             hint = ("the motors may be asked for more steps/s than [motors] max_step_rate"
-                    if cfg.serial.axes == "motors" else "the controller cannot reach the speed caps")
+                    if cfg.serial.axes == "motors"
+                    else "the controller cannot reach the speed caps")
         else:
             bad = have > want * 1.02
             hint = "above [motors] max_accel"
         if bad:
-            out.append(f"warning: ${num}={have:g} ({what}) but config.toml implies {want:.3f}: {hint}")
+            out.append(f"warning: ${num}={have:g} ({what}) "
+                       f"but config.toml implies {want:.3f}: {hint}")
     return out
 
 

@@ -226,7 +226,8 @@ def cmd_serve(args, argv=None) -> int:
         sock.bind((args.host, args.port))
     except OSError as e:
         sock.close()
-        raise ConfigError(f"error: cannot listen on {args.host}:{args.port}: {e.strerror}") from None
+        raise ConfigError(
+            f"error: cannot listen on {args.host}:{args.port}: {e.strerror}") from None
     sock.listen(64)
     port = sock.getsockname()[1]
     server = None

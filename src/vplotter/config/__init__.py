@@ -279,5 +279,6 @@ def state_dir() -> Path:
     """Where vplotter keeps the machine's truth: $XDG_STATE_HOME/vplotter (default
     ~/.local/state/vplotter): the stored position, the journal, the lock, live progress, and
     lgpio's notify FIFO."""
-    base = os.environ.get("XDG_STATE_HOME") or os.path.join(os.path.expanduser("~"), ".local", "state")
+    base = (os.environ.get("XDG_STATE_HOME")
+            or os.path.join(os.path.expanduser("~"), ".local", "state"))
     return Path(base) / "vplotter"

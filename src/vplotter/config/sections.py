@@ -110,7 +110,8 @@ class Motors:
         """The motor output pins, bit i of an output word = out_pins[i]: IN1..IN4 of both
         motors (uln2003), or STEP, DIR of both motors and ENABLE (stepdir)."""
         if self.driver == "stepdir":
-            pins = [getattr(self, f"{n}_{what}_pin") for n in self.names for what in ("step", "dir")]
+            pins = [getattr(self, f"{n}_{what}_pin")
+                    for n in self.names for what in ("step", "dir")]
             return pins + [self.enable_pin]
         return [p for pins in self._pair("pins") for p in pins]
 

@@ -1,15 +1,15 @@
 """Fills: the filled regions a reader finds, hatched on the wall.
 
-A reader (SVG) gives each filled element as a `Region`: its rings (all its subpaths, flattened,
-in the G-code mm of the default placement; an open subpath is closed for the fill), its fill
-rule, its pen and colour, and where in the drawing's strokes its hatching goes (just before its
-outline: SVG paints the fill, then the stroke). Once the placement (A, b: x -> A x + b) is
-known, `merge` hatches the rings as placed and maps the lines back into the drawing's frame,
-so that placing the drawing puts them where they were made: `spacing_mm` and `angle_deg` are
-on the wall whatever `--scale`, `--fit`, `--width` or `--rotate` do: lines `spacing_mm` apart, at `angle_deg` counter-clockwise from +X, on a grid fixed to G-code X0 Y0 (two shapes
-side by side share their lines). The hatcher is `inputs/hatch.py`, the one the photos' hatch
-style uses; its lines are joined back and forth where the move stays inside the region and is
-at most `LINK_SPACINGS` spacings long.
+A reader (SVG) gives each filled element as a `Region`: its rings (all its subpaths, flattened, in
+the G-code mm of the default placement; an open subpath is closed for the fill), its fill rule, its
+pen and colour, and where in the drawing's strokes its hatching goes (just before its outline: SVG
+paints the fill, then the stroke). Once the placement (A, b: x -> A x + b) is known, `merge` hatches
+the rings as placed and maps the lines back into the drawing's frame, so that placing the drawing
+puts them where they were made: `spacing_mm` and `angle_deg` are on the wall whatever `--scale`,
+`--fit`, `--width` or `--rotate` do: lines `spacing_mm` apart, at `angle_deg` counter-clockwise from
++X, on a grid fixed to G-code X0 Y0 (two shapes side by side share their lines). The hatcher is
+`inputs/hatch.py`, the one the photos' hatch style uses; its lines are joined back and forth where
+the move stays inside the region and is at most `LINK_SPACINGS` spacings long.
 """
 
 from __future__ import annotations

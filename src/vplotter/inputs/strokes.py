@@ -1,9 +1,9 @@
 """Strokes: what every input gives the shared pipeline once its own syntax is gone.
 
-A stroke is one pen-down polyline in G-code millimetres (+Y up); a stroke of one point is a dot
-(pen down and up at that point). Placement (`drawing/place.py`) and ordering (`drawing/order.py`) work on
-strokes; `to_records` turns them back into the records the pipeline draws (travel with the pen
-up between strokes), so G-code and SVG go through one pipeline.
+A stroke is one pen-down polyline in G-code millimetres (+Y up); a stroke of one point is a dot (pen
+down and up at that point). Placement (`drawing/place.py`) and ordering (`drawing/order.py`) work on
+strokes; `to_records` turns them back into the records the pipeline draws (travel with the pen up
+between strokes), so G-code and SVG go through one pipeline.
 
 `line`/`col` say where a stroke comes from (G-code line, or the SVG element's number) and
 `src` names it in messages (an SVG element id); the pipeline reports errors and resume places

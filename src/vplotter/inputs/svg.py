@@ -2,7 +2,8 @@
 
 The XML is walked here (parsed by `svg_tree.py`: each element keeps its line and column for
 messages); path data and transform lists are parsed by svgelements; units, viewBox and the
-display/visibility cascade are in `svg_style.py`, curves in `svg_geom.py`. The rules (README, section "SVG"):
+display/visibility cascade are in `svg_style.py`, curves in `svg_geom.py`. The rules (README,
+section "SVG"):
 
 - drawn: path, line, polyline, polygon, rect (rx/ry), circle, ellipse, and `<use>` instances,
   whatever their stroke and fill, as outlines; each subpath is one stroke (`--fill none`: only

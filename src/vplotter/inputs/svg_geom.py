@@ -107,7 +107,8 @@ def path_data(d: str) -> list[Subpath]:
     return out
 
 
-def rect(x: float, y: float, w: float, h: float, rx: float | None, ry: float | None) -> list[Subpath]:
+def rect(x: float, y: float, w: float, h: float,
+         rx: float | None, ry: float | None) -> list[Subpath]:
     if w <= 0 or h <= 0:
         return []
     if rx is None and ry is None:
@@ -221,7 +222,8 @@ def _bezier_points(ctrl: np.ndarray, lin: np.ndarray, tol: float) -> np.ndarray:
     if deg == 2:
         pts = s * s * ctrl[0] + 2 * s * t * ctrl[1] + t * t * ctrl[2]
     else:
-        pts = s ** 3 * ctrl[0] + 3 * s * s * t * ctrl[1] + 3 * s * t * t * ctrl[2] + t ** 3 * ctrl[3]
+        pts = (s ** 3 * ctrl[0] + 3 * s * s * t * ctrl[1] + 3 * s * t * t * ctrl[2]
+               + t ** 3 * ctrl[3])
     pts[-1] = ctrl[-1]
     return pts
 

@@ -178,7 +178,8 @@ def last_journal_record(path: Path | None = None) -> dict | None:
     for line in reversed(lines):
         try:
             rec = json.loads(line)
-            if isinstance(rec, dict) and len(rec.get("steps", ())) == 2 and len(rec.get("dev", ())) == 2:
+            if (isinstance(rec, dict) and len(rec.get("steps", ())) == 2
+                    and len(rec.get("dev", ())) == 2):
                 return rec
         except ValueError:
             continue

@@ -61,7 +61,7 @@ from vplotter.motion.refine import refine, sharp_shares  # noqa: F401
 
 RATE_MARGIN = 0.998    # of max_step_rate: step times are rounded to microseconds
 ACCEL_MARGIN = 0.96    # of max_accel
-SHARP_SHARE = 0.25     # what a chord's sharp corner is taken to get (pipeline._chord_turn)
+SHARP_SHARE = 0.25     # what a chord's sharp corner is taken to get (segment.chord_turn)
 
 WINDOW = 2048          # pieces committed per planning round
 

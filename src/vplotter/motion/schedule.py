@@ -316,7 +316,8 @@ class Scheduler:
             lead = int(np.abs(delta).max())
             if lead:
                 self._energize([], False)
-                self.t_us += int(round(float(_rest_to_rest(np.array([float(lead)]), lead, v, a)[0]) * 1e6))
+                self.t_us += int(round(
+                    float(_rest_to_rest(np.array([float(lead)]), lead, v, a)[0]) * 1e6))
                 self.drv.advance(delta)
                 self.counts = self.counts + delta
             return None

@@ -11,7 +11,8 @@ import numpy as np
 
 def _bits(*rows: str) -> np.ndarray:
     # "1100" means IN1 and IN2 on
-    return np.array([sum(1 << i for i, c in enumerate(r) if c == "1") for r in rows], dtype=np.uint8)
+    return np.array([sum(1 << i for i, c in enumerate(r) if c == "1") for r in rows],
+                    dtype=np.uint8)
 
 
 TABLES = {

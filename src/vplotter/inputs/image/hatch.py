@@ -1,27 +1,24 @@
 """Crosshatching: nested hatch lines on one grid, one to three angles, along a tone curve.
 
-Tone model. The budget's knob `spacing_mm` is the finest pitch p: all lines of an angle lie on
-one grid p apart (line k at (k + 1/2) p from the origin along the normal). One full layer of
-lines p apart drawn with a pen w wide covers c = w / p of the paper (at most 1); layers at
-different angles overlap where they cross, so n full layers cover C(n) = 1 - (1 - c)^n, and a
-partial layer (a share s of its lines) adds s x c of what is left. The darkest tone gets
-`full_layers` layers (3 at a generous spacing of up to CROSS_PENS = 1.5 pen widths, falling
-log-linearly to 1 at ONE_LAYER_PENS = 2.5 pen widths and coarser: lines that cross overlap
-there and leave a coarser texture, so at the same length of line one direction at a finer
-pitch reads better as tone; on bench/photo_tone.py, with the fitted tone curves, one layer
-drew every photograph better at 3 h (the astronaut 0.868 -> 0.894, the camera 0.914 -> 0.931,
-same length; at 60 m still 0.949 -> 0.953). Crossing is kept where the pitch is that fine
-anyway (on a 300 mm photo about 6 hours and more), where the look of crosshatching costs
-little); a pixel of darkness d gets the
-coverage f(d) x C(full layers), f the budget's tone curve (`tone.py`; d^`tone_gamma` to start
-with), turned into
-layer units F (0..full layers) by inverting C. Layer n (1, 2, 3) draws where F > n - 1, its
-share F - (n - 1) of lines laid by the binary nesting of `tone.py`: every 16th line takes the
-share from 0 to 1/16, the ones half-way between from 1/16 to 1/8, every 4th from 1/8 to 1/4,
-every 2nd from 1/4 to 1/2 and the rest from 1/2 to 1, each drawn in dashes (period 16 p, the
-dash that part of it) across its range and whole above it, so the lines drawn cover the share
-asked for, however small, and a darker tone always more. Layer 1 is at `angle_deg` (45), layer 2 at angle - 90 (-45), layer 3 at
-angle - 45 (0).
+Tone model. The budget's knob `spacing_mm` is the finest pitch p: all lines of an angle lie on one
+grid p apart (line k at (k + 1/2) p from the origin along the normal). One full layer of lines p
+apart drawn with a pen w wide covers c = w / p of the paper (at most 1); layers at different angles
+overlap where they cross, so n full layers cover C(n) = 1 - (1 - c)^n, and a partial layer (a share
+s of its lines) adds s x c of what is left. The darkest tone gets `full_layers` layers (3 at a
+generous spacing of up to CROSS_PENS = 1.5 pen widths, falling log-linearly to 1 at ONE_LAYER_PENS =
+2.5 pen widths and coarser: lines that cross overlap there and leave a coarser texture, so at the
+same length of line one direction at a finer pitch reads better as tone; on bench/photo_tone.py,
+with the fitted tone curves, one layer drew every photograph better at 3 h (the astronaut 0.868 ->
+0.894, the camera 0.914 -> 0.931, same length; at 60 m still 0.949 -> 0.953). Crossing is kept where
+the pitch is that fine anyway (on a 300 mm photo about 6 hours and more), where the look of
+crosshatching costs little); a pixel of darkness d gets the coverage f(d) x C(full layers), f the
+budget's tone curve (`tone.py`; d^`tone_gamma` to start with), turned into layer units F (0..full
+layers) by inverting C. Layer n (1, 2, 3) draws where F > n - 1, its share F - (n - 1) of lines laid
+by the binary nesting of `tone.py`: every 16th line takes the share from 0 to 1/16, the ones
+half-way between from 1/16 to 1/8, every 4th from 1/8 to 1/4, every 2nd from 1/4 to 1/2 and the rest
+from 1/2 to 1, each drawn in dashes (period 16 p, the dash that part of it) across its range and
+whole above it, so the lines drawn cover the share asked for, however small, and a darker tone
+always more. Layer 1 is at `angle_deg` (45), layer 2 at angle - 90 (-45), layer 3 at angle - 45 (0).
 
 Each layer is one grid of lines p apart hatched on a mask in which every pixel carries the
 decision of its nearest line (its level, its dashes), so the lines drawn next to each other
@@ -103,7 +100,8 @@ def strokes(picture, spacing_mm: float, pen_mm: float = 0.5, angle_deg: float = 
     out: list[Stroke] = []
     hh, ww = d.shape
     x = ((np.arange(ww, dtype=np.float32) + 0.5) * (picture.width_mm / ww))[None, :]
-    y = (picture.height_mm - (np.arange(hh, dtype=np.float32) + 0.5) * (picture.height_mm / hh))[:, None]
+    y = (picture.height_mm
+         - (np.arange(hh, dtype=np.float32) + 0.5) * (picture.height_mm / hh))[:, None]
     for n in range(1, math.ceil(most - 1e-9) + 1):
         share = units - (n - 1)
         if not (share > 0).any():

@@ -32,7 +32,8 @@ import os
 
 from vplotter.errors import InputError
 
-MAX_PIXELS = 89_478_485        # Pillow's own warning limit (a 9,459 x 9,459 image): above it, refused
+MAX_PIXELS = 89_478_485        # Pillow's own warning limit (a 9,459 x 9,459 image): above it,
+                               # refused
 ORIENTATION = 0x0112           # the EXIF tag
 
 
@@ -64,7 +65,8 @@ def _open(path):
     except (Image.DecompressionBombError, Image.DecompressionBombWarning):
         raise _fail(path, f"too many pixels (over {MAX_PIXELS:,}): a decompression bomb?") from None
     except UnidentifiedImageError:
-        raise _fail(path, "not an image Pillow can read (PNG, JPEG, WebP, BMP, TIFF, GIF)") from None
+        raise _fail(path,
+                    "not an image Pillow can read (PNG, JPEG, WebP, BMP, TIFF, GIF)") from None
     except (OSError, ValueError, SyntaxError, EOFError, MemoryError) as e:
         raise _fail(path, f"cannot read the image: {e}") from None
     w, h = im.size

@@ -2,17 +2,16 @@
 across its track with an amplitude that follows darkness (Makelangelo's pulsing spiral, the
 "Sandy Noble" style).
 
-The track pitch is `spacing_mm` (at most 7 pen widths: `squiggle.track_pitch`); the spiral r = pitch x theta / 2 pi starts at the picture's
-centre and runs until it has passed the farthest corner, so it covers the whole rectangle.
-The zigzag's period is 2/3 of the pitch (2 pen widths for a 0.5 mm pen at 1.5 mm), and its
-amplitude, up to half the pitch, makes the line drawn per mm of track linear in darkness:
-the tone model of `squiggle.py` (`zigzag`, `toned`: the budget's tone curve d^gamma, the
-pitch at most 7 pen widths), darkness blurred over half a track. Where the line asked for is
-less than a straight track's, only some turns are drawn, straight, some in dashes (turn k by
-its nesting level: `tone.dashed`), and where the picture is white the pen lifts
-(short gaps are drawn straight through). Beyond the circle inscribed in the
-rectangle the spiral leaves it: the pen lifts at the edge and comes back down where the
-spiral re-enters (about four lifts a turn out there).
+The track pitch is `spacing_mm` (at most 7 pen widths: `squiggle.track_pitch`); the spiral r = pitch
+x theta / 2 pi starts at the picture's centre and runs until it has passed the farthest corner, so
+it covers the whole rectangle. The zigzag's period is 2/3 of the pitch (2 pen widths for a 0.5 mm
+pen at 1.5 mm), and its amplitude, up to half the pitch, makes the line drawn per mm of track linear
+in darkness: the tone model of `squiggle.py` (`zigzag`, `toned`: the budget's tone curve d^gamma,
+the pitch at most 7 pen widths), darkness blurred over half a track. Where the line asked for is
+less than a straight track's, only some turns are drawn, straight, some in dashes (turn k by its
+nesting level: `tone.dashed`), and where the picture is white the pen lifts (short gaps are drawn
+straight through). Beyond the circle inscribed in the rectangle the spiral leaves it: the pen lifts
+at the edge and comes back down where the spiral re-enters (about four lifts a turn out there).
 """
 
 from __future__ import annotations

@@ -27,20 +27,19 @@ spacing is a pen lift: the stroke is split there, so no straight line crosses a 
 the sparse light areas are drawn in short pieces (the long straight lines of a tour there lay
 more ink than the tone asks for: bench/image_stipple.py).
 
-The budget's tone curve (`tone.py`): up to CAP_PENS pen widths (2.5 mm) the dots follow the
-darkness as above. A coarser spacing (a scarce budget) places as many dots as it asks for with
-the density rho(f(d)), f(d) = (1 - tone.EPS) d^gamma + tone.EPS d, gamma the smallest from FLOOR_GAMMA up
-that brings them CAP_PENS pen widths together in black (`cap_gamma`): dots 6 mm apart over
-every tone are seen as dots, not tone (correlation of ink with darkness 0.08 at a 1 mm blur
-on a photo of a cat in 1 h; 0.49 so), and the floor tone.EPS d keeps a few dots in every tone above
-white, more where darker. The dots' count does not depend on gamma (nor on any `curve` given:
-as many dots, placed on the curve's density). This is the dots' curve with fit=False, where
-`chosen` starts for the dots, and where the tour's choice starts: the tour's curve is chosen
-per picture as the line styles' are (`drawing/photo.py`: this exponent, / and x 1.6, then
-curves fitted to the tour's own measured response, each fitted to the budget and scored),
-which put it ahead of `hatched` at 3 h (bench/photo_tone.py, 300 mm, 3 h: the camera 0.725 ->
-0.936, the Hubble deep field 0.233 -> 0.519; by the converter's own score the retina 0.39 ->
-0.88).
+The budget's tone curve (`tone.py`): up to CAP_PENS pen widths (2.5 mm) the dots follow the darkness
+as above. A coarser spacing (a scarce budget) places as many dots as it asks for with the density
+rho(f(d)), f(d) = (1 - tone.EPS) d^gamma + tone.EPS d, gamma the smallest from FLOOR_GAMMA up that
+brings them CAP_PENS pen widths together in black (`cap_gamma`): dots 6 mm apart over every tone are
+seen as dots, not tone (correlation of ink with darkness 0.08 at a 1 mm blur on a photo of a cat in
+1 h; 0.49 so), and the floor tone.EPS d keeps a few dots in every tone above white, more where
+darker. The dots' count does not depend on gamma (nor on any `curve` given: as many dots, placed on
+the curve's density). This is the dots' curve with fit=False, where `chosen` starts for the dots,
+and where the tour's choice starts: the tour's curve is chosen per picture as the line styles' are
+(`drawing/photo.py`: this exponent, / and x 1.6, then curves fitted to the tour's own measured
+response, each fitted to the budget and scored), which put it ahead of `hatched` at 3 h
+(bench/photo_tone.py, 300 mm, 3 h: the camera 0.725 -> 0.936, the Hubble deep field 0.233 -> 0.519;
+by the converter's own score the retina 0.39 -> 0.88).
 
 The dots (not the tour; `chosen`) are then fitted to the picture per picture, as it is seen:
 each of a few tone curves d^gamma (gamma 1, 2, 4 ... 64, walked from the spacing's own / 2
@@ -73,7 +72,8 @@ SAMPLES_PER_DOT = 8     # Lloyd: density samples per dot (the Voronoi cells are 
 MAX_ITER = 30           # Lloyd rounds at most
 STOP = 0.05             # ... or until the root-mean-square move is below STOP x spacing_mm
 INSET = 1e-6            # mm: points strictly inside the picture
-CAP_PENS = 5.0          # a coarser spacing: the same dots on the darker tones, this far apart in black
+CAP_PENS = 5.0          # a coarser spacing: the same dots on the darker tones, this far apart
+                        # in black
 GAMMA_MAX = 64.0        # ... by the tone curve d^gamma, gamma at most this
 FLOOR_GAMMA = 8.0       # ... and at least this
 

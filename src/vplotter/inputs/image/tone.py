@@ -50,7 +50,8 @@ GAMMA_MAX = 8.0
 EPS = 1 / 32           # the curve's linear floor
 LEVELS = 5             # nesting levels: the sparsest is every 2^(LEVELS - 1)th line (16th)
 TOP = 2 ** (LEVELS - 1)
-NEST = ((TOP, 0),) + tuple((TOP >> i, TOP >> (i + 1)) for i in range(LEVELS - 1))   # (period, offset)
+# (period, offset)
+NEST = ((TOP, 0),) + tuple((TOP >> i, TOP >> (i + 1)) for i in range(LEVELS - 1))
 # level i takes the share of a layer from LOW[i] to HIGH[i] (its lines drawn in dashes between)
 LOW = (0.0,) + tuple(2 ** (i - 1) / TOP for i in range(1, LEVELS))
 HIGH = tuple(2 ** i / TOP for i in range(LEVELS))
@@ -65,7 +66,8 @@ def gamma(spacing_mm: float, pen_mm: float, free_pens: float = FREE_PENS,
     e = spacing_mm / (free_pens * pen_mm)
     if e <= 1:
         return 1.0
-    return float(min(GAMMA_MAX, 1 + (GAMMA_MAX - 1) * math.log(e) / math.log(scarce_pens / free_pens)))
+    return float(min(GAMMA_MAX,
+                     1 + (GAMMA_MAX - 1) * math.log(e) / math.log(scarce_pens / free_pens)))
 
 
 @dataclass(frozen=True)
