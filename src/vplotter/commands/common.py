@@ -63,15 +63,16 @@ def position(cfg, args, dry_run: bool):
     return pos
 
 
-def position_if_stored(cfg, args):
+def position_if_stored(cfg, args, check_only: bool = False):
     """For what can move without knowing where the pen is (`jog --left/--right`): the stored
     position as position() gives it, or None if none is stored (it stays unknown: nothing is
-    assumed, and nothing is stored afterwards). Takes the lock as position() does."""
+    assumed, and nothing is stored afterwards). Takes the lock as position() does.
+    check_only (`pen`): only the lock, and a corrupt stored file is an error; returns None."""
     from vplotter.machine import lock, state
 
     if not args.dry_run:
         lock.acquire(lock_command(args))
-    if state.load() is None:
+    if state.load() is None or check_only:
         return None
     return position(cfg, args, args.dry_run)
 

@@ -167,7 +167,9 @@ def move_pen(args, argv=None) -> PenMoved:
                 raise ConfigError(f"error: --{name.replace('_', '-')} must be 1..2600 (got {v})")
             cfg = dataclasses.replace(cfg, pen=dataclasses.replace(cfg.pen, **{name: v}))
     # the pen needs no position: the motors stand, and a stored position keeps all but the
-    # pen's state (machine/ledger.py); none stored, none is made
+    # pen's state (machine/ledger.py); none stored, none is made. A corrupt one is said
+    # before anything moves (the lock first, as for every mover).
+    position_if_stored(cfg, args, check_only=True)
     sched = Scheduler(cfg, None, (0, 0), (0.0, 0.0))
     if args.action == "up":
         sched.pen_down = True       # always send it: the servo may be anywhere
