@@ -19,7 +19,7 @@ from vplotter.backends.fake import FakeBackend
 from vplotter.cli import main
 
 from support import REPO
-from support.signals import SHORT, interrupt_after
+from support.signals import SHORT, hold_lock, interrupt_after
 
 CIRCLES = REPO / "gcode_samples" / "circles.ngc"
 
@@ -179,23 +179,6 @@ def test_crash_leaves_an_unclean_stop_with_a_bound_that_holds(config_path, tmp_p
     dec2 = tc.decode(tc.read_trace(t2), cfg, (info["x_mm"], info["y_mm"]))
     pts = np.column_stack((dec2.x, dec2.y))[dec2.pen_down]
     assert tc.distances_to_polylines(pts, tc.reference_path(CIRCLES)).max() <= 0.02
-
-
-HOLD = r"""
-import sys
-from vplotter.machine import lock
-lock.acquire(sys.argv[1])
-print("held", flush=True)
-sys.stdin.read()
-"""
-
-
-def hold_lock(command):
-    """Another process holding the plotter lock until its stdin closes."""
-    proc = subprocess.Popen([sys.executable, "-c", HOLD, command], stdin=subprocess.PIPE,
-                            stdout=subprocess.PIPE, text=True, env=dict(os.environ))
-    assert proc.stdout.readline() == "held\n"
-    return proc
 
 
 def test_second_process_is_refused_with_exit_3(config_path, capsys):

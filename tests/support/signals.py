@@ -3,10 +3,13 @@
 - ``interrupt_after``: the fake backend receives a signal after playing a given number of rows
   (test_safety.py, test_motor_release.py, test_stepdir.py, test_polar_plotter.py,
   test_prepare.py);
+- ``hold_lock``: another process holding the plotter lock (test_safety.py, test_first_run.py);
 - ``SHORT``: a few millimetres with an arc, drawn in real time on mock pins and stopped
   (test_safety.py, test_live.py)."""
 
 import os
+import subprocess
+import sys
 
 from vplotter.backends.fake import FakeBackend
 
@@ -44,3 +47,20 @@ def interrupt_after(monkeypatch, rows_before_signal, signum):
 
     monkeypatch.setattr(FakeBackend, "play", play)
     return orig
+
+
+HOLD = r"""
+import sys
+from vplotter.machine import lock
+lock.acquire(sys.argv[1])
+print("held", flush=True)
+sys.stdin.read()
+"""
+
+
+def hold_lock(command):
+    """Another process holding the plotter lock until its stdin closes."""
+    proc = subprocess.Popen([sys.executable, "-c", HOLD, command], stdin=subprocess.PIPE,
+                            stdout=subprocess.PIPE, text=True, env=dict(os.environ))
+    assert proc.stdout.readline() == "held\n"
+    return proc

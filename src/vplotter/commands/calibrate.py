@@ -68,15 +68,15 @@ def calibrate_steps(args, cfg, command: str) -> int:
           f"{cfg.motors.spool_circumference_mm:g}).")
     before = _ask(f"Measure the {args.motor} cord now, from where it leaves the spool to the "
                   f"pen (mm): ")
+    # no stored position: the cord moves by steps and the position stays unknown (one
+    # measured cord does not make one)
     pos = job.load_position(cfg, trust=True, dry_run=args.dry_run) if state.load() else None
-    if pos is None:
-        pos = state.Position.at_cords(before, before, spu)
     from vplotter.commands.common import session
 
     delta = [0, 0]
     delta[m] = args.steps
     with session(args, cfg, command, pos) as s:
-        sched = Scheduler(cfg, None, s.counts, pos.ref_mm)
+        sched = Scheduler(cfg, None, s.counts, pos.ref_mm if pos is not None else (0.0, 0.0))
         s.play([sched.cord_move(delta)])
         moved = s.counts
     after = _ask(f"Measure the {args.motor} cord again (mm): ")
@@ -89,7 +89,16 @@ def calibrate_steps(args, cfg, command: str) -> int:
         print(f"dry run: spool_circumference_mm would be {circ:.4f} (config not changed)")
         return 0
     key = write_circumference(args.config, circ, args.motor)
-    # the measured cord is now known exactly; count the position with the new steps/mm
+    if pos is not None:
+        _store_measured(args, pos, moved, m, after)
+    print(f"{args.config}: [motors] {key} = {circ:.4f} "
+          f"(was {cfg.motors.circumferences_mm[m]:g}; {args.steps} steps moved the cord "
+          f"{measured:.2f} mm)")
+    return 0
+
+
+def _store_measured(args, pos, moved, m: int, after: float) -> None:
+    """The measured cord is now known exactly; count the position with the new steps/mm."""
     from vplotter import config
 
     new_spm = config.load(args.config).motors.steps_per_unit
@@ -99,10 +108,6 @@ def calibrate_steps(args, cfg, command: str) -> int:
     fresh = state.Position.at_cords(cords[0], cords[1], new_spm)
     fresh.extra = {k: v for k, v in here.extra.items() if k == "home"}
     state.save(fresh)
-    print(f"{args.config}: [motors] {key} = {circ:.4f} "
-          f"(was {cfg.motors.circumferences_mm[m]:g}; {args.steps} steps moved the cord "
-          f"{measured:.2f} mm)")
-    return 0
 
 
 # ---------------------------------------------------------------- calibrate pattern / fit

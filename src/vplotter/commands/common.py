@@ -63,6 +63,20 @@ def position(cfg, args, dry_run: bool):
     return pos
 
 
+def position_if_stored(cfg, args, check_only: bool = False):
+    """For what can move without knowing where the pen is (`jog --left/--right`): the stored
+    position as position() gives it, or None if none is stored (it stays unknown: nothing is
+    assumed, and nothing is stored afterwards). Takes the lock as position() does.
+    check_only (`pen`): only the lock, and a corrupt stored file is an error; returns None."""
+    from vplotter.machine import lock, state
+
+    if not args.dry_run:
+        lock.acquire(lock_command(args))
+    if state.load() is None or check_only:
+        return None
+    return position(cfg, args, args.dry_run)
+
+
 def lock_command(args) -> str:
     """What the lock file says the holder does: `vplotter draw car.ngc`."""
     words = ["vplotter", getattr(args, "command", None) or ""]
@@ -86,8 +100,9 @@ def add_machine_options(p: argparse.ArgumentParser) -> None:
                    help="with the fake backend: play in real time to measure timing lateness")
 
 
-def session(args, cfg, command: str, pos, job=None):
-    """The Session that moves the machine for a command (job: a draw's machine/job.DrawJob)."""
+def session(args, cfg, command: str, pos, job=None, pen_only: bool = False):
+    """The Session that moves the machine for a command (job: a draw's machine/job.DrawJob;
+    pos None: no position is stored; pen_only: only the pen moves, machine/ledger.py)."""
     from vplotter.machine.job import Session
 
     dry = getattr(args, "dry_run", False)
@@ -95,7 +110,7 @@ def session(args, cfg, command: str, pos, job=None):
         raise MachineError("error: --backend serial streams drawings: use it with `vplotter draw`")
     name = "fake" if dry else (args.backend or cfg.gpio.backend)
     # --backend fake is a simulated machine (lock, stored position); --dry-run touches nothing
-    return Session(cfg, command, name, dry, args.trace, args.realtime, pos, job)
+    return Session(cfg, command, name, dry, args.trace, args.realtime, pos, job, pen_only)
 
 
 def command_line(argv) -> str:

@@ -78,6 +78,23 @@ def _timed(cfg, pos, prep, with_summary: bool = False):
     return (s.travel_mm, s.time_s, None) + ((s,) * with_summary)
 
 
+def _off_the_page(args, cfg, pos, off_keep: str | None, off_best: str | None) -> str | None:
+    """A drawing off the page, said as draw, estimate and preview say it: the first point
+    outside in the order they draw (--order, else the reader's), so that all name the same."""
+    if off_keep is None and off_best is None:
+        return None
+    from vplotter.readers import reader_for
+
+    reader = reader_for(args.file)
+    method = getattr(args, "order", None) or reader.order
+    if method == "keep" or reader.kind == "image":   # a photo: the order its budget timed
+        return off_keep
+    if method == "best":
+        return off_best
+    return _timed(cfg, pos, prepare_file(args, cfg, pos, warn=lambda m: None,
+                                         say_notes=False))[2]
+
+
 def cmd_info(args, argv=None) -> int:
     from vplotter.commands import warnings
     from vplotter.drawing import pens, place
@@ -100,8 +117,9 @@ def cmd_info(args, argv=None) -> int:
     ext = [box.x_min, box.y_min, box.x_max, box.y_max] if box else [0.0, 0.0, 0.0, 0.0]
     width = drawing.width_mm if drawing.width_mm is not None else ext[2] - ext[0]
     height = drawing.height_mm if drawing.height_mm is not None else ext[3] - ext[1]
-    t_keep, s_keep, problem = _timed(cfg, pos, keep)
-    t_best, s_best, _, timed = _timed(cfg, pos, best, with_summary=True)
+    t_keep, s_keep, off_keep = _timed(cfg, pos, keep)
+    t_best, s_best, off_best, timed = _timed(cfg, pos, best, with_summary=True)
+    problem = _off_the_page(args, cfg, pos, off_keep, off_best)
     warnings.flush()                # what reading the file found, then the problem, then info
     if problem:
         eprint(problem)

@@ -26,9 +26,15 @@ STEP_MIN, STEP_MAX = 0.1, 50.0
 
 
 def cord_rows(cfg, pos, counts, left_mm: float, right_mm: float, pen_down: bool = False):
-    """Rows that lengthen (or shorten, if negative) the cords by the given mm."""
+    """Rows that lengthen (or shorten, if negative) the cords by the given mm. pos None: the
+    position is unknown; the motors move by steps, and nothing can be checked against the
+    page or the anchors."""
     spu = np.asarray(cfg.motors.steps_per_unit)
     delta = np.rint(np.array([left_mm, right_mm]) * spu).astype(np.int64)
+    if pos is None:
+        sched = Scheduler(cfg, None, counts, (0.0, 0.0))
+        sched.pen_down = pen_down
+        return sched.cord_move(delta)
     cords = np.asarray(pos.ref_mm) + (np.asarray(counts) + delta) / spu
     kin = kinematics.from_config(cfg)
     if cfg.machine.kind == "polar":       # left/right: the table (degrees) and the arm (mm)

@@ -5,8 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from vplotter.commands.common import (add_machine_options, answering, check_on_page,
-                                      command_line, load_config, moves_to, position, run_records,
-                                      session)
+                                      command_line, eprint, load_config, moves_to, position,
+                                      position_if_stored, run_records, session)
 from vplotter.errors import ConfigError, MachineError
 
 
@@ -168,8 +168,11 @@ def move_pen(args, argv=None) -> PenMoved:
             if not 0 < v <= 2600:
                 raise ConfigError(f"error: --{name.replace('_', '-')} must be 1..2600 (got {v})")
             cfg = dataclasses.replace(cfg, pen=dataclasses.replace(cfg.pen, **{name: v}))
-    pos = position(cfg, args, args.dry_run)
-    sched = Scheduler(cfg, None, pos.counts, pos.ref_mm)
+    # the pen needs no position: the motors stand, and a stored position keeps all but the
+    # pen's state (machine/ledger.py); none stored, none is made. A corrupt one is said
+    # before anything moves (the lock first, as for every mover).
+    position_if_stored(cfg, args, check_only=True)
+    sched = Scheduler(cfg, None, (0, 0), (0.0, 0.0))
     if args.action == "up":
         sched.pen_down = True       # always send it: the servo may be anywhere
         parts = [sched.pen(False)]
@@ -178,7 +181,7 @@ def move_pen(args, argv=None) -> PenMoved:
     else:
         parts = [sched.pen(True), sched.dwell(args.hold), sched.pen(False)]
     rows = Rows.concat([r for r in parts if r is not None])
-    with session(args, cfg, command_line(argv), pos) as s:
+    with session(args, cfg, command_line(argv), None, pen_only=True) as s:
         s.play([rows])
     return PenMoved(args.action)
 
@@ -227,15 +230,20 @@ def jog_by(args, argv=None) -> Jogged:
 
 
 def _jog_other(args, argv) -> int:
-    """jog --left/--right (the cords), or the arrow keys."""
+    """jog --left/--right (the cords: no position needed; a stored one follows the cords,
+    none stays unknown), or the arrow keys (they need the position)."""
     from vplotter.commands import jog
 
     cfg = load_config(args)
-    pos = position(cfg, args, args.dry_run)
     if args.left is not None or args.right is not None:
+        pos = position_if_stored(cfg, args)
         with session(args, cfg, command_line(argv), pos) as s:
             s.play([jog.cord_rows(cfg, pos, s.counts, args.left or 0.0, args.right or 0.0)])
+        if pos is None:
+            eprint("note: the pen position stays unknown; once the pen is on a known point, "
+                   "run `vplotter calibrate --at X Y`")
         return 0
+    pos = position(cfg, args, args.dry_run)
     return jog.interactive(args, cfg, pos, session(args, cfg, command_line(argv), pos))
 
 

@@ -78,7 +78,10 @@ def _eprint(msg: str) -> None:
 class Session:
     def __init__(self, cfg, command: str, backend_name: str, dry_run: bool, trace=None,
                  realtime: bool = False, position: state.Position | None = None,
-                 job: DrawJob | None = None):
+                 job: DrawJob | None = None, pen_only: bool = False):
+        """position: the stored position the motors start from, None if none is stored (the
+        motors may still move by steps; nothing is stored). pen_only: only the pen moves
+        (machine/ledger.py)."""
         self.cfg = cfg
         self.command = command
         self.backend_name = backend_name
@@ -86,7 +89,7 @@ class Session:
         self.realtime = realtime
         self.trace_path = trace
         self.job = job
-        self.ledger = Ledger(position, job.record() if job is not None else None)
+        self.ledger = Ledger(position, job.record() if job is not None else None, pen_only)
         self.signals = Signals(ignore_hangup=job is not None and job.detached)
         self.counts = position.counts if position is not None else (0, 0)
         self.stop: Stop | None = None
@@ -261,8 +264,7 @@ class Session:
                     cur = ahead.get()
                     continue
                 nxt = ahead.get()
-                if self.saves_state:
-                    self._begin_motion()
+                if self.saves_state and self._begin_motion():
                     # until the next record lands the motors are in this part or the next
                     span = cur if not isinstance(nxt, Rows) else Rows.concat([cur, nxt])
                     dev = np.abs(span.steps - np.asarray(self.counts)).max(axis=0)
@@ -344,8 +346,10 @@ class Session:
             self.pen_down = int(pens[-1]) != self.cfg.pen.up_us
         self._moved = True
 
-    def _begin_motion(self) -> None:
+    def _begin_motion(self) -> bool:
+        """Before the motors move: True if the journal is written (a position is stored)."""
         self.ledger.begin(self.counts)
+        return self.ledger.journal is not None
 
     def _abort(self) -> None:
         """Pen up and coils released, played to the end whatever else happens."""

@@ -13,8 +13,9 @@ def load_position(cfg, trust: bool = False, dry_run: bool = False) -> state.Posi
     """The stored position, checked: refuses an unclean stop unless trusted (or a dry run)."""
     pos = state.load()
     if pos is None:
-        raise MachineError("error: the pen position is unknown; put the pen on a known point and "
-                           "run `vplotter calibrate --at X Y` first")
+        raise MachineError("error: the pen position is unknown: bring the pen to a known point "
+                           "(`vplotter jog --left MM` / `--right MM` move the cords) and run "
+                           "`vplotter calibrate --at X Y` first")
     check_machine(cfg, pos)
     pos = state.recovered(pos).rebased(cfg.motors.steps_per_unit)
     if not pos.clean and not trust and not dry_run:

@@ -327,7 +327,8 @@ class Batcher:
             raise InputError(
                 f"{self._place(bad, ends, line, col)}: error: point X{x:.3f} Y{y:.3f} is "
                 f"outside the page (X {page.x_min_mm:g}..{page.x_max_mm:g}, "
-                f"Y {page.y_min_mm:g}..{page.y_max_mm:g})")
+                f"Y {page.y_min_mm:g}..{page.y_max_mm:g}): give --fit to scale the drawing onto "
+                f"the page, or move it (--offset, --align)")
         mpts = self.kin.to_machine(pts)
         bad = self.kin.check_move(mpts, self.planner.position)
         if bad >= 0:
