@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 from hypothesis import given, strategies as st
 
 from vplotter.commands.warnings import Collector
@@ -104,3 +105,29 @@ def test_five_hundred_arc_warnings_are_one_line(capsys, tmp_path):
                                     f"start (first at 3:1): drawn as spirals")
     code, _, err = _cli(capsys, ["estimate", str(f), "--strict"])      # an error: one line
     assert code == 2 and err.count("\n") <= 2 and ": warning:" not in err
+
+
+@pytest.mark.parametrize("command", [["convert", "{f}", "-o", "{tmp}/o.ngc"],
+                                     ["draw", "{f}", "--dry-run"], ["info", "{f}"],
+                                     ["estimate", "{f}"], ["preview", "{f}", "-o", "{tmp}/p.png"]])
+@pytest.mark.parametrize("name, body", [("missing.svg", None), ("broken.ngc", b"G1 X1 Y\n"),
+                                        ("empty.png", b""), ("bad.svg", b"<svg><path d='M 0'")])
+def test_a_bad_file_on_a_fresh_install_is_one_line(capsys, tmp_path, command, name, body):
+    """No stored position: the dry run's note about X0 Y0 would come after the file is read,
+    and a failed command says only its error."""
+    f = tmp_path / name
+    if body is not None:
+        f.write_bytes(body)
+    argv = [a.format(f=f, tmp=tmp_path) for a in command]
+    code, out, err = _cli(capsys, argv)
+    assert code == 2 and err.count("\n") == 1 and "error:" in err, err
+    assert "note:" not in err and out == ""
+
+
+def test_the_dry_run_note_comes_after_the_file_is_read(capsys, tmp_path):
+    f = tmp_path / "arcs.ngc"
+    f.write_text("G0 X0 Y0\nM3\nG2 X1 Y0 I0.05 J-3\nG2 X2 Y0 I0.05 J-3\nM5\n")
+    code, out, err = _cli(capsys, ["draw", str(f), "--dry-run"])
+    lines = err.splitlines()
+    assert code == 0 and lines[0].startswith("note: no calibrated position stored")
+    assert lines[1].startswith(f"{f}: warning: 2 arcs") and "plot time" in out

@@ -40,6 +40,7 @@ def position(cfg, args, dry_run: bool):
     A dry run takes no lock; without a stored position it assumes X0 Y0, after an unclean stop
     it goes on but says how uncertain the stored position is."""
     from vplotter import kinematics
+    from vplotter.commands import warnings
     from vplotter.machine import lock, state
     from vplotter.machine.position import load_position, uncertainty_mm
 
@@ -48,18 +49,21 @@ def position(cfg, args, dry_run: bool):
     if dry_run and state.load() is None:
         kin = kinematics.from_config(cfg)
         cords = kin.inverse(kin.to_machine([[0.0, 0.0]]))[0]
-        eprint("note: no calibrated position stored; the dry run assumes the pen at X0 Y0")
+        # said with the warnings: after the file is read, never before an error (cli.main)
+        warnings.warn("note: no calibrated position stored; the dry run assumes the pen at X0 Y0")
         return state.Position.at_cords(cords[0], cords[1], cfg.motors.steps_per_unit)
     pos = load_position(cfg, getattr(args, "trust_position", False), dry_run)
     if dry_run and not pos.clean:
         holder = lock.holder()
         if holder is not None:
-            eprint(f"note: pid {holder['pid']} ({holder.get('command', 'vplotter')}) is moving "
-                   f"the plotter; the dry run starts from the position stored last")
+            warnings.warn(f"note: pid {holder['pid']} ({holder.get('command', 'vplotter')}) "
+                          f"is moving the plotter; the dry run starts from the position stored "
+                          f"last")
         else:
-            eprint(f"warning: the last stop was not clean (crash or power cut): the stored "
-                   f"position is uncertain by up to {uncertainty_mm(cfg, pos):.2f} mm; the "
-                   f"dry run starts from it (`vplotter calibrate --at X Y` makes it exact)")
+            warnings.warn(f"warning: the last stop was not clean (crash or power cut): the "
+                          f"stored position is uncertain by up to "
+                          f"{uncertainty_mm(cfg, pos):.2f} mm; the dry run starts from it "
+                          f"(`vplotter calibrate --at X Y` makes it exact)")
     return pos
 
 
