@@ -12,7 +12,7 @@ import numpy as np
 
 from vplotter.motion.blocks import Block
 from vplotter.motion.corners import Corners, corners
-from vplotter.motion.refine import MIN_SLOPE
+from vplotter.motion.refine import MIN_SLOPE, least
 
 BEND_SHARE = 0.4       # most of it the bending along a piece may take at the speed cap
 RETRY_ROUNDS = 3       # plans after the first (the quickest is kept)
@@ -57,8 +57,8 @@ def window(kin, v_cord, a_cord, verts, cap, stop, u_entry, turns) -> Window:
     bend = np.maximum(np.abs(kin.bend(verts[:-1], e)), np.abs(kin.bend(verts[1:], e)))
     bend = np.maximum(bend, np.abs(kin.bend(mid, e)))
     acc = a_cord                                              # (M,)
-    v_rate = (v_cord / np.maximum(kmax, 1e-9)).min(axis=1)
-    v_bend = np.sqrt(BEND_SHARE * acc / np.maximum(bend, 1e-12)).min(axis=1)
+    v_rate = least(v_cord / np.maximum(kmax, 1e-9))
+    v_bend = least(np.sqrt(BEND_SHARE * acc / np.maximum(bend, 1e-12)))
     vcap = np.minimum(np.minimum(cap, v_rate), v_bend)
     n = len(d)
     bent = bend * (vcap ** 2)[:, None]
@@ -104,15 +104,15 @@ def _planned(w: Window, reserve: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     if c is not None:
         lim[1:n] = c.speed(reserve[1:n]) ** 2
     lim[w.zero] = 0.0
-    a = ((w.acc - np.maximum(reserve[:-1], reserve[1:]) - w.bent)
-         / np.maximum(w.kmax, MIN_SLOPE)).min(axis=1)
+    a = least((w.acc - np.maximum(reserve[:-1], reserve[1:]) - w.bent)
+              / np.maximum(w.kmax, MIN_SLOPE))
     u = _passes(lim, 2.0 * a * d)
     if c is not None:
         v = np.sqrt(u[1:n])[:, None]
         used = reserve.copy()
         used[1:n] = np.minimum(reserve[1:n], c.takes(v))
-        a = ((w.acc - np.maximum(used[:-1], used[1:]) - w.bent)
-             / np.maximum(w.kmax, MIN_SLOPE)).min(axis=1)
+        a = least((w.acc - np.maximum(used[:-1], used[1:]) - w.bent)
+                  / np.maximum(w.kmax, MIN_SLOPE))
         u = _passes(np.minimum(lim, u), 2.0 * a * d)
     return u, a
 
