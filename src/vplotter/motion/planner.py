@@ -217,6 +217,8 @@ class Planner:
             return verts, cap, line, draw, stop, origin
         e = diff / d[:, None]
         ext = self.kin.extrema(verts[:-1], e, d)                  # (N, M) or NaN
+        if np.isnan(ext).all():
+            return verts, cap, line, draw, stop, origin           # (most windows)
         cuts = np.concatenate((ext, d[:, None]), axis=1)
         cuts.sort(axis=1)                                         # NaN last
         ok = ~np.isnan(cuts)
