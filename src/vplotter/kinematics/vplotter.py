@@ -133,23 +133,45 @@ class TwoCord:
         return np.stack((-rel[:, 1, 0] * g[:, 0], rel[:, 0, 0] * g[:, 1]), axis=-1) / cross[:, None]
 
     # ------------------------------------------------------------------ along a line
+    def _along(self, xy: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(N, 2) slopes and cord lengths (no stretch), component by component: what
+        einsum("nmk,nk->nm", rel, e) and norm(rel, axis=2) give, several times faster."""
+        xy = np.asarray(xy, dtype=float)
+        e = np.asarray(e, dtype=float)
+        a = self.anchors
+        x = xy[:, 0, None] - a[None, :, 0]                      # (N, 2 motors)
+        y = xy[:, 1, None] - a[None, :, 1]
+        g = np.sqrt(x * x + y * y)
+        return (x * e[:, 0, None] + y * e[:, 1, None]) / g, g
+
     def slope(self, xy: np.ndarray, e: np.ndarray) -> np.ndarray:
         if self.stretch != 0.0:
             return self._jets(xy, e)[1]
-        rel = self._rel(xy)
-        return np.einsum("nmk,nk->nm", rel, e) / np.linalg.norm(rel, axis=2)
+        return self._along(xy, e)[0]
 
     def bend(self, xy: np.ndarray, e: np.ndarray) -> np.ndarray:
         if self.stretch != 0.0:
             return self._jets(xy, e)[2]
-        k = self.slope(xy, e)
-        return (1.0 - k * k) / np.linalg.norm(self._rel(xy), axis=2)
+        k, g = self._along(xy, e)
+        return (1.0 - k * k) / g
+
+    def slope_bend(self, xy: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """slope(xy, e) and bend(xy, e) at once."""
+        if self.stretch != 0.0:
+            _, k, b = self._jets(xy, e)
+            return k, b
+        k, g = self._along(xy, e)
+        return k, (1.0 - k * k) / g
 
     def extrema(self, p0: np.ndarray, e: np.ndarray, d: np.ndarray) -> np.ndarray:
         # the cord is shortest where the pen passes the foot of the perpendicular from the anchor
-        s = -np.einsum("nmk,nk->nm", self._rel(p0), e)
         if self.stretch != 0.0:
             s = self._slope_zero(p0, e, d)
+        else:
+            p0 = np.asarray(p0, dtype=float)
+            a = self.anchors
+            s = -((p0[:, 0, None] - a[None, :, 0]) * e[:, 0, None]
+                  + (p0[:, 1, None] - a[None, :, 1]) * e[:, 1, None])
         inside = (s > 1e-9) & (s < d[:, None] - 1e-9)
         return np.where(inside, s, np.nan)
 

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vplotter.motion.refine import CORNER_SHARE, SHARP_TRY, TAU_S, sharp_shares
+from vplotter.motion.refine import CORNER_SHARE, SHARP_TRY, TAU_S, least, sharp_shares
 
 RETRY_GAIN = 1.2       # later plans: corners keep what they take at this x the best plan's speed
 CORNER_CEIL = 0.9      # a corner and the bending next to it take at most this together (first plan)
@@ -40,8 +40,8 @@ class Corners:
         jump * v * max(1/TAU, v/ds) <= budget  <=>  both limits."""
         jump = self.jump
         with np.errstate(divide="ignore", invalid="ignore"):
-            v_tau = np.where(jump > 0, budget * TAU_S / jump, np.inf).min(axis=1)
-            v_ds = np.where(jump > 0, np.sqrt(budget * self.ds / jump), np.inf).min(axis=1)
+            v_tau = least(np.where(jump > 0, budget * TAU_S / jump, np.inf))
+            v_ds = least(np.where(jump > 0, np.sqrt(budget * self.ds / jump), np.inf))
         return np.minimum(np.minimum(v_tau, v_ds), self.vc)
 
     def again(self, u: np.ndarray, d: np.ndarray, slope: np.ndarray, bent: np.ndarray,

@@ -34,14 +34,16 @@ the speed follows the limit. Each window with corners is planned up to 1 + RETRY
 times: once with every corner keeping its share, then with each keeping what it takes at
 RETRY_GAIN x the speeds of the quickest plan so far, but no more than the ramps next to it
 leave at that plan (up to CORNER_TOP on a curve, where the pen goes round at an even speed and
-the ramps need little); the quickest plan is kept (each keeps every limit).
+the ramps need little); each run between two standstills keeps its quickest plan (each keeps
+every limit, and nothing passes a standstill).
 
 Look-ahead: pieces are buffered (at most 2 x WINDOW); the buffer is planned with a stop at its
-end (backward pass, then forward pass, both vectorised), and the first half is committed. Pen
-changes and dwells are stops inside the buffer (`mark_stop`: speed 0 there, the events ride on
-the piece that ends there), so a drawing of many short strokes is planned a window at a time,
-not stroke by stroke. Memory stays flat however long the file is, and the machine can always
-stop in what it knows.
+end (backward pass, then forward pass, both vectorised), and what comes before its last
+standstill is committed, at least its first half (`_committed`: only the rest is planned
+again). Pen changes and dwells are stops inside the buffer (`mark_stop`: speed 0 there, the
+events ride on the piece that ends there), so a drawing of many short strokes is planned a
+window at a time, not stroke by stroke. Memory stays flat however long the file is, and the
+machine can always stop in what it knows.
 """
 
 from __future__ import annotations
@@ -64,6 +66,16 @@ ACCEL_MARGIN = 0.96    # of max_accel
 SHARP_SHARE = 0.25     # what a chord's sharp corner is taken to get (segment.chord_turn)
 
 WINDOW = 2048          # pieces committed per planning round
+
+
+def _committed(origin: np.ndarray, stop: np.ndarray, window: int) -> int:
+    """How many of a window's pieces to commit: up to its last standstill inside (where the
+    plan of what comes before no longer depends on what comes after: planned again, the
+    next round would plan them the same), but at least those from its first `window` input
+    pieces."""
+    n = max(int(np.searchsorted(origin, window, side="left")), 1)
+    last = np.flatnonzero(stop[:-1])
+    return max(n, int(last[-1]) + 1) if len(last) else n
 
 
 class Planner:
@@ -173,9 +185,7 @@ class Planner:
             return
         block, u, q_in, turns = self._profile(verts, cap, line, draw, stop, self._u_entry,
                                               events, self._start_q)
-        # commit the pieces that come from the first `window` input pieces
-        n = int(np.searchsorted(origin, self.window, side="left"))
-        n = max(n, 1)
+        n = _committed(origin, stop, self.window)
         yield from _split(block, q_in, turns, n)
         raw_keep = int(origin[n]) if n < len(origin) else len(pts)
         self._u_entry = float(u[n])
@@ -207,6 +217,8 @@ class Planner:
             return verts, cap, line, draw, stop, origin
         e = diff / d[:, None]
         ext = self.kin.extrema(verts[:-1], e, d)                  # (N, M) or NaN
+        if np.isnan(ext).all():
+            return verts, cap, line, draw, stop, origin           # (most windows)
         cuts = np.concatenate((ext, d[:, None]), axis=1)
         cuts.sort(axis=1)                                         # NaN last
         ok = ~np.isnan(cuts)

@@ -12,7 +12,7 @@ import numpy as np
 
 from vplotter.motion.blocks import Block
 from vplotter.motion.corners import Corners, corners
-from vplotter.motion.refine import MIN_SLOPE
+from vplotter.motion.refine import MIN_SLOPE, least
 
 BEND_SHARE = 0.4       # most of it the bending along a piece may take at the speed cap
 RETRY_ROUNDS = 3       # plans after the first (the quickest is kept)
@@ -44,21 +44,27 @@ class Window:
     corners: Corners | None  # with more than one piece
 
 
+def _slope_bend(kin, xy, e):
+    """kin.slope(xy, e) and kin.bend(xy, e), at once where the kind can."""
+    both = getattr(kin, "slope_bend", None)
+    return both(xy, e) if both is not None else (kin.slope(xy, e), kin.bend(xy, e))
+
+
 def window(kin, v_cord, a_cord, verts, cap, stop, u_entry, turns) -> Window:
     """The speed caps, bends and corners of the pieces through verts."""
     diff = np.diff(verts, axis=0)
     d = np.hypot(diff[:, 0], diff[:, 1])
     e = diff / d[:, None]
-    k0 = kin.slope(verts[:-1], e)
-    k1 = kin.slope(verts[1:], e)
+    k0, b0 = _slope_bend(kin, verts[:-1], e)
+    k1, b1 = _slope_bend(kin, verts[1:], e)
     kmax = np.maximum(np.abs(k0), np.abs(k1))
     # the bend is largest at an end or (for other machine kinds) inside: ends and middle
     mid = 0.5 * (verts[:-1] + verts[1:])
-    bend = np.maximum(np.abs(kin.bend(verts[:-1], e)), np.abs(kin.bend(verts[1:], e)))
+    bend = np.maximum(np.abs(b0), np.abs(b1))
     bend = np.maximum(bend, np.abs(kin.bend(mid, e)))
     acc = a_cord                                              # (M,)
-    v_rate = (v_cord / np.maximum(kmax, 1e-9)).min(axis=1)
-    v_bend = np.sqrt(BEND_SHARE * acc / np.maximum(bend, 1e-12)).min(axis=1)
+    v_rate = least(v_cord / np.maximum(kmax, 1e-9))
+    v_bend = least(np.sqrt(BEND_SHARE * acc / np.maximum(bend, 1e-12)))
     vcap = np.minimum(np.minimum(cap, v_rate), v_bend)
     n = len(d)
     bent = bend * (vcap ** 2)[:, None]
@@ -104,15 +110,15 @@ def _planned(w: Window, reserve: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     if c is not None:
         lim[1:n] = c.speed(reserve[1:n]) ** 2
     lim[w.zero] = 0.0
-    a = ((w.acc - np.maximum(reserve[:-1], reserve[1:]) - w.bent)
-         / np.maximum(w.kmax, MIN_SLOPE)).min(axis=1)
+    a = least((w.acc - np.maximum(reserve[:-1], reserve[1:]) - w.bent)
+              / np.maximum(w.kmax, MIN_SLOPE))
     u = _passes(lim, 2.0 * a * d)
     if c is not None:
         v = np.sqrt(u[1:n])[:, None]
         used = reserve.copy()
         used[1:n] = np.minimum(reserve[1:n], c.takes(v))
-        a = ((w.acc - np.maximum(used[:-1], used[1:]) - w.bent)
-             / np.maximum(w.kmax, MIN_SLOPE)).min(axis=1)
+        a = least((w.acc - np.maximum(used[:-1], used[1:]) - w.bent)
+                  / np.maximum(w.kmax, MIN_SLOPE))
         u = _passes(np.minimum(lim, u), 2.0 * a * d)
     return u, a
 
@@ -123,28 +129,38 @@ def _retried(w: Window, u: np.ndarray, a: np.ndarray) -> tuple[np.ndarray, np.nd
     at that plan (and at least what it takes at that plan): where the ramps limited
     a corner they get more, where the corner limited the speed it gets what the
     ramps do not use (up to CORNER_TOP on a curve: the pen goes round at an even
-    speed). Every plan keeps every limit; the quickest is kept."""
-    best = _time(u, a, w.d, w.vcap)
+    speed). Every plan keeps every limit. The runs between the vertices where the machine
+    stands still are planned independently of each other (nothing passes a standstill), so
+    each run keeps its quickest plan; the rounds stop when none wins, or all together won
+    less than RETRY_MIN of the time."""
+    n = len(w.d)
+    run = np.concatenate(([0], np.cumsum(w.zero[1:n])))      # (N,) run of each piece
+    at = np.concatenate((run, run[-1:]))                     # (N+1,) of each vertex's speed
+    best = np.bincount(run, _times(u, a, w.d, w.vcap))
     slope = np.maximum(w.kmax, MIN_SLOPE)
     for _ in range(int(RETRY_ROUNDS)):
         u2, a2 = _planned(w, w.corners.again(u, w.d, slope, w.bent, w.acc))
-        t2 = _time(u2, a2, w.d, w.vcap)
-        if t2 >= best:
+        t2 = np.bincount(run, _times(u2, a2, w.d, w.vcap), minlength=len(best))
+        won = t2 < best
+        if not won.any():
             break                   # the next round would plan the same again
-        u, a, best, gain = u2, a2, t2, best - t2
-        if gain < RETRY_MIN * best:
+        gain = float((best - t2)[won].sum())
+        u = np.where(won[at], u2, u)
+        a = np.where(won[run], a2, a)
+        best = np.where(won, t2, best)
+        if gain < RETRY_MIN * float(best.sum()):
             break                   # little more to win
     return u, a
 
 
-def _time(u, a, d, vcap) -> float:
-    """Time of the trapezoids through squared vertex speeds u."""
+def _times(u, a, d, vcap) -> np.ndarray:
+    """Time of each trapezoid through squared vertex speeds u."""
     u0, u1 = u[:-1], u[1:]
     up = np.maximum(np.minimum(vcap ** 2, (u0 + u1 + 2.0 * a * d) / 2.0), np.maximum(u0, u1))
     vp = np.sqrt(up)
     d_cru = np.maximum(d - (2.0 * up - u0 - u1) / (2.0 * a), 0.0)
     ramps = (2.0 * vp - np.sqrt(u0) - np.sqrt(u1)) / a
-    return float((ramps + d_cru / np.maximum(vp, 1e-300)).sum())
+    return ramps + d_cru / np.maximum(vp, 1e-300)
 
 
 def _passes(u_lim: np.ndarray, inc: np.ndarray) -> np.ndarray:

@@ -18,6 +18,23 @@ RATE_PART_MM = 1.0     # and none shorter than this
 SHARP_TRY = np.array([0.02, 0.05, 0.1, 0.15, 0.25, 0.35])   # shares a sharp corner may get
 
 
+def least(a: np.ndarray) -> np.ndarray:
+    """Each row's least value of an (N, M) array, as a.min(axis=1) (NaN wins), without numpy's
+    slow reduction along a short axis (M is the number of motors)."""
+    out = a[:, 0]
+    for j in range(1, a.shape[1]):
+        out = np.minimum(out, a[:, j])
+    return out if a.shape[1] > 1 else out.copy()
+
+
+def most(a: np.ndarray) -> np.ndarray:
+    """Each row's largest value, as a.max(axis=1) (see `least`)."""
+    out = a[:, 0]
+    for j in range(1, a.shape[1]):
+        out = np.maximum(out, a[:, j])
+    return out if a.shape[1] > 1 else out.copy()
+
+
 def refine(kin, v_cord, a_cord, verts, cap, line, draw, stop, origin):
     """Cut pieces further where one trapezoid per piece would waste time (the pen stays
     on the same straight line: collinear vertices change no geometry):
@@ -40,8 +57,8 @@ def refine(kin, v_cord, a_cord, verts, cap, line, draw, stop, origin):
     k0s, k1s = kin.slope(verts[:-1], e), kin.slope(verts[1:], e)
     k0, k1 = np.abs(k0s), np.abs(k1s)
     with np.errstate(divide="ignore"):
-        vr0 = (v_cord / np.maximum(k0, 1e-9)).min(axis=1)
-        vr1 = (v_cord / np.maximum(k1, 1e-9)).min(axis=1)
+        vr0 = least(v_cord / np.maximum(k0, 1e-9))
+        vr1 = least(v_cord / np.maximum(k1, 1e-9))
     vcap = np.minimum(cap, np.minimum(vr0, vr1))
     piece_parts, s_parts = _rate_cuts(v_cord, k0, k1, d, cap)
     if n > 1:
@@ -70,7 +87,7 @@ def _rate_cuts(v_cord, k0, k1, d, cap) -> tuple[list, list]:
         m1 = v_cord / np.maximum(k1, 1e-9)
     lo = np.minimum(m0, m1)
     hi = np.minimum(np.maximum(m0, m1), cap[:, None])
-    ratio = np.where(lo < cap[:, None], np.maximum(hi / lo, 1.0), 1.0).max(axis=1)
+    ratio = most(np.where(lo < cap[:, None], np.maximum(hi / lo, 1.0), 1.0))
     parts = np.where(ratio > 1.0 + RATE_STEP, np.ceil(np.log(ratio) / np.log1p(RATE_STEP)), 1.0)
     parts = np.minimum(parts, np.maximum(np.floor(d / RATE_PART_MM), 1.0)).astype(np.int64)
     parts = np.minimum(parts, MAX_PARTS)
@@ -89,10 +106,10 @@ def _sharp_cuts(acc, jump, k0, k1, d, cap, vcap, vr0, vr1, stop) -> tuple[list, 
     and where (lists of arrays)."""
     ds = np.minimum(d[1:], d[:-1])[:, None]
     with np.errstate(divide="ignore", invalid="ignore"):
-        v_tau = np.where(jump > 0, CORNER_SHARE * acc * TAU_S / jump, np.inf).min(axis=1)
-        v_ds = np.where(jump > 0, np.sqrt(CORNER_SHARE * acc * ds / jump), np.inf).min(axis=1)
+        v_tau = least(np.where(jump > 0, CORNER_SHARE * acc * TAU_S / jump, np.inf))
+        v_ds = least(np.where(jump > 0, np.sqrt(CORNER_SHARE * acc * ds / jump), np.inf))
     v_hi = np.minimum(np.minimum(v_tau, v_ds), np.minimum(vcap[1:], vcap[:-1]))
-    sharp = (v_hi * TAU_S < ds[:, 0]) & ~stop[:-1] & (jump.max(axis=1) > 1e-6)
+    sharp = (v_hi * TAU_S < ds[:, 0]) & ~stop[:-1] & (most(jump) > 1e-6)
     # How far the pen may go within t of the corner, whatever the parts' own limits
     # come out as. The corner is an end of both parts next to it, so: the corner is
     # passed at most at v_tau (the jump alone over TAU at CORNER_SHARE); on each part
@@ -102,8 +119,8 @@ def _sharp_cuts(acc, jump, k0, k1, d, cap, vcap, vr0, vr1, stop) -> tuple[list, 
     # there too.
     t = NEAR_TAU * TAU_S
     v_c = np.minimum(v_tau, np.maximum(cap[1:], cap[:-1]))
-    a_in = (acc / np.maximum(k1[:-1], MIN_SLOPE)).min(axis=1)
-    a_out = (acc / np.maximum(k0[1:], MIN_SLOPE)).min(axis=1)
+    a_in = least(acc / np.maximum(k1[:-1], MIN_SLOPE))
+    a_out = least(acc / np.maximum(k0[1:], MIN_SLOPE))
     reach_in = np.minimum(v_c * t + 0.5 * a_in * t * t, np.minimum(cap[:-1], vr1[:-1]) * t)
     reach_out = np.minimum(v_c * t + 0.5 * a_out * t * t, np.minimum(cap[1:], vr0[1:]) * t)
     end_cut = sharp & (reach_in < 0.5 * d[:-1])
@@ -136,14 +153,14 @@ def sharp_shares(jump, acc, k_in, k_out, d_in, d_out, cap_in, cap_out, vc, ds, f
     cap, and the speed of the corner at its other end at the most that may take)."""
     c = SHARP_TRY[:, None]                                     # (S, 1)
     with np.errstate(divide="ignore", invalid="ignore"):
-        per = np.where(jump > 0, acc * TAU_S / jump, np.inf).min(axis=1)
-        per_ds = np.where(jump > 0, np.sqrt(acc * ds[:, None] / jump), np.inf).min(axis=1)
+        per = least(np.where(jump > 0, acc * TAU_S / jump, np.inf))
+        per_ds = least(np.where(jump > 0, np.sqrt(acc * ds[:, None] / jump), np.inf))
         v_c = np.minimum(np.minimum(c * per, np.sqrt(c) * per_ds), vc)       # (S, corners)
         used = np.minimum(np.maximum(v_c / per, (v_c / per_ds) ** 2), c)     # what it takes
     t = 0.0
     for L, k, cap in ((d_in, k_in, np.minimum(cap_in, far_in)),
                       (d_out, k_out, np.minimum(cap_out, far_out))):
-        a = (1.0 - used) * (acc / np.maximum(k, MIN_SLOPE)).min(axis=1)
+        a = (1.0 - used) * least(acc / np.maximum(k, MIN_SLOPE))
         v_top = np.maximum(np.minimum(np.sqrt(v_c * v_c + 2.0 * a * L), cap), v_c)
         cruise = np.maximum(L - (v_top ** 2 - v_c ** 2) / (2.0 * a), 0.0)
         t = t + ((v_top - v_c) / a + cruise / np.maximum(v_top, 1e-300))
