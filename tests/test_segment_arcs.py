@@ -58,3 +58,16 @@ def test_spiral_radius_linear_in_angle_and_ends_exactly(r0, r1, sweep, arc):
     rad = np.hypot(pts[:, 0], pts[:, 1])
     expect = r0 + (r1 - r0) * ang / abs(arc_sweep(mv))
     assert np.allclose(rad, expect, atol=1e-6)
+
+
+def test_a_spiral_of_next_to_no_sweep_is_one_chord():
+    """Radius 1 -> 2 over a sweep of about 1e-63 rad (hypothesis found it): 1 - tol/r rounds
+    to 1, and the chord count divided by zero (a ValueError in points_many, an internal error
+    in draw). It is the straight piece to the end point, one and many at once alike."""
+    from vplotter.inputs.gcode import Move
+    from vplotter.motion import segment
+
+    m = Move(1, 1, 0.0, 0.0, 1.0, 0.0, -1, -1.0, -1.1803185848828598e-63)
+    one = segment.points(m, 0.0075)
+    many, n = segment.points_many([m], 0.0075)
+    assert one.tolist() == [[1.0, 0.0]] and many.tolist() == one.tolist() and n.tolist() == [1]

@@ -41,6 +41,8 @@ def chord_count(radius_mm: float, sweep: float, tol_mm: float) -> int:
         step = math.pi / 2
     else:
         step = 2.0 * math.acos(1.0 - tol_mm / radius_mm)
+        if step <= 0.0:         # 1 - tol/r rounds to 1 (a spiral of next to no sweep)
+            step = 4.0 * math.asin(math.sqrt(tol_mm / (2.0 * radius_mm)))
     return max(1, math.ceil(abs(sweep) / step - 1e-9))
 
 
@@ -123,6 +125,9 @@ def points_many(moves: list[Move], tol_mm: float, max_angle=None) -> tuple[np.nd
     with np.errstate(invalid="ignore", divide="ignore"):
         step = np.where(r_eff <= tol_mm, math.pi / 2,
                         2.0 * np.arccos(1.0 - tol_mm / np.maximum(r_eff, tol_mm)))
+        flat = step <= 0.0      # as chord_count: 1 - tol/r rounds to 1
+        if flat.any():
+            step[flat] = 4.0 * np.arcsin(np.sqrt(tol_mm / (2.0 * r_eff[flat])))
     if max_angle is not None:
         step = np.minimum(step, max_angle(r_eff))
     n = np.maximum(1, np.ceil(np.abs(sweep) / step - 1e-9)).astype(np.int64)
