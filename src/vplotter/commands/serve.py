@@ -69,14 +69,18 @@ class Machine:
         return live.busy_line(holder)
 
     def setup(self) -> dict:
-        """What the page shows of the config: the backend, the page and the pen's widths."""
+        """What the page shows of the config: the backend, the page and the pen's widths, and
+        the values the file options with a list of them take."""
+        from vplotter.web import options
+
         cfg = self.cfg
         pg, pen = cfg.page, cfg.pen
         return {"config": self.config_path, "machine": cfg.machine.kind,
                 "backend": cfg.gpio.backend, "realtime": bool(cfg.gpio.realtime),
                 "page": {"x_min_mm": pg.x_min_mm, "x_max_mm": pg.x_max_mm,
                          "y_min_mm": pg.y_min_mm, "y_max_mm": pg.y_max_mm},
-                "pen": {"kind": pen.kind, "up_us": pen.up_us, "down_us": pen.down_us}}
+                "pen": {"kind": pen.kind, "up_us": pen.up_us, "down_us": pen.down_us},
+                "choices": options.choices()}
 
     def estimate(self, path: str, words: list[str] = ()) -> "Estimated":
         """What `vplotter estimate FILE WORDS` says: the plot time, and a photo's notes and

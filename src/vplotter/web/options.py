@@ -82,3 +82,14 @@ def check(path: str, words: list[str]) -> argparse.Namespace:
     p = _Parser(prog="vplotter estimate", add_help=False)
     draw.add_estimate(p)
     return p.parse_args([*words, "--", path])
+
+
+def choices() -> dict[str, list[str]]:
+    """The values the command line allows for the page's options that have a list of them
+    (style, fill), as its parser says."""
+    from vplotter.commands import draw
+
+    p = _Parser(prog="vplotter estimate", add_help=False)
+    draw.add_estimate(p)
+    return {a.dest: list(a.choices) for a in p._actions
+            if a.dest in NAMES and a.choices is not None}
