@@ -40,12 +40,12 @@ def test_options_are_the_clis_and_estimate_preview_and_draw_agree(serve, capsys)
     assert up["notes"] and any("spacing" in n for n in up["notes"]) and up["advice"] == []
     # changed: estimated again with the new options and kept
     code, got, _ = server.request("POST", "/api/files/photo.png/options",
-                                  {"max_time": "2m", "style": "stipple", "width": 120})
+                                  {"max_time": "2m", "style": "spiral", "width": 120})
     assert code == 200, got
-    assert got["options"] == {"max_time": "2m", "style": "stipple", "width": 120}
+    assert got["options"] == {"max_time": "2m", "style": "spiral", "width": 120}
     assert got["estimate_s"] == cli_estimate_s(server.config, stored, capsys, "--max-time", "2m",
-                                               "--style", "stipple", "--width", "120")
-    assert any("stipple, 120 x" in n for n in got["notes"])
+                                               "--style", "spiral", "--width", "120")
+    assert any("spiral, 120 x" in n for n in got["notes"])
     # refused with the command line's own line; nothing changes
     for options, error in (
             ({"width": -2}, "error: argument --width: width must be above 0 (got '-2')"),
@@ -64,7 +64,7 @@ def test_options_are_the_clis_and_estimate_preview_and_draw_agree(serve, capsys)
     assert code == 200 and png.startswith(b"\x89PNG")
     mine = server.uploads.parent / "cli.png"
     assert main(["--config", str(server.config), "preview", str(stored), "-o", str(mine),
-                 "--size", "900", "--max-time", "2m", "--style", "stipple", "--width", "120"]) == 0
+                 "--size", "900", "--max-time", "2m", "--style", "spiral", "--width", "120"]) == 0
     assert mine.read_bytes() == png
     # and the draw: its summary is the estimate's
     assert main(["--config", str(server.config), "calibrate", "--at", "0", "0"]) == 0

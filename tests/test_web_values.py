@@ -34,8 +34,8 @@ class FakeMachine:
             raise got
         return got
 
-    def draw(self, path, resume, words=()):
-        return self._give("draw", path, resume, *words)
+    def draw(self, path, resume, options=None):
+        return self._give("draw", path, resume, *([options] if options else []))
 
     def stop(self):
         return self._give("stop")
@@ -48,6 +48,9 @@ class FakeMachine:
 
     def jog(self, dx, dy):
         return self._give("jog", dx, dy)
+
+    def options(self, path, wanted, taken_only=False):
+        return dict(wanted or {})
 
     def holder(self):
         return None

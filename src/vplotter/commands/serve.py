@@ -71,7 +71,7 @@ class Machine:
     def setup(self) -> dict:
         """What the page shows of the config: the backend, the page and the pen's widths, and
         the values the file options with a list of them take."""
-        from vplotter.web import options
+        from vplotter.commands import page_options
 
         cfg = self.cfg
         pg, pen = cfg.page, cfg.pen
@@ -80,17 +80,33 @@ class Machine:
                 "page": {"x_min_mm": pg.x_min_mm, "x_max_mm": pg.x_max_mm,
                          "y_min_mm": pg.y_min_mm, "y_max_mm": pg.y_max_mm},
                 "pen": {"kind": pen.kind, "up_us": pen.up_us, "down_us": pen.down_us},
-                "choices": options.choices()}
+                "choices": page_options.choices()}
 
-    def estimate(self, path: str, words: list[str] = ()) -> "Estimated":
-        """What `vplotter estimate FILE WORDS` says: the plot time, and a photo's notes and
-        advice (InputError, ConfigError for a bad file or options)."""
+    def kind(self, path: str) -> tuple[str, list[str]]:
+        """(the reader's kind of the file, the page's options it takes)."""
+        from vplotter import readers
+        from vplotter.commands import page_options
+
+        return readers.reader_for(path).kind, page_options.takes(path)
+
+    def options(self, path: str, wanted, taken_only: bool = False) -> dict:
+        """The page's options `wanted` for the file at `path`, checked (ConfigError for a name
+        or value that cannot be one); taken_only: without those its kind does not take."""
+        from vplotter.commands import page_options
+
+        return page_options.clean(wanted, page_options.takes(path) if taken_only
+                                  else page_options.NAMES)
+
+    def estimate(self, path: str, options: dict | None = None) -> "Estimated":
+        """What `vplotter estimate FILE` with these (page_options) options says: the plot
+        time, and a photo's notes and advice (InputError, ConfigError for a bad file or
+        options, with the command line's error)."""
         from vplotter import pipeline
+        from vplotter.commands import page_options
         from vplotter.commands.common import position
         from vplotter.commands.files import prepare_file
-        from vplotter.web import options
 
-        args = options.check(path, list(words))
+        args = page_options.check(path, _words(options))
         args.config = self.config_path
         pos = position(self.cfg, args, True)
         prep = prepare_file(args, self.cfg, pos, say_notes=False)
@@ -100,20 +116,22 @@ class Machine:
                          [str(a) for a in getattr(prep, "advice", None) or []])
 
     def preview(self, path: str, out: str, size: int = 900,
-                words: list[str] = ()) -> tuple[int, str]:
-        """`vplotter preview FILE -o OUT.png WORDS` (a niced subprocess): (exit code, stderr)."""
-        code, _, err = self._run(["preview", "-o", out, "--size", str(size), *words, path],
-                                 nice=10)
+                options: dict | None = None) -> tuple[int, str]:
+        """`vplotter preview FILE -o OUT.png` with these options (a niced subprocess): (exit
+        code, stderr)."""
+        code, _, err = self._run(["preview", "-o", out, "--size", str(size), *_words(options),
+                                  path], nice=10)
         return code, err
 
     # ------------------------------------------------------------ act
-    def draw(self, path: str, resume: bool, words: list[str] = ()):
-        """`draw --detach [--resume] WORDS PATH` (PATH absolute: never taken for an option; the
-        background draw is given the same words): a commands.draw.DrawStarted once validated."""
+    def draw(self, path: str, resume: bool, options: dict | None = None):
+        """`draw --detach [--resume] OPTIONS PATH` (PATH absolute: never taken for an option;
+        the background draw is given the same words): a commands.draw.DrawStarted once
+        validated."""
         from vplotter.commands.draw import DrawStarted
 
         return DrawStarted(**self._result(["draw", "--detach", *(["--resume"] if resume else []),
-                                           *words, path]))
+                                           *_words(options), path]))
 
     def stop(self):
         """`vplotter stop`: a commands.live.Stopped once the draw has paused."""
@@ -220,6 +238,13 @@ class Machine:
         except subprocess.TimeoutExpired:
             return 1, "", f"vplotter {argv[0]}: no answer within {timeout_s:g} s"
         return r.returncode, r.stdout, r.stderr
+
+
+def _words(options: dict | None) -> list[str]:
+    """The command-line words of the page's options (commands/page_options)."""
+    from vplotter.commands import page_options
+
+    return page_options.argv(page_options.clean(options or {}))
 
 
 class CommandFailed(VplotterError):

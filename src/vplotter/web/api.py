@@ -1,9 +1,9 @@
 """The JSON API under /api (the page uses nothing else): status, draw, stop, continue, pen,
-jog and server-sent events here; the drawings (upload, options, preview) in web/drawings.py, and
-setting up (position, home, the pen's widths) in web/setup.py. What touches the plotter goes through the Machine of
-commands/serve.py, which answers with values: a result object (its fields and the `message`
-the command prints first) or a VplotterError (the command's exit status and error line); a
-draw runs as `draw FILE --detach` does, in its own process."""
+jog and server-sent events here; the drawings (upload, options, preview) in web/drawings.py,
+and setting up (position, home, the pen's widths) in web/setup.py. What touches the plotter
+goes through the Machine of commands/serve.py, which answers with values: a result object (its
+fields and the `message` the command prints first) or a VplotterError (the command's exit
+status and error line); a draw runs as `draw FILE --detach` does, in its own process."""
 
 from __future__ import annotations
 
@@ -95,8 +95,9 @@ class Handlers(DrawingHandlers, SetupHandlers):
         if (refusal := self._busy() or await self._need_position()) is not None:
             return refusal
         # a file of the upload folder is drawn with the options kept for it
-        words = self.words(Path(path).name) if Path(path).parent == self.state.folder.path else []
-        started, answer = await self._act(self.state.machine.draw, path, resume, words)
+        here = Path(path).parent == self.state.folder.path
+        kept = self.options(Path(path).name) if here else {}
+        started, answer = await self._act(self.state.machine.draw, path, resume, kept)
         return answer or self._done(started, {"pid": started.pid}, 202)
 
     async def stop(self, request):

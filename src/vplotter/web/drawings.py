@@ -1,7 +1,7 @@
 """The handlers of the uploaded drawings: list, upload, options, preview, delete.
 
 Each stored file keeps beside it (web/files.Folder) the file options the page chose for it
-(web/options: `draw`'s own, such as width, fit, style, max_time, fill), the estimate they give,
+(commands/page_options: `draw`'s own: width, fit, style, max_time, fill), the estimate they give,
 and what a photo's budget said (notes) and advises (advice). Estimate, preview and draw all
 take the file with those options, so what the page shows is what is drawn.
 """
@@ -29,30 +29,23 @@ async def _limited(request):
         yield chunk
 
 
-def _kind(path) -> tuple[str, list[str]]:
-    """(the reader's kind of the file, the page's options it takes)."""
-    from vplotter import readers
-    from vplotter.web import options
-
-    return readers.reader_for(str(path)).kind, options.takes(str(path))
-
-
 class DrawingHandlers(Acting):
     def entry(self, item: dict) -> dict:
         """A listing's item with the file's kind, the options it takes, and what is kept beside
         it: {"name", "size", "estimate_s", "kind", "takes", "options", "notes", "advice"}."""
         folder = self.state.folder
-        kind, takes = _kind(folder.path / item["name"])
+        kind, takes = self.state.machine.kind(str(folder.path / item["name"]))
         return {**item, "kind": kind, "takes": takes, **folder.extras(item["name"])}
 
-    def words(self, name: str) -> list[str]:
-        """The command-line options kept for the stored file `name`."""
-        from vplotter.web import options
+    def options(self, name: str) -> dict:
+        """The options kept for the stored file `name`."""
+        from vplotter.errors import VplotterError
 
+        path = str(self.state.folder.path / name)
         try:
-            return options.argv(options.clean(self.state.folder.extras(name)["options"]))
-        except Exception:            # noqa: BLE001 - a meta file edited by hand: none
-            return []
+            return self.state.machine.options(path, self.state.folder.extras(name)["options"])
+        except VplotterError:            # a meta file edited by hand: none
+            return {}
 
     async def list_files(self, request):
         from starlette.responses import JSONResponse
@@ -102,18 +95,16 @@ class DrawingHandlers(Acting):
         kind takes (the others are left out), keep it: its name, or the 400 answer of a file
         or options that do not validate (nothing is kept)."""
         from vplotter.errors import VplotterError
-        from vplotter.web import options
 
-        folder = self.state.folder
+        folder, machine = self.state.folder, self.state.machine
         tmp = folder.incoming(up.filename)
         try:
             await up.seek(0)
             with open(tmp, "wb") as out:
                 while block := await up.read(1 << 20):
                     out.write(block)
-            chosen = options.clean(wanted, options.takes(str(tmp)))
-            got = await asyncio.to_thread(self.state.machine.estimate, str(tmp),
-                                          options.argv(chosen))
+            chosen = machine.options(str(tmp), wanted, taken_only=True)
+            got = await asyncio.to_thread(machine.estimate, str(tmp), chosen)
         except Exception as e:
             folder.discard(tmp)
             if isinstance(e, VplotterError):
@@ -127,17 +118,15 @@ class DrawingHandlers(Acting):
         from starlette.responses import JSONResponse
 
         from vplotter.errors import VplotterError
-        from vplotter.web import options
         from vplotter.web.answers import body_json
 
-        folder = self.state.folder
+        folder, machine = self.state.folder, self.state.machine
         try:
             path = folder.file(request.path_params["name"])
             data = await body_json(request)
-            chosen = options.clean(data)
+            chosen = machine.options(str(path), data)
             async with self.state.working:
-                got = await asyncio.to_thread(self.state.machine.estimate, str(path),
-                                              options.argv(chosen))
+                got = await asyncio.to_thread(machine.estimate, str(path), chosen)
                 folder.note(path.name, got.time_s, _extras(chosen, got))
         except FileError as e:
             return error(e.status, str(e))
@@ -167,7 +156,7 @@ class DrawingHandlers(Acting):
         async with state.working:
             if not png.exists() or png.stat().st_mtime_ns < path.stat().st_mtime_ns:
                 code, err = await asyncio.to_thread(state.machine.preview, str(path), str(png),
-                                                    900, self.words(path.name))
+                                                    900, self.options(path.name))
                 if code != 0 or not png.exists():
                     return error(400 if code == 2 else 500, first_line(err))
         return Response(png.read_bytes(), media_type="image/png",

@@ -169,19 +169,25 @@ function select(name) {
   fillOptions(f);
 }
 
+let asked = 0;            // options asked for: only the answer to the last one shows
+
 async function optionsChanged() {
   if (!selected) return;
   const f = files.find((x) => x.name === selected);
   const name = selected;
+  const mine = ++asked;
   field("estimate").textContent = "estimating…";
   pending = (async () => {
     try {
       const r = await call("POST", `/api/files/${encodeURIComponent(name)}/options`,
                            readOptions(f.takes));
       files = files.map((x) => (x.name === name ? r : x));
-      if (selected === name) { fillOptions(r); renderEstimates(); }
+      renderEstimates();
+      if (mine !== asked) return;
+      if (selected === name) fillOptions(r);
       say(`${name}: plot time ${clock(r.estimate_s)}`);
     } catch (e) {
+      if (mine !== asked) return;
       field("estimate").textContent = "";
       say(e.message);
     }

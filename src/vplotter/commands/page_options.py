@@ -5,9 +5,9 @@ usage message and exit 2).
 
 A page's options are a JSON object such as {"width": 300, "style": "stipple", "max_time":
 "45m"}; `argv()` makes them the command-line words (`--width=300 --style=stipple
---max-time=45m`) that estimate, preview and draw are given, so the three always agree. `takes()` says
-which of them a file's kind takes (photos: style and max_time; SVG: fill; every file: width
-and fit), from the readers' own `Reader.options`.
+--max-time=45m`) that estimate, preview and draw are given, so the three always agree.
+`takes()` says which of them a file's kind takes (photos: style and max_time; SVG: fill;
+every file: width and fit), from the readers' own `Reader.options`.
 """
 
 from __future__ import annotations
