@@ -91,7 +91,9 @@ def _walk(server, tmp_path, capsys, hook):
     cli_s = float(re.search(r"\(([\d.]+) s\)", capsys.readouterr().out).group(1))
     assert up["estimate_s"] == cli_s
     code, files, _ = server.request("GET", "/api/files")
-    assert files == [{"name": "walk.ngc", "size": len(DRAWING), "estimate_s": cli_s}]
+    assert files == [{"name": "walk.ngc", "size": len(DRAWING), "estimate_s": cli_s,
+                      "kind": "gcode", "takes": ["width", "fit"], "options": {}, "notes": [],
+                      "advice": []}]
     # draw: its own process, seen by the CLI's status
     code, started, _ = server.request("POST", "/api/draw", {"file": "walk.ngc", "resume": False})
     assert code == 202 and started["pid"] > 0

@@ -1,22 +1,30 @@
 """The page of `vplotter serve` in a real headless browser (Debian's chromium and
-chromium-driver, driven by selenium): upload, draw, watch the percent change, stop; no console
-errors. Skipped, with the reason, where selenium or the browser is missing (.ci/run installs
-them)."""
+chromium-driver, driven by selenium) on a phone's screen, 412 x 915 CSS pixels: upload, draw,
+watch the percent change, stop; options that change the estimate, the position set and the pen
+tuned from the page, a draw without a known position and a backend that cannot start explained
+on the page, the pen prompt with its colour; every control inside the screen's width; no
+console errors. Skipped, with the reason, where selenium or the browser is missing (.ci/run
+installs them)."""
 
 from __future__ import annotations
 
+import re
 import shutil
+import tomllib
 
 import pytest
 
 from vplotter.cli import main
 
-from support.web import DRAWING, serve  # noqa: F401 - the server fixture
+from support import REPO
+from support.web import DRAWING, Server, serve  # noqa: F401 - the server fixture
 
 webdriver = pytest.importorskip("selenium.webdriver", reason="selenium is not installed "
                                 "(pip install selenium)")
 DRIVER = shutil.which("chromedriver")
 BROWSER = shutil.which("chromium") or shutil.which("chromium-browser")
+W, H = 412, 915                # a common Android phone's screen in CSS pixels
+PHOTO = REPO / "tests" / "data" / "images" / "gray16.png"
 pytestmark = pytest.mark.skipif(
     DRIVER is None or BROWSER is None,
     reason="no headless browser: apt-get install chromium chromium-driver")
@@ -31,7 +39,7 @@ def browser(tmp_path):
     opts = Options()
     opts.binary_location = BROWSER
     for arg in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--disable-gpu",
-                f"--user-data-dir={tmp_path / 'chromium'}", "--window-size=420,900"):
+                f"--user-data-dir={tmp_path / 'chromium'}", f"--window-size={W},{H}"):
         opts.add_argument(arg)
     opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
     try:
@@ -39,6 +47,8 @@ def browser(tmp_path):
     except WebDriverException as e:
         pytest.skip(f"chromium would not start: {str(e).splitlines()[0]}")
     drv.set_page_load_timeout(30)
+    drv.execute_cdp_cmd("Emulation.setDeviceMetricsOverride",     # a phone's screen
+                        {"width": W, "height": H, "deviceScaleFactor": 1, "mobile": True})
     yield drv
     drv.quit()
 
@@ -47,6 +57,34 @@ def wait_for(drv, what, timeout_s: float = 60.0):
     from selenium.webdriver.support.ui import WebDriverWait
 
     return WebDriverWait(drv, timeout_s, poll_frequency=0.1).until(lambda d: what(d))
+
+
+def console_errors(drv, answered=()) -> list[dict]:
+    """The console's errors, but for the network's lines of the HTTP statuses in `answered`
+    (a 400 or 503 the page was meant to get and explains)."""
+    out = []
+    for e in drv.get_log("browser"):
+        if e["level"] != "SEVERE":
+            continue
+        m = re.search(r"status of (\d+)", e["message"])
+        if e.get("source") == "network" and m and int(m.group(1)) in answered:
+            continue
+        out.append(e)
+    return out
+
+
+def fits(drv) -> list[str]:
+    """The visible controls that reach past the screen's width (none should)."""
+    return drv.execute_script("""
+        const w = document.documentElement.clientWidth, out = [];
+        if (document.documentElement.scrollWidth > w) out.push('page ' +
+            document.documentElement.scrollWidth);
+        document.querySelectorAll('button, input, select, label, legend, img').forEach((el) => {
+          const r = el.getBoundingClientRect();
+          if (r.width && (r.right > w + 0.5 || r.left < -0.5))
+            out.push(el.outerHTML.slice(0, 80) + ' ' + r.left + '..' + r.right);
+        });
+        return out;""")
 
 
 def test_page_uploads_draws_shows_progress_and_stops(serve, browser, tmp_path):  # noqa: F811
@@ -74,5 +112,199 @@ def test_page_uploads_draws_shows_progress_and_stops(serve, browser, tmp_path): 
     wait_for(browser, lambda d: field("state").text == "paused")
     assert server.status()["resume"]["line"] > 0
     assert browser.find_element(By.CSS_SELECTOR, '[data-action="resume"]').is_enabled()
-    errors = [e for e in browser.get_log("browser") if e["level"] == "SEVERE"]
-    assert errors == []
+    assert console_errors(browser) == []
+
+
+def _field(drv, name: str):
+    from selenium.webdriver.common.by import By
+
+    return drv.find_element(By.CSS_SELECTOR, f'[data-field="{name}"]')
+
+
+def _click(drv, action: str, file: str | None = None):
+    from selenium.webdriver.common.by import By
+
+    extra = f'[data-file="{file}"]' if file else ""
+    el = wait_for(drv, lambda d: [b for b in d.find_elements(
+        By.CSS_SELECTOR, f'[data-action="{action}"]{extra}') if b.is_enabled()])[0]
+    drv.execute_script("arguments[0].scrollIntoView({block: 'center'})", el)
+    el.click()
+
+
+def _type(drv, el, text: str):
+    el.clear()
+    el.send_keys(text)
+    drv.execute_script("arguments[0].dispatchEvent(new Event('change', {bubbles: true}))", el)
+
+
+def test_page_options_change_the_estimate_and_the_preview_shows_beside_the_file(
+        serve, browser, tmp_path):  # noqa: F811
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.support.ui import Select
+
+    server = serve()
+    photo = tmp_path / "photo.png"
+    photo.write_bytes(PHOTO.read_bytes())
+    browser.get(server.url)
+    wait_for(browser, lambda d: _field(d, "state").text == "idle")
+    option = lambda name: browser.find_element(By.CSS_SELECTOR, f'[data-option="{name}"]')  # noqa: E731
+    wait_for(browser, lambda d: len(Select(option("style")).options) > 1)   # from /api/setup
+    # options before the upload: a 3 minute budget, a spiral
+    _type(browser, option("max_time"), "3m")
+    Select(option("style")).select_by_value("spiral")
+    browser.find_element(By.CSS_SELECTOR, '[data-action="upload"]').send_keys(str(photo))
+    wait_for(browser, lambda d: "plot time" in _field(d, "message").text)
+    first = server.request("GET", "/api/files")[1][0]
+    assert first["options"] == {"style": "spiral", "max_time": "3m"}
+    assert _field(browser, "estimate").text == f"plot time {clock(first['estimate_s'])}"
+    assert _field(browser, "options-for").text == "Options for photo.png"
+    assert not browser.find_element(By.CSS_SELECTOR, '[data-takes="fill"]').is_displayed()
+    # the notes: a tap away
+    _field(browser, "notes-count").click()
+    assert any("spiral" in li.text for li in browser.find_elements(
+        By.CSS_SELECTOR, '[data-field="notes"] li'))
+    # a smaller budget: a new estimate, kept for the file
+    _type(browser, option("max_time"), "2m")
+    wait_for(browser, lambda d: server.request("GET", "/api/files")[1][0]["options"].get(
+        "max_time") == "2m")
+    now = server.request("GET", "/api/files")[1][0]
+    assert now["estimate_s"] < first["estimate_s"] <= 180
+    wait_for(browser, lambda d: _field(d, "estimate").text ==
+             f"plot time {clock(now['estimate_s'])}")
+    # a bad value: the CLI's line, nothing changed
+    _type(browser, option("width"), "-5")
+    wait_for(browser, lambda d: _field(d, "message").text ==
+             "error: argument --width: width must be above 0 (got '-5')")
+    assert server.request("GET", "/api/files")[1][0] == now
+    _type(browser, option("width"), "")
+    wait_for(browser, lambda d: "plot time" in _field(d, "message").text)
+    # the preview: a spinner while it renders, then the picture inside the file's own item
+    browser.execute_script("""
+        window.spun = false;
+        const sp = document.querySelector('[data-field="spinner"]');
+        new MutationObserver(() => { if (!sp.hidden) window.spun = true; })
+          .observe(sp, {attributes: true});""")
+    _click(browser, "preview", "photo.png")
+    img = wait_for(browser, lambda d: _field(d, "preview").is_displayed()
+                   and _field(d, "preview"))
+    assert browser.execute_script("return window.spun")
+    assert not _field(browser, "spinner").is_displayed()
+    item = browser.find_element(By.CSS_SELECTOR, 'li[data-name="photo.png"]')
+    assert browser.execute_script("return arguments[0].contains(arguments[1])", item, img)
+    assert browser.execute_script("return arguments[0].naturalWidth", img) > 0
+    assert fits(browser) == []
+    browser.save_screenshot(str(tmp_path / "options-412x915.png"))
+    assert console_errors(browser, answered=(400,)) == []
+
+
+def clock(s: float) -> str:
+    s = round(s)
+    h, m, sec = s // 3600, s % 3600 // 60, s % 60
+    return f"{h}:{m:02d}:{sec:02d}" if h else f"{m}:{sec:02d}"
+
+
+def test_page_sets_the_position_tunes_the_pen_and_explains_an_unknown_position(
+        serve, browser, tmp_path):  # noqa: F811
+    from selenium.webdriver.common.by import By
+
+    server = serve()
+    server.upload("walk.ngc", DRAWING.encode())
+    browser.get(server.url)
+    wait_for(browser, lambda d: _field(d, "where").text == "position unknown: set it under Position")
+    # Draw without a known position: what to do, on the page
+    _click(browser, "draw", "walk.ngc")
+    wait_for(browser, lambda d: "position is unknown" in _field(d, "message").text)
+    assert "under Position and press Set" in _field(browser, "message").text
+    position = browser.find_element(By.ID, "position")
+    assert "need" in position.get_attribute("class").split()
+    assert server.status()["busy"] is None and server.status()["calibrated"] is False
+    # set it
+    _type(browser, _field(browser, "at-x"), "20")
+    _type(browser, _field(browser, "at-y"), "-10")
+    _click(browser, "set-position")
+    wait_for(browser, lambda d: _field(d, "message").text.startswith("pen at X20.000 Y-10.000"))
+    wait_for(browser, lambda d: _field(d, "where").text == "pen up at X20.0 Y-10.0")
+    assert "need" not in position.get_attribute("class").split()
+    st = server.status()
+    assert (st["x_mm"], st["y_mm"]) == (20.0, -10.0)
+    # jog away, then home
+    _click(browser, "jog")                                   # ▲ 10 mm
+    wait_for(browser, lambda d: _field(d, "where").text == "pen up at X20.0 Y0.0")
+    _click(browser, "home")
+    wait_for(browser, lambda d: _field(d, "message").text == "pen at X20.000 Y-10.000")
+    wait_for(browser, lambda d: _field(d, "where").text == "pen up at X20.0 Y-10.0")
+    # the pen: the widths come from config.toml; try others, then save them
+    assert _field(browser, "up-us").get_attribute("value") == "500"
+    assert _field(browser, "down-us").get_attribute("value") == "1500"
+    _type(browser, _field(browser, "up-us"), "620")
+    _type(browser, _field(browser, "down-us"), "1380")
+    _click(browser, "pen-try")
+    wait_for(browser, lambda d: _field(d, "message").text == "tried up 620 µs, down 1380 µs")
+    _click(browser, "pen-save")
+    wait_for(browser, lambda d: _field(d, "message").text.startswith(
+        "saved [pen] up_us = 620, down_us = 1380 in "))
+    text = server.config.read_text()
+    assert tomllib.loads(text)["pen"] | {} == {**tomllib.loads(text)["pen"], "up_us": 620,
+                                                "down_us": 1380}
+    assert re.search(r"(?m)^up_us = 620 +# servo pulse widths", text)
+    # now the draw goes
+    _click(browser, "draw", "walk.ngc")
+    wait_for(browser, lambda d: _field(d, "message").text.startswith("drawing walk.ngc"))
+    server.wait_status(lambda s: s["busy"] is None)
+    assert fits(browser) == []
+    browser.save_screenshot(str(tmp_path / "setup-412x915.png"))
+    assert console_errors(browser, answered=(400,)) == []
+
+
+def test_page_explains_a_backend_that_cannot_start(browser, tmp_path, config_path):
+    try:
+        import lgpio  # noqa: F401
+        pytest.skip("lgpio is installed here: its backend may start")
+    except ImportError:
+        pass
+    cfg = tmp_path / "lgpio.toml"
+    cfg.write_text(config_path.read_text())              # [gpio] backend = "lgpio"
+    assert main(["--config", str(cfg), "calibrate", "--at", "0", "0"]) == 0
+    server = Server(cfg, tmp_path / "uploads")
+    try:
+        browser.get(server.url)
+        wait_for(browser, lambda d: _field(d, "state").text == "idle")
+        _click(browser, "pen-down")
+        wait_for(browser, lambda d: "backend cannot start" in _field(d, "message").text)
+        said = _field(browser, "message").text
+        assert "the lgpio backend needs the lgpio module" in said
+        assert 'set [gpio] backend = "fake" and realtime = true in config.toml' in said
+        assert server.status()["pen"] == "up" and server.status()["busy"] is None
+        assert fits(browser) == []
+        assert console_errors(browser, answered=(503,)) == []
+    finally:
+        server.stop()
+
+
+TWO_PENS = """<svg xmlns="http://www.w3.org/2000/svg" width="20mm" height="10mm"
+ viewBox="0 0 20 10"><path d="M1 1 L4 1" stroke="red" fill="none"/>
+<path d="M1 5 L4 5" stroke="#2050c0" fill="none"/></svg>"""
+
+
+def test_page_prompts_for_each_pen_with_its_colour(serve, browser, tmp_path):  # noqa: F811
+    server = serve()
+    assert main(["--config", str(server.config), "calibrate", "--at", "0", "0"]) == 0
+    assert server.upload("pens.svg", TWO_PENS.encode())[0] == 201
+    browser.get(server.url)
+    wait_for(browser, lambda d: _field(d, "state").text == "idle")
+    assert not _field(browser, "prompt").is_displayed()
+    _click(browser, "draw", "pens.svg")
+    for colour, rgb in (("red", "rgba(255, 0, 0, 1)"), ("#2050c0", "rgba(32, 80, 192, 1)")):  # light first
+        wait_for(browser, lambda d: _field(d, "prompt").is_displayed()
+                 and _field(d, "pen-name").text == f"pen: {colour}")
+        assert _field(browser, "state").text == "waiting"
+        assert f"put in the {colour} pen" in _field(browser, "prompt-text").text
+        assert _field(browser, "swatch").value_of_css_property("background-color") == rgb
+        assert fits(browser) == []
+        if colour == "red":
+            browser.save_screenshot(str(tmp_path / "prompt-412x915.png"))
+        _click(browser, "continue")
+        wait_for(browser, lambda d: not _field(d, "prompt").is_displayed()
+                 or _field(d, "pen-name").text != f"pen: {colour}")
+    server.wait_status(lambda s: s["busy"] is None)
+    assert console_errors(browser) == []

@@ -34,8 +34,8 @@ class FakeMachine:
             raise got
         return got
 
-    def draw(self, path, resume):
-        return self._give("draw", path, resume)
+    def draw(self, path, resume, options=None):
+        return self._give("draw", path, resume, *([options] if options else []))
 
     def stop(self):
         return self._give("stop")
@@ -43,11 +43,14 @@ class FakeMachine:
     def continue_(self):
         return self._give("continue")
 
-    def pen(self, state):
-        return self._give("pen", state)
+    def pen(self, state, up_us=None, down_us=None):
+        return self._give("pen", state, *([up_us, down_us] if up_us or down_us else []))
 
     def jog(self, dx, dy):
         return self._give("jog", dx, dy)
+
+    def options(self, path, wanted, taken_only=False):
+        return dict(wanted or {})
 
     def holder(self):
         return None
@@ -151,4 +154,5 @@ def test_a_command_hands_its_result_or_its_error_line_on_the_pipe(monkeypatch):
             raise MachineError("error: jog target X900.000 Y0.000 is outside the page")
 
     assert _answered(monkeypatch, fails) == {
-        "error": "vplotter: error: jog target X900.000 Y0.000 is outside the page", "exit_code": 2}
+        "error": "vplotter: error: jog target X900.000 Y0.000 is outside the page", "exit_code": 2,
+        "kind": "MachineError"}

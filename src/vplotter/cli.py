@@ -12,7 +12,7 @@ import argparse
 import sys
 from typing import Callable
 
-from vplotter.commands import draw, files, live, machine, pictures, serial, serve
+from vplotter.commands import draw, files, live, machine, pictures, serial, serve, setup
 from vplotter.commands import text as text_cmd
 from vplotter.commands import warnings
 from vplotter.commands.common import eprint, error_line, exit_code
@@ -29,7 +29,7 @@ COMMANDS: dict[str, tuple[Callable, Callable, str]] = {
                 "write the placed and ordered drawing as G-code"),
     "text": (text_cmd.cmd_text, text_cmd.add_text,
              "text in a single-stroke Hershey font, as G-code (-o) or a summary"),
-    "calibrate": (machine.cmd_calibrate, machine.add_calibrate,
+    "calibrate": (setup.cmd_calibrate, machine.add_calibrate,
                   "tell vplotter where the pen is, or measure steps/mm"),
     "status": (live.cmd_status, live.add_status,
                "where the pen is, whether the last stop was clean, the running draw"),
@@ -42,7 +42,7 @@ COMMANDS: dict[str, tuple[Callable, Callable, str]] = {
     "jog": (machine.cmd_jog, machine.add_jog,
             "move the pen by hand (arrow keys) or by --dx/--dy, --left/--right"),
     "goto": (machine.cmd_goto, machine.add_goto, "move the pen (up) to a G-code point"),
-    "home": (machine.cmd_home, machine.add_machine_options,
+    "home": (setup.cmd_home, machine.add_machine_options,
              "move the pen (up) to the last calibrated point; polar: find the arm's end switch"),
     "serial": (serial.cmd_serial, serial.add_serial,
                "a grbl controller on [serial] port: check its settings, or a console"),

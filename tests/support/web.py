@@ -82,11 +82,14 @@ class Server:
         finally:
             conn.close()
 
-    def upload(self, name: str, content: bytes, headers=None):
+    def upload(self, name: str, content: bytes, headers=None, fields=None):
+        """POST /api/files with the file, and the form `fields` ({"options": JSON text})."""
         boundary = "vplotter-test-boundary"
         head = (f'--{boundary}\r\nContent-Disposition: form-data; name="file"; '
                 f'filename="{name}"\r\nContent-Type: application/octet-stream\r\n\r\n').encode()
-        raw = head + content + f"\r\n--{boundary}--\r\n".encode()
+        more = "".join(f'\r\n--{boundary}\r\nContent-Disposition: form-data; name="{k}"'
+                       f'\r\n\r\n{v}' for k, v in (fields or {}).items()).encode()
+        raw = head + content + more + f"\r\n--{boundary}--\r\n".encode()
         h = {"Content-Type": f"multipart/form-data; boundary={boundary}", **(headers or {})}
         return self.request("POST", "/api/files", raw=raw, headers=h)
 

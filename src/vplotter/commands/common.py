@@ -222,9 +222,9 @@ def answering():
     """A command that a program runs as a subprocess (the page's commands/serve.Machine) hands
     it its result as a value: with VPLOTTER_RESULT_FD set, one JSON object goes to that pipe,
     {"result": {the result dataclass's fields}} from answer(result), or {"error": the line the
-    command line prints, "exit_code": N} when the command fails. Nothing else changes: the
-    command prints what it always prints. The variable is taken out of the environment, so
-    that no process the command starts writes to the pipe."""
+    command line prints, "exit_code": N, "kind": the error's class name} when the command
+    fails. Nothing else changes: the command prints what it always prints. The variable is
+    taken out of the environment, so that no process the command starts writes to the pipe."""
     import dataclasses
     import json
 
@@ -245,6 +245,6 @@ def answering():
     try:
         yield lambda result: send({"result": dataclasses.asdict(result)})
     except BaseException as e:
-        send({"error": error_line(e), "exit_code": exit_code(e)})
+        send({"error": error_line(e), "exit_code": exit_code(e), "kind": type(e).__name__})
         raise
     send({"result": None})

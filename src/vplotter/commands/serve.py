@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+from dataclasses import dataclass
 
 from vplotter.commands.common import eprint, load_config, say
 from vplotter.errors import ConfigError, VplotterError
@@ -46,9 +47,16 @@ class Machine:
 
     # ------------------------------------------------------------ read
     def status(self) -> dict:
+        """`status --json`'s object; a draw waiting at a pen change also says the pen's colour
+        (drawing.waiting.colour: '#rrggbb' or null)."""
         from vplotter.commands.live import status_object
+        from vplotter.commands.setup import pen_colour
 
-        return status_object(self.cfg)
+        st = status_object(self.cfg)
+        waiting = (st.get("drawing") or {}).get("waiting")
+        if waiting:
+            waiting["colour"] = pen_colour(self.cfg, waiting.get("pen"))
+        return st
 
     def holder(self) -> dict | None:
         from vplotter.machine import lock
@@ -60,34 +68,70 @@ class Machine:
 
         return live.busy_line(holder)
 
-    def estimate(self, path: str) -> float:
-        """The plot time `vplotter estimate FILE` prints (InputError for a bad file)."""
+    def setup(self) -> dict:
+        """What the page shows of the config: the backend, the page and the pen's widths, and
+        the values the file options with a list of them take."""
+        from vplotter.commands import page_options
+
+        cfg = self.cfg
+        pg, pen = cfg.page, cfg.pen
+        return {"config": self.config_path, "machine": cfg.machine.kind,
+                "backend": cfg.gpio.backend, "realtime": bool(cfg.gpio.realtime),
+                "page": {"x_min_mm": pg.x_min_mm, "x_max_mm": pg.x_max_mm,
+                         "y_min_mm": pg.y_min_mm, "y_max_mm": pg.y_max_mm},
+                "pen": {"kind": pen.kind, "up_us": pen.up_us, "down_us": pen.down_us},
+                "choices": page_options.choices()}
+
+    def kind(self, path: str) -> tuple[str, list[str]]:
+        """(the reader's kind of the file, the page's options it takes)."""
+        from vplotter import readers
+        from vplotter.commands import page_options
+
+        return readers.reader_for(path).kind, page_options.takes(path)
+
+    def options(self, path: str, wanted, taken_only: bool = False) -> dict:
+        """The page's options `wanted` for the file at `path`, checked (ConfigError for a name
+        or value that cannot be one); taken_only: without those its kind does not take."""
+        from vplotter.commands import page_options
+
+        return page_options.clean(wanted, page_options.takes(path) if taken_only
+                                  else page_options.NAMES)
+
+    def estimate(self, path: str, options: dict | None = None) -> "Estimated":
+        """What `vplotter estimate FILE` with these (page_options) options says: the plot
+        time, and a photo's notes and advice (InputError, ConfigError for a bad file or
+        options, with the command line's error)."""
         from vplotter import pipeline
-        from vplotter.commands import draw
+        from vplotter.commands import page_options
         from vplotter.commands.common import position
         from vplotter.commands.files import prepare_file
 
-        p = argparse.ArgumentParser()
-        draw.add_estimate(p)
-        args = p.parse_args([path])
+        args = page_options.check(path, _words(options))
         args.config = self.config_path
         pos = position(self.cfg, args, True)
         prep = prepare_file(args, self.cfg, pos, say_notes=False)
-        return pipeline.validate(self.cfg, prep.records(), pos.counts, pos.ref_mm, args.file,
-                                 where=prep.where).time_s
+        time_s = pipeline.validate(self.cfg, prep.records(), pos.counts, pos.ref_mm, args.file,
+                                   where=prep.where).time_s
+        return Estimated(time_s, [str(n) for n in prep.notes],
+                         [str(a) for a in getattr(prep, "advice", None) or []])
 
-    def preview(self, path: str, out: str, size: int = 900) -> tuple[int, str]:
-        """`vplotter preview FILE -o OUT.png` (a niced subprocess): (exit code, stderr)."""
-        code, _, err = self._run(["preview", path, "-o", out, "--size", str(size)], nice=10)
+    def preview(self, path: str, out: str, size: int = 900,
+                options: dict | None = None) -> tuple[int, str]:
+        """`vplotter preview FILE -o OUT.png` with these options (a niced subprocess): (exit
+        code, stderr)."""
+        code, _, err = self._run(["preview", "-o", out, "--size", str(size), *_words(options),
+                                  path], nice=10)
         return code, err
 
     # ------------------------------------------------------------ act
-    def draw(self, path: str, resume: bool):
-        """`draw PATH --detach [--resume]`: a commands.draw.DrawStarted once validated."""
+    def draw(self, path: str, resume: bool, options: dict | None = None):
+        """`draw --detach [--resume] OPTIONS PATH` (PATH absolute: never taken for an option;
+        the background draw is given the same words): a commands.draw.DrawStarted once
+        validated."""
         from vplotter.commands.draw import DrawStarted
 
-        return DrawStarted(**self._result(["draw", path, "--detach",
-                                           *(["--resume"] if resume else [])]))
+        return DrawStarted(**self._result(["draw", "--detach", *(["--resume"] if resume else []),
+                                           *_words(options), path]))
 
     def stop(self):
         """`vplotter stop`: a commands.live.Stopped once the draw has paused."""
@@ -101,10 +145,33 @@ class Machine:
 
         return self._here(continue_draw)
 
-    def pen(self, state: str):
+    def pen(self, state: str, up_us: int | None = None, down_us: int | None = None):
+        """`pen up|down|cycle [--up-us N] [--down-us M]`: a PenMoved."""
         from vplotter.commands.machine import PenMoved
 
-        return PenMoved(**self._result(["pen", state]))
+        widths = [*(["--up-us", str(up_us)] if up_us is not None else []),
+                  *(["--down-us", str(down_us)] if down_us is not None else [])]
+        return PenMoved(**self._result(["pen", state, *widths]))
+
+    def place(self, x: float, y: float):
+        """`calibrate --at X Y`: a commands.setup.Placed."""
+        from vplotter.commands.setup import Placed
+
+        return Placed(**self._result(["calibrate", "--at", repr(float(x)), repr(float(y))]))
+
+    def home(self):
+        """`home`: a commands.setup.Placed."""
+        from vplotter.commands.setup import Placed
+
+        return Placed(**self._result(["home"]))
+
+    def save_pen(self, up_us: int, down_us: int):
+        """[pen] up_us/down_us written into the config file: a commands.setup.PenSaved."""
+        from vplotter.commands.setup import save_pen
+
+        saved = self._here(lambda: save_pen(self.config_path, up_us, down_us))
+        self.cfg = self._config()
+        return saved
 
     def jog(self, dx: float, dy: float):
         from vplotter.commands.machine import Jogged
@@ -154,7 +221,7 @@ class Machine:
             data = pipe.read()
         got = json.loads(data) if data else {}
         if "error" in got:
-            raise CommandFailed(got["error"], int(got["exit_code"]))
+            raise CommandFailed(got["error"], int(got["exit_code"]), str(got.get("kind", "")))
         if not got.get("result"):
             raise CommandFailed(f"vplotter {argv[0]}: ended (exit status {proc.returncode}) "
                                 f"without an answer", proc.returncode or 1)
@@ -173,12 +240,31 @@ class Machine:
         return r.returncode, r.stdout, r.stderr
 
 
-class CommandFailed(VplotterError):
-    """A command run in a subprocess failed: the message is the line it printed for it."""
+def _words(options: dict | None) -> list[str]:
+    """The command-line words of the page's options (commands/page_options)."""
+    from vplotter.commands import page_options
 
-    def __init__(self, line: str, exit_code: int):
+    return page_options.argv(page_options.clean(options or {}))
+
+
+class CommandFailed(VplotterError):
+    """A command run in a subprocess failed: the message is the line it printed for it; kind:
+    the class name of its error (BackendError: the GPIO backend could not start)."""
+
+    def __init__(self, line: str, exit_code: int, kind: str = ""):
         super().__init__(line)
         self.exit_code = exit_code
+        self.kind = kind
+
+
+@dataclass(frozen=True)
+class Estimated:
+    """`vplotter estimate`: the plot time, and what a photo's budget chose (notes) and what
+    it advises (advice), each a line for a person."""
+
+    time_s: float
+    notes: list
+    advice: list
 
 
 def is_loopback(host: str) -> bool:

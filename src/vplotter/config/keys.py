@@ -130,6 +130,9 @@ DESCRIPTIONS: dict[str, str] = {
     "gpio.backend": "`lgpio`, `gpiozero` or `fake` (`--backend` overrides; `--dry-run` is "
                     "always `fake`).",
     "gpio.chip": "gpiochip number (a Pi 5 with a kernel older than 6.6.45 uses 4).",
+    "gpio.realtime": "With `backend = \"fake\"`: play in real time, as `--realtime` does (a "
+                     "simulated plotter that takes the plot time: try `vplotter serve` on a "
+                     "computer).",
     # [serial]
     "serial.port": "The controller's serial port.",
     "serial.baud": "Baud rate of the port.",

@@ -80,6 +80,7 @@ SCHEMA: dict[str, dict[str, tuple]] = {
     "gpio": {
         "backend": ("str", "lgpio", ("lgpio", "gpiozero", "fake"), None),
         "chip": ("int", 0, 0, 64),
+        "realtime": ("bool", False, None, None),
     },
     "serial": {     # a grbl-style controller on a serial port (--backend serial)
         "port": ("text", "/dev/ttyUSB0", None, None),

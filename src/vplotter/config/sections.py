@@ -151,6 +151,7 @@ class Motion:
 class Gpio:
     backend: str
     chip: int
+    realtime: bool = False      # backend "fake": play in real time (try the page on a computer)
 
 
 @dataclass(frozen=True)

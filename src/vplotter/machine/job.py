@@ -86,7 +86,10 @@ class Session:
         self.command = command
         self.backend_name = backend_name
         self.dry_run = dry_run
-        self.realtime = realtime
+        # [gpio] realtime: the fake backend of a real (not dry) run plays in real time
+        self.realtime = realtime or (backend_name == "fake" and not dry_run
+                                     and bool(getattr(getattr(cfg, "gpio", None), "realtime",
+                                                      False)))
         self.trace_path = trace
         self.job = job
         self.ledger = Ledger(position, job.record() if job is not None else None, pen_only)

@@ -20,7 +20,8 @@ from pathlib import Path
 MAX_BYTES = 50 * 1024 * 1024      # one upload
 MAX_FILES = 200                   # files kept in the upload folder
 MAX_NAME = 100
-META = ".meta"                    # NAME.json: {"estimate_s", "size", "mtime_ns"}
+META = ".meta"                    # NAME.json: {"estimate_s", "size", "mtime_ns"} and EXTRAS
+EXTRAS = {"options": {}, "notes": [], "advice": []}   # what the page chose, what it was told
 
 
 class FileError(Exception):
@@ -97,18 +98,39 @@ class Folder:
             raise FileError(409, f"the upload folder holds {MAX_FILES} files: delete some first")
         return Path(tempfile.mkdtemp(prefix=".incoming-", dir=self.path)) / name
 
-    def keep(self, tmp: Path, estimate_s: float) -> str:
+    def extras(self, name: str) -> dict:
+        """The options, notes and advice kept with the stored file `name` (EXTRAS when none
+        are kept, or the file changed since)."""
+        p = self.path / name
+        meta = self._meta(name)
+        try:
+            st = p.stat()
+        except OSError:
+            return dict(EXTRAS)
+        if meta.get("size") != st.st_size or meta.get("mtime_ns") != st.st_mtime_ns:
+            return dict(EXTRAS)
+        return {k: meta.get(k, v) for k, v in EXTRAS.items()}
+
+    def keep(self, tmp: Path, estimate_s: float, extras: dict | None = None) -> str:
         name = tmp.name
         dest = self.path / name
         os.replace(tmp, dest)
         shutil.rmtree(tmp.parent, ignore_errors=True)
-        st = dest.stat()
-        meta = {"estimate_s": round(float(estimate_s), 1), "size": st.st_size,
-                "mtime_ns": st.st_mtime_ns}
-        with open(self.path / META / f"{name}.json", "w", encoding="utf-8") as f:
-            json.dump(meta, f)
-        self._drop_preview(name)
+        self.note(name, estimate_s, extras)
         return name
+
+    def note(self, name: str, estimate_s: float, extras: dict | None = None) -> None:
+        """Keep the estimate (and EXTRAS: the options it was made with, its notes) beside the
+        stored file `name`; its preview is made again when next asked for."""
+        st = (self.path / name).stat()
+        meta = {"estimate_s": round(float(estimate_s), 1), "size": st.st_size,
+                "mtime_ns": st.st_mtime_ns,
+                **{k: (extras or {}).get(k, v) for k, v in EXTRAS.items()}}
+        tmp = self.path / META / f".{name}.json.tmp"
+        with open(tmp, "w", encoding="utf-8") as f:
+            json.dump(meta, f)
+        os.replace(tmp, self.path / META / f"{name}.json")
+        self._drop_preview(name)
 
     @staticmethod
     def discard(tmp: Path) -> None:
