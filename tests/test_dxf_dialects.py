@@ -268,6 +268,21 @@ def test_broken_entities_are_skipped_and_counted(tmp_path, capsys, config_path):
         f"{p}: warning: 2 INSERTs skipped (first INSERT {gone.dxf.handle}): no block 'GONE'"]
 
 
+def test_unknown_entity_types_are_counted(tmp_path, capsys, config_path):
+    """An entity type ezdxf does not know (no attributes, no layer) and a proxy entity: one
+    'not drawn' warning, the rest drawn."""
+    p = tmp_path / "unknown.dxf"
+    p.write_text("0\nSECTION\n2\nENTITIES\n0\nLINE\n8\nL1\n10\n0\n20\n0\n11\n200\n21\n"
+                 "150\n0\nFOOBAR\n8\nL1\n10\n0\n20\n0\n0\nACAD_PROXY_ENTITY\n8\n0\n0\n"
+                 "ENDSEC\n0\nEOF\n")
+    drawn, warnings = convert(tmp_path, capsys, config_path, p)
+    w = Written()
+    w.line((0, 0), (200, 150))
+    assert_drawn(drawn, w)
+    assert warnings == [f"{p}: warning: not drawn: 1 ACAD_PROXY_ENTITY, 1 FOOBAR (drawn: lines, "
+                        f"polylines, arcs, circles, ellipses, splines, blocks, text)"]
+
+
 def test_bad_files_are_still_refused(tmp_path, capsys, config_path):
     """The file itself broken: truncated, not a DXF: one error line, exit 2."""
     doc = ezdxf.new("R2010")

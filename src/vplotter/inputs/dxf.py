@@ -313,7 +313,11 @@ class _Reader:
         except (InputError, OverflowError, MemoryError, RecursionError):
             raise
         except Exception as ex:     # noqa: BLE001 - ezdxf on an entity with broken values
-            self.count_broken(dxf_geom.UNREADABLE, first_line(ex), ctx, e, t)
+            if t in CURVES or t in TEXTS or t == "INSERT":
+                self.count_broken(dxf_geom.UNREADABLE, first_line(ex), ctx, e, t)
+            else:                   # a type ezdxf does not know (no layer even): not drawn
+                self.skipped["other"] += 1
+                self.other[t] = self.other.get(t, 0) + 1
 
     def count_broken(self, reason: str, detail: str, ctx: _Ctx, e, t: str) -> None:
         if reason not in self.broken:
