@@ -423,8 +423,13 @@ def test_point_bound_and_non_finite(tmp_path):
     doc, msp = new()
     doc.blocks.new("B").add_line((0, 0), (10, 0))
     msp.add_blockref("B", (0, 0), dxfattribs={"xscale": 1e308, "yscale": 1e308})
-    with pytest.raises(InputError, match="INSERT .* > LINE .*: coordinates are not finite"):
-        read(tmp_path, doc)
+    msp.add_line((0, 0), (5, 0))
+    # issue 33: an entity whose coordinates overflow is skipped and counted, not the file
+    d, warnings = read(tmp_path, doc)
+    assert [s.pts.tolist() for s in d.strokes] == [[[0, 0], [5, 0]]]
+    assert len(warnings) == 1
+    assert "1 broken entity not drawn: 1 with values that are not finite (INSERT" in warnings[0]
+    assert "> LINE" in warnings[0]
 
 
 # ------------------------------------------------------------------ bad files, CLI

@@ -153,16 +153,29 @@ def _cap(feed: float | None, speed: float | None) -> float | None:
     return speed if feed is None else min(feed, speed)
 
 
-WHITE_L = 99.0           # L* from which a colour is white (#fdfdfd and lighter)
+WHITE_MIN = 0xFD          # white: every channel at least this (#fdfdfd and lighter)
+WHITE_L = 99.0            # photo --colours: L* from which a pen is white (its own rule)
+
+
+def is_white(colour: str | None) -> bool:
+    """Whether a colour is the paper's white, which a pen does not show: every channel of its
+    '#rrggbb' at least WHITE_MIN (#fdfdfd, #fefefe, #ffffff, `white`). A faint colour with one
+    channel lower (#fcfdf8, `lightyellow` #ffffe0) is not white: it is drawn."""
+    if colour is None:
+        return False
+    c = colour if len(colour) == 7 and colour.startswith("#") else _colour_of(colour)
+    try:
+        return c is not None and all(int(c[k:k + 2], 16) >= WHITE_MIN for k in (1, 3, 5))
+    except ValueError:
+        return False
 
 
 def _no_white(strokes: list[Stroke], owned: tuple, warn: Warn, name: str) -> list[Stroke]:
-    """The strokes without those in white (L* >= WHITE_L: a page's background, a white fill)
+    """The strokes without those in white (is_white: a page's background, a white fill)
     unless a pen in [pens] is white: white does not show on paper. One warning says so."""
-    if any(colours.lightness(p.colour) >= WHITE_L for p in owned):
+    if any(is_white(p.colour) for p in owned):
         return strokes
-    white = [(st.colour or _colour_of(st.pen)) for st in strokes]
-    keep = [c is None or colours.lightness(c) < WHITE_L for c in white]
+    keep = [not is_white(st.colour or _colour_of(st.pen)) for st in strokes]
     if all(keep):
         return strokes
     n = keep.count(False)

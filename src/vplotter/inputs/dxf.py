@@ -15,14 +15,20 @@ Read with ezdxf (imported here only). The rules (docs/drawing-files.md, section 
 - skipped: entities on frozen, off or not-plotted layers and on "Defpoints" (counted as
   hidden), invisible entities, ATTDEFs (block templates), paper space, and every other entity
   type (HATCH, DIMENSION, IMAGE, 3DFACE, POINT, ...), counted per type in one warning;
-- $INSUNITS scales to mm (unitless: mm); the drawing's extent is centred on X0 Y0, +Y up.
+- one broken entity never stops the file: an entity of zero size, with values that are not
+  finite, or that ezdxf cannot evaluate is skipped, the INSERTs of blocks the file lacks too,
+  each kind counted in one warning; a layer or text style the tables lack is taken as a
+  default one (text: `dxf_text.py`);
+- $INSUNITS scales to mm (unitless or no HEADER section: mm); the drawing's extent is
+  centred on X0 Y0, +Y up.
 
 This module walks the document (blocks, layers, colours, the strokes); `dxf_geom.py` cuts each
 entity into points.
 
 Refused with one line (InputError): what ezdxf cannot read (not a DXF file, a corrupt or
 truncated one, text or binary junk), a block that inserts itself (directly or through other
-blocks), and a drawing whose blocks expand to more than MAX_ENTITIES entities.
+blocks), a drawing whose blocks expand to more than MAX_ENTITIES entities or whose strokes
+have more than MAX_POINTS points.
 """
 
 from __future__ import annotations
@@ -34,7 +40,8 @@ import numpy as np
 
 from vplotter.errors import InputError
 from vplotter.inputs import dxf_geom
-from vplotter.inputs.dxf_geom import MAX_POINTS, first_line, local_tol, m44
+from vplotter.inputs.dxf_geom import (MAX_POINTS, Broken, entry, first_line, local_tol,
+                                      m44)
 from vplotter.inputs.strokes import Drawing, Stroke
 
 MAX_ENTITIES = 500_000      # entities drawn once blocks are expanded (MINSERT grids included)
@@ -72,7 +79,19 @@ def read(path: str, tol_mm: float, layers: list[str] | None = None,
     if not tol_mm > 0:
         raise ValueError("tol_mm must be above 0")
     doc = _open(path)
-    return _Reader(path, doc, tol_mm, layers, warn).read(centre)
+    reader = _Reader(path, doc, tol_mm, layers, warn)
+    reader.headless = not _has_header(path)
+    return reader.read(centre)
+
+
+def _has_header(path: str) -> bool:
+    """Whether the file has a HEADER section (the first one, when there is one): ezdxf gives a
+    file without one a header of its own, in metres, where the file has no unit at all."""
+    try:
+        with open(path, "rb") as f:
+            return b"HEADER" in f.read(4096)
+    except OSError:
+        return True
 
 
 def _open(path: str):
@@ -120,15 +139,17 @@ class _Reader:
         self.path, self.doc, self.tol, self.warn = path, doc, tol_mm, warn
         self.asked = list(wanted or [])             # layer names are not case-sensitive
         self.wanted = {w.casefold() for w in self.asked}
-        self.current = ""                           # the entity being read, for messages
         self.strokes: list[Stroke] = []
         self.layers: dict[str, dict] = {}
         self.skipped = {"text": 0, "image": 0, "hidden": 0, "other": 0}
         self.other: dict[str, int] = {}
-        self.missing_blocks: set[str] = set()
+        self.missing_blocks: dict[str, int] = {}    # block name -> INSERTs of it
+        self.first_missing = ""
+        self.broken: dict[str, list] = {}           # reason -> [count, first place]
         self.layer_colours: dict[str, str] = {}
         self.points = 0
         self.text = None             # dxf_text.TextWriter, made at the first text
+        self.headless = False        # no HEADER section: no $INSUNITS (unitless: mm)
 
     # -------------------------------------------------------------- document
     def read(self, centre: bool = True) -> Drawing:
@@ -142,25 +163,37 @@ class _Reader:
         except OverflowError:
             raise InputError(f"{self.path}: error: more than {MAX_POINTS} points: the drawing "
                              f"is too large for the chord tolerance") from None
-        except InputError:
-            raise
-        except Exception as ex:     # noqa: BLE001 - ezdxf on an entity with broken values
-            raise InputError(f"{self.path}: error: {self.current}: cannot be drawn: "
-                             f"{first_line(ex)}") from None
         self.check_layers()
         if self.text is not None:
             self.text.finish()
+        self.tell()
+        return self.drawing(centre)
+
+    def tell(self) -> None:
+        """The warnings that count what was not drawn: one per kind."""
         if self.other:
             parts = ", ".join(f"{n} {t}" for t, n in sorted(self.other.items(),
                                                               key=lambda kv: (-kv[1], kv[0])))
             self.warn(f"{self.path}: warning: not drawn: {parts} (drawn: lines, polylines, "
                       f"arcs, circles, ellipses, splines, blocks, text)")
-        return self.drawing(centre)
+        if self.broken:
+            n = sum(c for c, _ in self.broken.values())
+            parts = ", ".join(f"{c} {reason} ({'first ' if c > 1 else ''}{where})"
+                              for reason, (c, where) in self.broken.items())
+            self.warn(f"{self.path}: warning: {n} broken entit{'ies' if n > 1 else 'y'} not "
+                      f"drawn: {parts}")
+        if self.missing_blocks:
+            n = sum(self.missing_blocks.values())
+            names = ", ".join(repr(b) for b in self.missing_blocks)
+            what = (f"{self.first_missing}: " if n == 1 else f"{n} INSERTs skipped (first "
+                    f"{self.first_missing}): ")
+            self.warn(f"{self.path}: warning: {what}no block {names}"
+                      + (": skipped" if n == 1 else ""))
 
     def unit_mm(self) -> float:
         from ezdxf import units
 
-        code = self.doc.header.get("$INSUNITS", 0)
+        code = 0 if self.headless else self.doc.header.get("$INSUNITS", 0)
         try:
             code = int(code)
             return 1.0 if code == 0 else units.conversion_factor(code, units.MM)
@@ -239,7 +272,7 @@ class _Reader:
         if name == "0" and ctx.layer is not None:
             name = ctx.layer
         if name not in self.layers:
-            lay = self.doc.layers.get(name)
+            lay = entry(self.doc.layers, name)      # a layer the table lacks: a default one
             shown = name.lower() not in HIDDEN_LAYERS and (lay is None or (
                 lay.is_on() and not lay.is_frozen() and lay.dxf.get("plot", 1) != 0))
             self.layers[name] = {"visible": shown}
@@ -260,7 +293,7 @@ class _Reader:
         return _aci(aci)
 
     def layer_colour(self, layer: str) -> str:
-        lay = self.doc.layers.get(layer)
+        lay = entry(self.doc.layers, layer)
         if lay is None:
             return "#000000"
         if lay.dxf.hasattr("true_color"):
@@ -269,10 +302,30 @@ class _Reader:
 
     # -------------------------------------------------------------- entities
     def entity(self, e, ctx: _Ctx) -> None:
+        """Draw one entity (an INSERT: its block); a broken one is counted, not drawn."""
         t = e.dxftype()
         if t in QUIET:
             return
-        self.current = f"{ctx.src}{t} {e.dxf.get('handle', '?')}"
+        try:
+            self.draw(e, t, ctx)
+        except Broken as ex:
+            self.count_broken(ex.reason, ex.detail, ctx, e, t)
+        except (InputError, OverflowError, MemoryError, RecursionError):
+            raise
+        except Exception as ex:     # noqa: BLE001 - ezdxf on an entity with broken values
+            if t in CURVES or t in TEXTS or t == "INSERT":
+                self.count_broken(dxf_geom.UNREADABLE, first_line(ex), ctx, e, t)
+            else:                   # a type ezdxf does not know (no layer even): not drawn
+                self.skipped["other"] += 1
+                self.other[t] = self.other.get(t, 0) + 1
+
+    def count_broken(self, reason: str, detail: str, ctx: _Ctx, e, t: str) -> None:
+        if reason not in self.broken:
+            where = f"{ctx.src}{t} {e.dxf.get('handle', '?')}"
+            self.broken[reason] = [0, where + (f": {detail}" if detail else "")]
+        self.broken[reason][0] += 1
+
+    def draw(self, e, t: str, ctx: _Ctx) -> None:
         layer, shown = self.layer_of(e, ctx)
         if not shown or e.dxf.get("invisible", 0) or (t == "ATTRIB" and
                                                        e.dxf.get("flags", 0) & 1):
@@ -301,15 +354,16 @@ class _Reader:
         name = e.dxf.get("name", "")
         block = self.doc.blocks.get(name)
         if block is None:
-            if name not in self.missing_blocks:
-                self.missing_blocks.add(name)
-                self.warn(f"{self.path}: warning: INSERT {e.dxf.handle}: no block {name!r}: "
-                          f"skipped")
+            if not self.missing_blocks:
+                self.first_missing = f"{ctx.src}INSERT {e.dxf.handle}"
+            self.missing_blocks[name] = self.missing_blocks.get(name, 0) + 1
             return
         colour = self.colour_of(e, layer, ctx)
-        refs = e.multi_insert() if e.mcount > 1 else [e]
-        for ref in refs:
-            m = m44(ref.matrix44()) @ ctx.m
+        refs = list(e.multi_insert()) if e.mcount > 1 else [e]
+        ms = [m44(ref.matrix44()) @ ctx.m for ref in refs]
+        if not np.isfinite(ms).all():
+            raise Broken(dxf_geom.NOT_FINITE)
+        for ref, m in zip(refs, ms):
             inner = replace(ctx, m=m, tol=local_tol(self.tol, m), layer=layer, colour=colour,
                             src=f"{ctx.src}INSERT {e.dxf.handle} > ")
             for child in block:
@@ -318,7 +372,7 @@ class _Reader:
                 self.entity(attrib, replace(ctx, colour=colour))
 
     def curve(self, e, t: str, layer: str, ctx: _Ctx) -> None:
-        got = dxf_geom.curve(e, t, ctx.tol, self.path)
+        got = dxf_geom.curve(e, t, ctx.tol)
         if got is None:                 # a polygon or poly-face mesh: not drawn
             self.skipped["other"] += 1
             self.other["POLYLINE (mesh)"] = self.other.get("POLYLINE (mesh)", 0) + 1
@@ -328,24 +382,27 @@ class _Reader:
 
     def add(self, e, t: str, polys, frame: np.ndarray, layer: str, ctx: _Ctx,
             z: float = 0.0) -> None:
-        """Strokes of polylines given in the entity's frame (2 or 3 columns)."""
-        if not polys:
-            return
+        """Strokes of polylines given in the entity's frame (2 or 3 columns). Raises Broken
+        for coordinates that are not finite and a curve of zero size (nothing is added)."""
         m = frame @ ctx.m
-        colour = self.colour_of(e, layer, ctx)
-        src = f"{ctx.src}{t} {e.dxf.handle}"
+        out = []
         for p in polys:
             p = np.asarray(p, dtype=float)
             if len(p) == 0:
                 continue
-            with np.errstate(all="ignore"):     # overflow: refused just below
+            with np.errstate(all="ignore"):     # overflow: broken just below
                 xy = (p @ m[:2, :2] + (z * m[2, :2] + m[3, :2]) if p.shape[1] == 2
                       else p @ m[:3, :2] + m[3, :2])
             if not np.isfinite(xy).all():
-                raise InputError(f"{self.path}: error: {src}: coordinates are not finite")
+                raise Broken(dxf_geom.NOT_FINITE)
             keep = np.ones(len(xy), dtype=bool)
             keep[1:] = np.any(xy[1:] != xy[:-1], axis=1)
-            xy = xy[keep]
+            out.append(xy[keep])
+        if t in CURVES and all(len(xy) < 2 for xy in out):
+            raise Broken(dxf_geom.ZERO)     # a point (CAD programs' leftovers): not drawn
+        colour = self.colour_of(e, layer, ctx)
+        src = f"{ctx.src}{t} {e.dxf.handle}"
+        for xy in out:
             self.points += len(xy)
             if self.points > MAX_POINTS:
                 raise OverflowError

@@ -1,7 +1,7 @@
 """DXF entities -> points: the chords of lines, arcs, circles, ellipses, splines and polylines
 (bulges as arcs) within a tolerance, in the entity's own frame (its OCS), and the transforms
-(ezdxf matrices, the tolerance in a block's coordinates). The walk of the document (blocks,
-layers, colours, strokes) is `dxf.py`'s."""
+(ezdxf matrices, the tolerance in a block's coordinates); what makes an entity broken (Broken);
+table look-ups. The walk of the document (blocks, layers, colours, strokes) is `dxf.py`'s."""
 
 from __future__ import annotations
 
@@ -9,9 +9,25 @@ import math
 
 import numpy as np
 
-from vplotter.errors import InputError
-
 MAX_POINTS = 10_000_000     # points of all strokes together (160 MB of coordinates)
+ZERO = "of zero size"
+NOT_FINITE = "with values that are not finite"
+UNREADABLE = "that cannot be read"
+
+
+class Broken(Exception):
+    """One entity cannot be drawn (the file can): `reason` is its kind (ZERO, NOT_FINITE,
+    UNREADABLE), `detail` what went wrong, for the warning that counts them."""
+
+    def __init__(self, reason: str, detail: str = ""):
+        super().__init__(f"{reason}: {detail}" if detail else reason)
+        self.reason, self.detail = reason, detail
+
+
+def finite(*values: float) -> None:
+    """Raise Broken unless every value is a finite number."""
+    if not all(math.isfinite(v) for v in values):
+        raise Broken(NOT_FINITE)
 
 
 def first_line(e: BaseException) -> str:
@@ -19,6 +35,16 @@ def first_line(e: BaseException) -> str:
         return "it ends before its sections do (truncated?)"
     text = str(e).strip().splitlines()
     return (text[0] if text else type(e).__name__)[:200]
+
+
+def entry(table, name: str):
+    """The table entry (LAYER, STYLE) of that name, None when the table lacks it."""
+    from ezdxf.lldxf.const import DXFTableEntryError
+
+    try:
+        return table.get(name)
+    except (DXFTableEntryError, TypeError, AttributeError):
+        return None
 
 
 def m44(m) -> np.ndarray:
@@ -51,6 +77,7 @@ def arc(cx: float, cy: float, r: float, a0: float, sweep: float, tol: float,
          multiple: int = 1) -> np.ndarray:
     """(K, 2) points along a circular arc from angle a0 (radians) through `sweep` (signed),
     chords within tol of the arc (their number a multiple of `multiple`); both ends exact."""
+    finite(cx, cy, r, a0, sweep)
     if r <= 0:
         return np.array([[cx, cy]])
     step = 2 * math.acos(max(1 - tol / r, -1.0)) if tol < r else math.pi / 2
@@ -91,10 +118,10 @@ def bulged(xy: np.ndarray, bulge: np.ndarray, closed: bool, tol: float) -> np.nd
     return np.concatenate(out)
 
 
-def curve(e, t: str, tol: float, path: str):
+def curve(e, t: str, tol: float):
     """(frame, polylines, z) of a curve entity, in its own frame (4x4 row vectors to the
     block's coordinates; polylines of 2 columns at height z, or 3), chords within tol; None for
-    a polygon or poly-face mesh (not drawn)."""
+    a polygon or poly-face mesh (not drawn). Raises Broken."""
     d = e.dxf
     frame = np.eye(4)
     z = 0.0
@@ -118,8 +145,7 @@ def curve(e, t: str, tol: float, path: str):
         try:
             pts = [tuple(v) for v in e.construction_tool().flattening(tol, segments=4)]
         except (ValueError, ZeroDivisionError, IndexError, ArithmeticError) as ex:
-            raise InputError(f"{path}: error: SPLINE {d.handle}: {first_line(ex)}"
-                             ) from None
+            raise Broken(UNREADABLE, first_line(ex)) from None
         polys = [np.array(pts)] if pts else []
     elif t == "LWPOLYLINE":
         frame = ocs(e)
@@ -141,6 +167,7 @@ def ellipse(e, tol: float) -> np.ndarray:
     c = np.array(list(d.center), dtype=float)
     a = float(np.linalg.norm(major))
     t0, t1 = d.get("start_param", 0.0), d.get("end_param", 2 * math.pi)
+    finite(*major, *minor, *c, t0, t1)
     span = (t1 - t0) % (2 * math.pi)
     full = span < 1e-12 or abs(span - 2 * math.pi) < 1e-12
     span = 2 * math.pi if full else span

@@ -12,6 +12,8 @@ MTEXT's line pitch follow the capitals actually drawn.
   upside-down flags, horizontal alignment (left, center, right, aligned, middle, fit: the last
   two between the insertion and alignment points) and vertical alignment (baseline, bottom,
   middle, top) about the alignment point; in the entity's OCS.
+- Content: `%%d`, `%%p`, `%%c` (degree, plus-minus, diameter; `%%u`, `%%o` dropped) and
+  `\\U+XXXX` (a unicode character, as DXF before R2007 writes them) in TEXT and MTEXT.
 - MTEXT: the plain text (formatting codes dropped; \\P breaks lines), char height, insertion
   point, rotation or text direction, extrusion, attachment point (top/middle/bottom x
   left/center/right), the line spacing factor (baselines 5/3 x the capitals' height apart, as
@@ -19,17 +21,21 @@ MTEXT's line pitch follow the capitals actually drawn.
 - Fonts: the text style's font file names the Hershey font (txt, simplex, romans -> rowmans;
   romand, isoct -> rowmand; romant, romanc, complex -> rowmant; italic -> timesi; script ->
   scripts; gothic -> gothiceng; a TrueType family name as CSS names it, e.g. arial ->
-  futural); anything else is futural.
+  futural). A style the STYLE table lacks or a font none of these names is drawn in the
+  default font (futural), counted and named in one warning; a text in "Standard" when the
+  table lacks it, as files without tables write them, is in the Standard font txt.
 """
 
 from __future__ import annotations
 
 import math
+import re
 from typing import Callable
 
 import numpy as np
 
 from vplotter.inputs import text as hershey
+from vplotter.inputs.dxf_geom import entry
 
 SIZE_PER_HEIGHT = 1.0       # Hershey font size (em) per DXF text height (see above)
 LINE_PITCH = 5.0 / 3.0      # MTEXT baseline distance / capital height at line spacing factor 1
@@ -41,6 +47,25 @@ SHX = {"txt": "rowmans", "simplex": "rowmans", "romans": "rowmans", "monotxt": "
        "scripts": "scripts", "scriptc": "scriptc", "gothice": "gothiceng",
        "gothicg": "gothicger", "gothici": "gothicita", "greeks": "greeks", "greekc": "greekc",
        "cyrillic": "cyrillic", "cyriltlc": "cyrilc_1"}
+_UNICODE = re.compile(r"\\U\+([0-9A-Fa-f]{4})")
+_MTEXT_SPECIAL = {"\\": "\\\\", "{": "\\{", "}": "\\}"}     # kept literal in MTEXT
+
+
+def unescape(text: str, mtext: bool = False) -> str:
+    """DXF's \\U+XXXX escapes -> the characters (in MTEXT: a backslash or brace escaped again,
+    for its parser); an escaped backslash (MTEXT's \\\\) is left as it is."""
+    def char(m: re.Match) -> str:
+        c = chr(int(m.group(1), 16))
+        return _MTEXT_SPECIAL.get(c, c) if mtext else c
+
+    if "\\U+" not in text:
+        return text
+    parts = text.split("\\\\") if mtext else [text]
+    return ("\\\\" if mtext else "").join(_UNICODE.sub(char, p) for p in parts)
+
+
+def _known(stem: str) -> bool:
+    return stem in SHX or stem in hershey.FAMILIES or stem in hershey.font_names()
 
 
 class TextWriter:
@@ -49,21 +74,33 @@ class TextWriter:
 
     def __init__(self, path: str, doc, warn: Callable[[str], None]):
         self.path, self.doc, self.warn = path, doc, warn
-        self.fonts: dict[str, str] = {}
+        self.fonts: dict[str, tuple[str, str | None]] = {}   # style -> (font, replaced)
+        self.replaced: dict[str, int] = {}      # style or font not found -> texts in it
         self.missing: set[str] = set()
         self.subs: dict[str, str] = {}
         self.used: set[str] = set()
         self.chars = 0
 
     def font(self, e) -> str:
-        name = e.dxf.get("style", "Standard")
+        """The Hershey font of the entity's text style (the default one for a style the table
+        lacks or a font not known, counted for the warning)."""
+        name = e.dxf.get("style", "Standard") or "Standard"
         if name not in self.fonts:
-            style = self.doc.styles.get(name)
-            file = (style.dxf.get("font", "") if style is not None else "") or "txt"
-            stem = file.replace("\\", "/").rsplit("/", 1)[-1].rsplit(".", 1)[0].lower()
-            self.fonts[name] = SHX.get(stem) or hershey.pick_font(stem)
-        self.used.add(self.fonts[name])
-        return self.fonts[name]
+            style = entry(self.doc.styles, name)
+            if style is None and name.casefold() != "standard":
+                self.fonts[name] = (hershey.DEFAULT_FONT, name)
+            else:
+                file = (style.dxf.get("font", "") if style is not None else "") or "txt"
+                stem = file.replace("\\", "/").rsplit("/", 1)[-1].strip().lower()
+                stem = stem[:-4] if stem.endswith((".shx", ".ttf", ".otf", ".lff", ".cxf",
+                                                   ".pfb", ".shp")) else stem
+                self.fonts[name] = ((SHX.get(stem) or hershey.pick_font(stem), None)
+                                    if _known(stem) else (hershey.DEFAULT_FONT, stem or file))
+        font, replaced = self.fonts[name]
+        if replaced is not None:
+            self.replaced[replaced] = self.replaced.get(replaced, 0) + 1
+        self.used.add(font)
+        return font
 
     def layout(self, line: str, size: float, font: str, anchor: str = "start"):
         self.chars += len(line)
@@ -80,6 +117,11 @@ class TextWriter:
         return self.text(e)
 
     def finish(self) -> None:
+        if self.replaced:
+            n = sum(self.replaced.values())
+            self.warn(f"{self.path}: warning: {n} text{'s' if n > 1 else ''} in styles or fonts "
+                      f"not found ({', '.join(self.replaced)}): drawn in the default "
+                      f"single-stroke font ({hershey.DEFAULT_FONT})")
         msg = hershey.missing_warning(self.path, self.missing, self.subs,
                                       ", ".join(sorted(self.used)))
         if msg:
@@ -88,10 +130,10 @@ class TextWriter:
     # -------------------------------------------------------------- TEXT, ATTRIB
     def text(self, e) -> tuple[np.ndarray, list[np.ndarray]]:
         d = e.dxf
-        content = e.plain_text()
+        content = unescape(e.plain_text())
         h = float(d.get("height", 0.0))
         if not h > 0:
-            style = self.doc.styles.get(d.get("style", "Standard"))
+            style = entry(self.doc.styles, d.get("style", "Standard"))
             h = float(style.dxf.get("height", 0.0)) if style is not None else 0.0
             h = h if h > 0 else DEFAULT_HEIGHT
         font = self.font(e)
@@ -147,7 +189,10 @@ class TextWriter:
         ap = int(d.get("attachment_point", 1))
         ap = ap if 1 <= ap <= 9 else 1
         anchor = ("start", "middle", "end")[(ap - 1) % 3]
-        lines = self.wrap(e.plain_text(split=False), size, font, float(d.get("width", 0.0)))
+        from ezdxf.tools.text import plain_mtext     # the parser that knows every code
+
+        content = plain_mtext(unescape(e.text, mtext=True), split=False)
+        lines = self.wrap(content, size, font, float(d.get("width", 0.0)))
         pitch = LINE_PITCH * cap * float(d.get("line_spacing_factor", 1.0) or 1.0)
         total = cap + (len(lines) - 1) * pitch
         first = {0: -cap, 1: total / 2 - cap, 2: total - cap}[(ap - 1) // 3]
