@@ -1,25 +1,29 @@
 """What a person is told about a photo's drawing: one line of what was chosen, and advice when
 the drawing will show the picture poorly, with the size or the time that would show it.
 
-The criterion is the spacing in pen widths (`GOOD_PENS`, per style): the share of the paper
-one line covers, which decides how many tones the drawing can lay. A budget that leaves the
-line sparse makes the tone curve steep: only the darkest parts get ink, and the mid-tones a
-face is made of stay blank. Measured by bench/photo_advice.py on face pictures (the
-astronaut cut to a portrait, the camera man, the cat), the faces' own correlation of ink with
-darkness (`inputs/image/score.py`, 1 mm blur) at each style's own tone curve: it reaches
-about 0.8 (eyes, mouth and hair show; the 3 h drawings of docs/drawing-files.md) at
-GOOD_PENS, and falls to 0.5-0.65 at the spacings a 300 x 400 mm portrait gets in an hour
-(hatch 6.8, spiral 22, squiggle 21, stipple 14 pen widths), where the face is blank. The
-same spacing in pen widths scores the same at 150 and 300 mm wide (7 to 500 lines across):
-the detail, lines per picture width, is not what fails first; the tone is.
+The criterion (`good_spacing`) is first the spacing in pen widths (`GOOD_PENS`, per style):
+the share of the paper one line covers, which decides how many tones the drawing can lay. A
+budget that leaves the line sparse makes the tone curve steep: only the darkest parts get
+ink, and the mid-tones a face is made of stay blank. Measured by bench/photo_advice.py on
+face pictures (the astronaut cut to a portrait, the camera man, the cat), the faces' own
+correlation of ink with darkness (`inputs/image/score.py`, 1 mm blur) at each style's own
+tone curve reaches about 0.8 (eyes, mouth and hair show, as in the 3 h drawings of
+docs/drawing-files.md) at GOOD_PENS, and falls to 0.5-0.65 at the spacings a 300 x 400 mm
+portrait gets in an hour (hatch 6.8, spiral 22, squiggle 21, stipple 14 pen widths), where
+the face is blank. The same spacing in pen widths scores the same at 150 and 300 mm wide: there
+the tone fails first, not the detail. On a small picture the detail fails too (the portrait's
+hatch at 3 pen widths: 0.82 at 75 mm wide, 50 lines across, 0.73 at 40 mm, 27 across; the
+spiral at 8: 0.83 at 150 mm, 0.79 at 75 mm, 21 tracks across): so also LINES lines (tracks,
+dots) across the narrower side.
 
-The suggestions use the budget's model, time ~ spacing^-power (`TIME_POWER`: measured along
-the budget's own choices, steeper than the styles' line alone because a longer budget also
-takes a gentler tone curve, which spends line on more tones), and time ~ area at a given
-spacing: the time at this size that reaches GOOD_PENS is t x (s / good)^power, the size in
-this time the one whose area is that much smaller. Both are rounded to what a person would
-type (up for the time, down for the size) with a margin (`MARGIN`). No drawing is made: the
-advice costs nothing next to the budget's search.
+The suggestions use the budget's model: time ~ spacing^-k, k the secant of the budget's own
+tries towards denser drawings (`time_power`; at least `TIME_POWER`, measured along the budget's
+choices: steeper than the styles' line alone, because a longer budget also takes a gentler
+tone curve, which spends line on more tones), and time ~ area at a given spacing. The time at
+this size is t x (s / good)^k, the size in this time the largest whose spacing, s x (w' /
+w)^(2 / k), passes at that size. Both are rounded to what a person types (up for the time,
+down for the size) with a margin (`MARGIN`). No drawing is made: the advice costs nothing next
+to the budget's search. bench/photo_advice.py --check follows the advice and checks it.
 """
 
 from __future__ import annotations
