@@ -52,9 +52,11 @@ def estimate_s(capsys, config, path) -> float:
 def test_convert_fits_the_budget_and_the_picture(capsys, config_path, photo, tmp_path, style):
     out = tmp_path / f"{style.split()[-1]}.ngc"
     code, _, err = run(capsys, ["--config", config_path, "convert", photo, "-o", out,
-                                "--style", *style.split(), "--width", 150, "--max-time", "10m"])
+                                "--style", *style.split(), "--width", 150, "--max-time", "10m",
+                                "--verbose"])
     assert code == 0, err
-    assert "within 10:00" in err                              # says what it chose
+    assert "within 10:00" in err                              # says what it chose (and
+    # with --verbose, when the time jumps with the spacing, that it does)
     t = estimate_s(capsys, config_path, out)
     assert t <= 600 * 1.01
     # the time the final order saves is spent (unless the time jumps with the spacing)
@@ -109,9 +111,13 @@ def test_info_says_what_the_budget_chose(capsys, config_path, photo):
     assert any("no --max-time" in n for n in info["notes"])    # the default budget, said
     assert any("within 1:00:00" in n for n in info["notes"])
     assert info["time_s"]["best"] <= 3600 and "100 x 67 mm" in info["notes"][0]
-    # and what is drawn: the track pitch and the tone curve
+    # one line of what was chosen, in words; what is drawn (the track pitch and the tone
+    # curve) among the details (said with --verbose)
+    assert re.fullmatch(r"photo: squiggle, 100 x 67 mm, spacing [0-9.]+ mm, plot time "
+                        r"[0-9:]+ within 1:00:00 \(no --max-time: the default budget\)",
+                        info["notes"][0])
     assert any(re.search(r"track pitch [0-9.]+ mm .*tone curve (d\^[0-9.]+|fitted)", n)
-               for n in info["notes"])
+               for n in info["details"])
 
 
 def test_exif_orientation_makes_it_upright(capsys, config_path, tmp_path):
@@ -224,14 +230,14 @@ def test_info_says_which_tone_curve_the_picture_got(capsys, config_path, photo, 
                                 "--width", 100, "--style", *style.split(), "--max-time", "20m"])
     assert code == 0
     info = json.loads(out)
-    note = next(n for n in info["notes"] if "chosen for this picture" in n)
+    note = next(n for n in info["details"] if "chosen for this picture" in n)
     curve = r"d\^[0-9.]+|fitted \(ink from darkness [0-9.]+ up\)"
     chosen = re.search(rf"tone curve ({curve}) chosen", note).group(1)
     tried = {g: float(r) for g, r in re.findall(rf"({curve}) (-?[0-9.]+)", note.split(": ", 1)[1])}
     assert len(tried) >= 3 and tried[chosen] == max(tried.values())
     assert any("fitted" in g for g in tried)           # the measured response was tried too
     assert any(f"tone curve {chosen}" in n and re.search("pitch|as many dots", n)
-               for n in info["notes"])
+               for n in info["details"])
     assert info["time_s"]["best"] <= 1200
 
 

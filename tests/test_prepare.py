@@ -76,9 +76,9 @@ def test_info_json_for_gcode_matches_estimate(capsys, config_path):
     assert code == 0
     info = json.loads(out)
     assert set(info) == {"width_mm", "height_mm", "extent", "strokes", "drawn_mm", "travel_mm",
-                         "time_s", "layers", "skipped", "notes", "pens"}
+                         "time_s", "layers", "skipped", "notes", "details", "advice", "pens"}
     assert info["layers"] == [] and info["skipped"] == {"text": 0, "image": 0, "hidden": 0}
-    assert info["notes"] == []
+    assert info["notes"] == [] and info["details"] == [] and info["advice"] == []
     x0, y0, x1, y1 = info["extent"]
     assert info["width_mm"] == pytest.approx(x1 - x0, abs=1e-3)
     assert info["height_mm"] == pytest.approx(y1 - y0, abs=1e-3)

@@ -30,8 +30,14 @@ def _number(kind: str, lo: float | None = None, above: bool = False):
     return parse
 
 
-def add_file_options(p: argparse.ArgumentParser) -> None:
-    """Placement, order and layer options, for every command that takes a drawing file."""
+VERBOSE_HELP = "say more: every warning, and a photo's tone details"
+
+
+def add_file_options(p: argparse.ArgumentParser, verbose: bool = True) -> None:
+    """Placement, order and layer options, for every command that takes a drawing file, and
+    --verbose (verbose=False: the command has its own, `draw`'s)."""
+    if verbose:
+        p.add_argument("--verbose", action="store_true", help=VERBOSE_HELP)
     g = p.add_argument_group("placement (scale and rotate about the drawing's centre, then fit, "
                              "align, offset; the result is checked against the page)")
     size = g.add_mutually_exclusive_group()

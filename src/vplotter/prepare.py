@@ -45,7 +45,10 @@ class Prepared:
     tol_mm: float = 0.0075        # chords of G-code arcs read into strokes
     dialect: object = None        # config.toml [gcode] pen dialect, when the config has one
     warn: Callable[[str], None] = _stderr
-    notes: list[str] = field(default_factory=list)    # what was chosen and why (a photo)
+    notes: list[str] = field(default_factory=list)    # what was chosen (a photo), in words
+    details: list[str] = field(default_factory=list)  # how and why: the tone (--verbose)
+    advice: list[str] = field(default_factory=list)   # a photo that will show poorly: the
+    #                                                   size or time that would show it
     fill: object = None           # SVG: inputs.fill.FillOptions (--fill, --fill-spacing ...)
     refill_mm: float | None = None    # --refill-every: a fresh pen after this much drawn
     owned: tuple = ()             # config.toml [pens]: the pens owned (drawing/pens.py)
@@ -172,6 +175,8 @@ def _arrange(prep: Prepared, drawing, page, place_opts, method: str, pen_order) 
                                      pens.width_of(prep.owned))
     prep._drawing = drawing
     prep.notes = drawing.notes
+    prep.details = drawing.details
+    prep.advice = drawing.advice
     placed = drawing.strokes if drawing.placed else place.place(drawing.strokes, place_opts, page)
     placed = pens.resolve(placed, prep.owned, prep.warn, prep.path)
     t0 = time.perf_counter()

@@ -20,7 +20,9 @@ def add_draw(p: argparse.ArgumentParser) -> None:
     add_machine_options(p)
     p.add_argument("--strict", action="store_true",
                    help="treat warnings about inconsistent arcs as errors")
-    p.add_argument("--verbose", action="store_true", help="print timing lateness statistics")
+    p.add_argument("--verbose", action="store_true",
+                   help="say more: every warning, a photo's tone details, and the timing "
+                        "lateness statistics")
     g = p.add_mutually_exclusive_group()
     g.add_argument("--resume", action="store_true",
                    help="go on from where the last interrupted draw of FILE stopped")
@@ -32,7 +34,7 @@ def add_draw(p: argparse.ArgumentParser) -> None:
                    help="after validation, draw in the background (survives the end of the SSH "
                         "session; follow with `vplotter status --watch` or `vplotter log -f`)")
     p.add_argument("--detached", action="store_true", help=argparse.SUPPRESS)
-    add_file_options(p)
+    add_file_options(p, verbose=False)
 
 
 def start_at(args, pos):

@@ -14,7 +14,7 @@ from vplotter.errors import InputError
 def prepare_file(args, cfg, pos, warn=None, start_xy=None, say_notes=True, **changes):
     """prepare() for a command (with some options changed): the travel starts where the pen
     is, or at start_xy (a resumed draw keeps the order it was started with). What a photo's
-    budget chose is said on stderr (say_notes)."""
+    budget chose is said on stderr (say_notes): `say_prepared`."""
     from vplotter.commands import jog, warnings
     from vplotter.prepare import prepare
 
@@ -25,9 +25,18 @@ def prepare_file(args, cfg, pos, warn=None, start_xy=None, say_notes=True, **cha
                    plot_time=_plot_time(cfg, pos, xy, args.file),
                    warn=warnings.warn if warn is None else warn)
     if say_notes:
-        for note in prep.notes:
-            eprint(f"note: {note}")
+        for line in said(prep, bool(getattr(args, "verbose", False))):
+            eprint(line)
     return prep
+
+
+def said(prep, verbose: bool = False, indent: str = "") -> list[str]:
+    """What a prepared drawing (a photo) says: its notes (with --verbose the tone details
+    too), then its advice, as lines ('note: ...', 'advice: ...' on stderr; indented, no
+    'note:', in `info`)."""
+    notes = list(prep.notes) + (list(prep.details) if verbose else [])
+    return ([f"{indent}{n}" if indent else f"note: {n}" for n in notes] +
+            [f"{indent}advice: {a}" for a in prep.advice])
 
 
 def _plot_time(cfg, pos, xy, path: str):
@@ -134,6 +143,8 @@ def cmd_info(args, argv=None) -> int:
                     "visible": bool(lay.get("visible", True))} for lay in drawing.layers],
         "skipped": skipped,
         "notes": list(best.notes),
+        "details": list(best.details),
+        "advice": list(best.advice),
         "pens": [{**row, "drawn_mm": _r(row["drawn_mm"])} for row in pens.table(strokes)],
     }
     if args.json:
@@ -146,8 +157,8 @@ def cmd_info(args, argv=None) -> int:
         f"Y {ext[1]:.2f}..{ext[3]:.2f} mm")
     say(f"  {out['strokes']} strokes, drawn {out['drawn_mm'] / 1000:.2f} m")
     _say_pens(out["pens"], timed, getattr(args, "pen_order", None) or "light-to-dark")
-    for note in best.notes:
-        say(f"  {note}")
+    for line in said(best, args.verbose, "  "):
+        say(line)
     for what, t, s in (("file order", t_keep, s_keep), ("--order best", t_best, s_best)):
         if t is None:
             say(f"  {what}: does not fit the page")

@@ -24,7 +24,7 @@ from typing import Callable
 import numpy as np
 
 from vplotter import budget
-from vplotter.drawing import order, place
+from vplotter.drawing import advice, order, place
 from vplotter.errors import ConfigError
 from vplotter.inputs.strokes import Stroke
 
@@ -102,7 +102,7 @@ def size_mm(aspect: float, opts: PhotoOptions, page: place.Box, margin_mm: float
 def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Placement,
             plot_time: Callable[[list[Stroke]], float] | None, start_xy=(0.0, 0.0),
             method: str = "best", owned: tuple = ()):
-    """(placed strokes in their drawing order from start_xy, notes for the person).
+    """(placed strokes in their drawing order from start_xy, what is said: `advice.Said`).
     plot_time(strokes) -> s times an ordered drawing with the draw's own planner (None: no
     budget, only with a fixed --spacing). method: "best" improves the quick order the budget
     was searched in (`order.py`; the stipples' tour is already their best) and fills the time
@@ -127,21 +127,24 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
     how = "keep" if opts.style == "stipple" and not opts.tsp else "greedy"
     d = _Drawings(style, opts, picture, layers, inks, put, shift, A, b, start_xy, how,
                   method == "best" and how == "greedy")
-    notes = [f"photo: {opts.style}, {w:.0f} x {h:.0f} mm, pen {opts.pen_mm:g} mm"]
+    said = advice.Said(details=[f"pen {opts.pen_mm:g} mm wide (--pen-width): the line the tone "
+                                f"model assumes"])
     if layers is not None:
         from vplotter.inputs.image import cmyk
 
-        notes.append(f"{'cmyk' if opts.cmyk else 'colours'}: {len(inks)} pens, light to dark, "
-                     f"ink asked for (mean coverage): {cmyk.shares(layers, inks)}")
+        said.notes.append(f"{'cmyk' if opts.cmyk else 'colours'}: {len(inks)} pens, light to "
+                          f"dark, ink asked for (mean coverage): {cmyk.shares(layers, inks)}")
     if opts.spacing_mm is not None:
         if opts.max_time_s is not None:
             raise ConfigError("error: give --spacing or --max-time, not both")
-        what = image.describe(opts.style, opts.spacing_mm, opts.pen_mm, picture, **d.extra)
-        return (d.final(d.make(opts.spacing_mm)[0]),
-                notes + [f"spacing {opts.spacing_mm:g} mm (--spacing)", what])
+        said.notes.insert(0, advice.chosen(opts.kind, w, h, opts.spacing_mm))
+        said.details.append(image.describe(opts.style, opts.spacing_mm, opts.pen_mm, picture,
+                                           **d.extra))
+        said.advice = advice.advise(opts.kind, opts.pen_mm, opts.spacing_mm, w, h)
+        return d.final(d.make(opts.spacing_mm)[0]), said
     if plot_time is None:
         raise ConfigError("error: a photo needs --spacing here (no planner to time a budget)")
-    return _budgeted(d, plot_time, max(w, h), notes)
+    return _budgeted(d, plot_time, w, h, said)
 
 
 def _pictures(path: str, opts: PhotoOptions, w: float, h: float, owned: tuple):
@@ -239,30 +242,33 @@ class _Drawings:
         return order.order(moved, self.how, self.start_xy), made
 
 
-def _budgeted(d: _Drawings, plot_time, longest_mm: float, notes: list[str]):
-    """The drawing that fits the budget (and the notes): the densest spacing, the tone curve
-    that draws the picture best, the final order and the time it saves spent on density."""
+def _budgeted(d: _Drawings, plot_time, w: float, h: float, said: advice.Said):
+    """The drawing that fits the budget (and what is said): the densest spacing, the tone
+    curve that draws the picture best, the final order and the time it saves spent on
+    density."""
     from vplotter.inputs import image
 
     opts, picture = d.opts, d.picture
     budget_s = opts.max_time_s or budget.DEFAULT_S
     lo = opts.pen_mm * (1.2 if opts.style == "stipple" else 1.0)
-    hi = longest_mm / 4
+    hi = max(w, h) / 4
     timed = lambda made: plot_time(made[0])                    # noqa: E731
     drawn, raw, choice, curve = _search(d, timed, budget_s, lo, hi)
     if (opts.style in CURVES or opts.tsp) and d.layers is None:
-        drawn, choice, curve, said = pick_curve(picture, opts, d.draw, d.make, timed, budget_s,
-                                                lo, hi, raw, drawn, choice)
-        notes.append(said)
+        drawn, choice, curve, why = pick_curve(picture, opts, d.draw, d.make, timed, budget_s,
+                                               lo, hi, raw, drawn, choice)
+        said.details.append(why)
     drawn, choice = budget.fill(drawn, choice, lambda sp: d.make(sp, curve)[0], d.final,
                                 plot_time, budget_s, lo, POWER[opts.kind])
-    notes.append(choice.text())
-    notes.append(image.describe(opts.style, choice.spacing_mm, opts.pen_mm, picture, **d.extra,
-                                **({} if curve is None else {"curve": curve})))
-    if opts.max_time_s is None:
-        notes.append(f"no --max-time: the budget for a photo is {budget.clock_text(budget_s)} "
-                     f"by default")
-    return drawn, notes
+    said.details.append(choice.text())
+    said.details.append(image.describe(opts.style, choice.spacing_mm, opts.pen_mm, picture,
+                                       **d.extra, **({} if curve is None else {"curve": curve})))
+    said.notes.insert(0, advice.chosen(opts.kind, w, h, choice.spacing_mm, choice.time_s,
+                                       budget_s, opts.max_time_s is None,
+                                       choice.limit.startswith("as dense")))
+    said.advice = advice.advise(opts.kind, opts.pen_mm, choice.spacing_mm, w, h, choice.time_s,
+                                budget_s, choice.tries)
+    return drawn, said
 
 
 def _search(d: _Drawings, timed, budget_s: float, lo: float, hi: float):

@@ -53,7 +53,9 @@ class Drawing:
     layers: list[dict] = field(default_factory=list)      # [{"id", "label", "visible"}]
     skipped: dict = field(default_factory=lambda: {"text": 0, "image": 0, "hidden": 0})
     fills: list = field(default_factory=list)   # inputs.fill.Region: hatched once placed (SVG)
-    notes: list[str] = field(default_factory=list)        # what was chosen and why (a photo)
+    notes: list[str] = field(default_factory=list)        # what was chosen (a photo)
+    details: list[str] = field(default_factory=list)      # ... how and why (said --verbose)
+    advice: list[str] = field(default_factory=list)       # what would draw it better
     placed: bool = False                 # the strokes are on the page already (a photo)
     ordered: bool = False                # ... and in their drawing order (a photo's, timed)
 

@@ -17,14 +17,16 @@ def _sniff(head: bytes) -> bool:
 
 
 def read(path: str, ctx):
-    """The placed strokes at the density the budget allows; the notes say what was chosen."""
+    """The placed strokes at the density the budget allows; the notes say what was chosen, the
+    details how (--verbose), the advice what would show the picture better."""
     from vplotter.drawing import photo
     from vplotter.inputs.strokes import Drawing
 
-    placed, notes = photo.strokes(
+    placed, said = photo.strokes(
         path, ctx.photo, ctx.page, replace(ctx.placement, width_mm=None, height_mm=None),
         ctx.plot_time, ctx.start_xy, ctx.order, ctx.owned)
-    return Drawing(path, placed, notes=notes, placed=True, ordered=True)
+    return Drawing(path, placed, notes=said.notes, details=said.details, advice=said.advice,
+                   placed=True, ordered=True)
 
 
 def place(path: str, stroke, k: int) -> str:
