@@ -86,10 +86,12 @@ def test_svg_strokes_and_fills_in_white_are_left_out(tmp_path, capsys, config_pa
 
 
 def test_photo_colours_refuse_white(tmp_path):
-    """--colours: a white pen draws nothing on paper (drawing/photo.py keeps its own L*
-    rule, which agrees for these)."""
+    """--colours: a white pen draws nothing on paper; the same rule as strokes, so a faint
+    pen that shows (lightyellow) is taken."""
     from vplotter.drawing import photo
 
     for name in ("white", "#fdfdfd", "#ffffff"):
         with pytest.raises(ConfigError, match="is white"):
             photo.pens_of((name, "black"))
+    assert [p[0] for p in photo.pens_of(("lightyellow", "#fcfdf8", "black"))] == [
+        "lightyellow", "#fcfdf8", "black"]

@@ -154,7 +154,6 @@ def _cap(feed: float | None, speed: float | None) -> float | None:
 
 
 WHITE_MIN = 0xFD          # white: every channel at least this (#fdfdfd and lighter)
-WHITE_L = 99.0            # photo --colours: L* from which a pen is white (its own rule)
 
 
 def is_white(colour: str | None) -> bool:

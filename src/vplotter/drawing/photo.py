@@ -322,7 +322,7 @@ def pens_of(names: tuple[str, ...], owned: tuple = ()) -> list[tuple[str, str]]:
                 raise ConfigError(f"error: --colours: {name!r} is neither a pen in [pens] nor a "
                                   f"colour{known}")
             pen = (name, c)
-        if colours.lightness(pen[1]) >= pens.WHITE_L:
+        if pens.is_white(pen[1]):              # the rule white strokes are left out by
             raise ConfigError(f"error: --colours: {name} is white: it draws nothing on white "
                               f"paper")
         if any(pen[0] == p[0] or pen[1] == p[1] for p in out):
