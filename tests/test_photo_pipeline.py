@@ -18,7 +18,7 @@ from vplotter import budget
 from vplotter.cli import main
 
 STYLES = ("hatch", "spiral", "squiggle", "stipple")
-PAGE_CENTRE = (0.0, 25.0)        # the seed page X -200..200, Y -250..300
+PAGE_CENTRE = (0.0, 0.0)         # where a photo is centred: G-code X0 Y0 (docs: Placement)
 
 
 def run(capsys, argv) -> tuple[int, str, str]:

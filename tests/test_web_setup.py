@@ -37,7 +37,9 @@ def test_options_are_the_clis_and_estimate_preview_and_draw_agree(serve, capsys)
     assert up["options"] == {"max_time": "3m"}
     stored = server.uploads / "photo.png"
     assert up["estimate_s"] == cli_estimate_s(server.config, stored, capsys, "--max-time", "3m")
-    assert up["notes"] and any("spacing" in n for n in up["notes"]) and up["advice"] == []
+    assert up["notes"] and any("mm apart" in n or "spacing" in n for n in up["notes"])
+    # 3 minutes cannot show a face: the page carries the CLI's advice (--max-time to give)
+    assert len(up["advice"]) == 1 and "--max-time" in up["advice"][0]
     # changed: estimated again with the new options and kept
     code, got, _ = server.request("POST", "/api/files/photo.png/options",
                                   {"max_time": "2m", "style": "spiral", "width": 120})

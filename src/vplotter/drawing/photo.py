@@ -1,18 +1,19 @@
-"""A photograph on the page: its size, its strokes in a style, and the density that fits the
-plot-time budget.
+"""A photograph on the page: its size, its strokes in a style, and the density that fits the plot-
+time budget.
 
-The picture is sized first (--width, --height, or the largest size inside the page less
---margin, aspect kept), because the line spacing only means something at the final size; it
-is loaded once at the resolution the pen can show; then `budget.fit` tries densities of the
-style, each placed on the page, put in a quick order (greedy; the stipples' own tour) and
-timed by the caller's planner, and keeps the densest that fits; then (`pick_curve`) the same
-for other tone curves (exponents either side, and curves fitted to the drawing's own measured
-response: `inputs/image/calibrate.py`), each drawing scored against the picture
-(`inputs/image/score.py`), the best kept. Stipples search on each spacing's own curve
-(smooth in spacing), then choose their curve once, at the spacing found, and search again
-with it. Last, `budget.fill` puts the drawing in its final order (--order best: `order.py`'s;
-the stipples keep their tour; never longer than the quick order) and spends the time that
-saves on a denser spacing.
+The picture is sized first (--width, --height, or the largest size about G-code X0 Y0 inside
+the page less --margin, aspect kept; centred on X0 Y0 as every drawing is: `place.origin`),
+because the line spacing only means something at the final size; it is loaded once at the
+resolution the pen can show; then `budget.fit` tries densities of the style, each placed on the
+page, put in a quick order (greedy; the stipples' own tour) and timed by the caller's planner,
+and keeps the densest that fits; then (`pick_curve`) the same for other tone curves (exponents
+either side, and curves fitted to the drawing's own measured response:
+`inputs/image/calibrate.py`), each drawing scored against the picture
+(`inputs/image/score.py`), the best kept. Stipples search on each spacing's own curve (smooth
+in spacing), then choose their curve once, at the spacing found, and search again with it.
+Last, `budget.fill` puts the drawing in its final order (--order best: `order.py`'s; the
+stipples keep their tour; never longer than the quick order) and spends the time that saves on
+a denser spacing.
 """
 
 from __future__ import annotations
@@ -90,8 +91,8 @@ def size_mm(aspect: float, opts: PhotoOptions, page: place.Box, margin_mm: float
         return float(opts.width_mm), float(opts.width_mm / aspect)
     elif opts.height_mm:
         return float(opts.height_mm * aspect), float(opts.height_mm)
-    else:                          # the largest inside the page (a polar machine: its reach)
-        k = place.largest((aspect, 1.0), page, margin_mm)
+    else:               # the largest about X0 Y0 inside the page (a polar machine: its reach)
+        k = place.largest((aspect, 1.0), page, margin_mm, place.origin(page))
         if (page.size - 2 * margin_mm <= 0).any() or not k > 0:
             raise ConfigError(f"error: --margin {margin_mm:g} leaves no room on the page")
         return float(k * aspect), float(k)
@@ -171,7 +172,7 @@ def _frame(placement: place.Placement, page: place.Box, w: float, h: float):
     that then rotates, aligns and offsets it as asked): the picture's frame is placed (the
     same for every density), and must lie on the page."""
     put = replace(placement, fit=False)
-    shift = page.centre - np.array([w / 2, h / 2])
+    shift = place.origin(page) - np.array([w / 2, h / 2])     # centred where every drawing is
     frame = np.array([[0.0, 0.0], [w, 0.0], [w, h], [0.0, h]]) + shift
     A, b = place.matrix(put, frame, page)
     off = place.outside(frame @ A.T + b, page)

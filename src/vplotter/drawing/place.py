@@ -64,17 +64,27 @@ class Box:
         return np.array([self.x_max - self.x_min, self.y_max - self.y_min])
 
 
-def largest(size, page: Box, margin_mm: float) -> float:
-    """The largest scale of an extent `size` (w, h) centred on the page's centre that keeps it
-    inside the page less margin_mm and, on a polar machine, its corners inside the reach less
-    margin_mm (inf for an extent of no size; 0 or less: no room)."""
+def origin(page: Box) -> np.ndarray:
+    """Where a drawing without a placement option is centred: G-code X0 Y0, the point
+    `calibrate --at 0 0` names and G-code files draw around, for every kind of file (SVG, DXF
+    and photos alike); the page's centre if X0 Y0 is off the page."""
+    at = np.zeros(2)
+    return at if outside(at, page) < 0 else page.centre
+
+
+def largest(size, page: Box, margin_mm: float, centre=None) -> float:
+    """The largest scale of an extent `size` (w, h) centred on `centre` (default: the page's
+    centre) that keeps it inside the page less margin_mm and, on a polar machine, its corners
+    inside the reach less margin_mm (inf for an extent of no size; 0 or less: no room)."""
     w, h = (float(v) for v in size)
-    room = page.size - 2 * margin_mm
+    c = page.centre if centre is None else np.asarray(centre, dtype=float)
+    room = 2 * np.minimum(c - np.array([page.x_min, page.y_min]),
+                          np.array([page.x_max, page.y_max]) - c) - 2 * margin_mm
     k = min([room[i] / v for i, v in enumerate((w, h)) if v > 1e-12] or [math.inf])
     if page.reach is not None and (w > 1e-12 or h > 1e-12):
         x, y, r = page.reach
         r -= margin_mm + REACH_IN_MM
-        dx, dy = abs(page.centre[0] - x), abs(page.centre[1] - y)
+        dx, dy = abs(c[0] - x), abs(c[1] - y)
         # the far corner (dx + k w / 2, dy + k h / 2) on the circle: a k^2 + b k + c = 0
         qa, qb, qc = (w * w + h * h) / 4, dx * w + dy * h, dx * dx + dy * dy - r * r
         k = min(k, (-qb + math.sqrt(qb * qb - 4 * qa * qc)) / (2 * qa) if qc < 0 else 0.0)
