@@ -19,7 +19,7 @@ from vplotter.inputs.gcode_pen import (CLASSIC, END_M, PEN_MODES, PenDialect,  #
 from vplotter.inputs.gcode_tools import (Tools, comment_pen, comment_text, pen_message,
                                          scan, tool_name)
 from vplotter.inputs.gcode_words import (ALLOWED_LETTERS, LineWords, _blank,  # noqa: F401
-                                        sort_words, tokenize)
+                                        read_line, sort_words, tokenize)
 
 MM_PER_INCH = 25.4
 MAX_VALUE = 1e6  # mm for X Y Z I J R, seconds for P: anything larger is a typo
@@ -116,11 +116,9 @@ class Parser:
             if not self.after_end_line and not _blank(raw.replace("%", "")):
                 self.after_end_line = line
             return
-        where = f"{self.name}:{line}"
-        words = tokenize(raw, where)
-        if not words:
+        b = read_line(raw, line, self.name)
+        if b is None:
             return
-        b = sort_words(raw, words, line, where)
         if b.g_codes:
             self._g_codes(b)
         if b.vals:
@@ -140,7 +138,7 @@ class Parser:
             yield from self._move(b.vals, line, b.motion_col)
         if b.stop is not None:
             code, col = _fmt_code("M", b.stop[0]), b.stop[1]
-            pen = comment_pen(raw, where)
+            pen = comment_pen(raw, f"{self.name}:{line}")
             if pen is not None:
                 yield from self._change(line, pen, col, code)
             else:
@@ -171,6 +169,11 @@ class Parser:
                 raise self._err(b.line, col, f"unsupported code {_fmt_code('G', value)}{hint}")
 
     def _check_range(self, b: LineWords) -> None:
+        for value, _ in b.vals.values():  # a quick look first: |v| * 25.4 < MAX_VALUE
+            if not -39000.0 < value < 39000.0:
+                break
+        else:
+            return
         for letter in "XYZIJRP":
             if letter in b.vals:
                 value, col = b.vals[letter]
@@ -225,7 +228,7 @@ class Parser:
         if b.motion is not None:
             self.motion = b.motion
         b.has_xy = "X" in vals or "Y" in vals
-        b.has_arc_words = any(k in vals for k in "IJR")
+        b.has_arc_words = "I" in vals or "J" in vals or "R" in vals
         if (b.has_xy or b.has_arc_words) and self.motion is None:
             letter = next(k for k in "XYIJR" if k in vals)
             raise self._err(b.line, vals[letter][1],
