@@ -135,7 +135,7 @@ class Parser:
         if b.dwell_col:
             yield Dwell(line, b.dwell_col, b.vals["P"][0])
         if b.has_xy or (b.has_arc_words and self.motion in (2.0, 3.0)):
-            yield from self._move(b.vals, line, b.motion_col)
+            yield self._move(b.vals, line, b.motion_col)
         if b.stop is not None:
             code, col = _fmt_code("M", b.stop[0]), b.stop[1]
             pen = comment_pen(raw, f"{self.name}:{line}")
@@ -324,7 +324,7 @@ class Parser:
                                     f"nor pen down (S {down[0]:g}..{down[1]:g}); see [gcode] "
                                     f"m280_up_s and m280_down_s in the config")
 
-    def _move(self, vals: dict, line: int, col: int) -> Iterator[Move]:
+    def _move(self, vals: dict, line: int, col: int) -> Move:
         s = self.scale
         x0, y0 = self.x, self.y
         if self.relative:
@@ -339,9 +339,8 @@ class Parser:
                                            f"(at most {MAX_VALUE:.0f} mm)")
         self.x, self.y = x1, y1
         if self.motion in (0.0, 1.0):
-            yield Move(line, col, x0, y0, x1, y1, 0, rapid=self.motion == 0.0,
-                       feed_mm_s=self.feed_mm_s)
-            return
+            return Move(line, col, x0, y0, x1, y1, 0, 0.0, 0.0, self.motion == 0.0,
+                        self.feed_mm_s)
         arc = -1 if self.motion == 2.0 else 1
         if "R" in vals:
             if "I" in vals or "J" in vals:
@@ -364,7 +363,7 @@ class Parser:
             if self.strict:
                 raise self._err(line, col, msg)
             self.warn(f"{self.name}:{line}:{col}: warning: {msg}; drawing a spiral")
-        yield Move(line, col, x0, y0, x1, y1, arc, cx, cy, False, self.feed_mm_s)
+        return Move(line, col, x0, y0, x1, y1, arc, cx, cy, False, self.feed_mm_s)
 
     def _r_centre(self, x0, y0, x1, y1, r, arc, line, col) -> tuple[float, float]:
         dx, dy = x1 - x0, y1 - y0
