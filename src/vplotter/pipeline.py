@@ -140,6 +140,9 @@ def _schedule(cfg, steps: Iterator[Step], counts, ref_mm, emit: bool, summary: S
     for step in steps:
         kind = type(step)
         if kind is Motion:
+            if not emit and type(sched).motion is Scheduler.motion:  # as below, in one pass
+                sched.quiet(step.block, _bounds(step.block, spu))
+                continue
             for part in _parts(step.block, spu):
                 rows = sched.motion(part, emit)
                 if rows is not None and emit:
@@ -194,17 +197,24 @@ def pen_down_us(cfg: Config, pen: str | None) -> int:
 def _parts(block: Block, spu: np.ndarray) -> Iterator[Block]:
     """A block in parts of about STEPS_PER_PART steps (whole pieces), so that the rows of one
     part stay small however long the pieces are (a block holds up to 2 x 2048 pieces)."""
+    bounds = _bounds(block, spu)
+    if len(bounds) == 1:
+        yield block
+        return
+    for i, j in bounds:
+        yield _slice(block, i, j)
+
+
+def _bounds(block: Block, spu: np.ndarray) -> list[tuple[int, int]]:
+    """The parts of `_parts` as (first piece, end) pairs."""
     steps = (np.abs(np.diff(block.cords, axis=0)) * spu).sum(axis=1)
     total = float(steps.sum())
     if total <= STEPS_PER_PART:
-        yield block
-        return
+        return [(0, len(steps))]
     cum = np.cumsum(steps)
     cuts = np.unique(np.searchsorted(cum, np.arange(STEPS_PER_PART, total, STEPS_PER_PART)) + 1)
-    i = 0
-    for j in [*cuts[cuts < len(steps)].tolist(), len(steps)]:
-        yield _slice(block, i, j)
-        i = j
+    ends = [*cuts[cuts < len(steps)].tolist(), len(steps)]
+    return list(zip([0, *ends[:-1]], ends))
 
 
 def plan(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str,

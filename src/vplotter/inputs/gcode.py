@@ -19,7 +19,7 @@ from vplotter.inputs.gcode_pen import (CLASSIC, END_M, PEN_MODES, PenDialect,  #
 from vplotter.inputs.gcode_tools import (Tools, comment_pen, comment_text, pen_message,
                                          scan, tool_name)
 from vplotter.inputs.gcode_words import (ALLOWED_LETTERS, LineWords, _blank,  # noqa: F401
-                                        sort_words, tokenize)
+                                        read_line, sort_words, tokenize)
 
 MM_PER_INCH = 25.4
 MAX_VALUE = 1e6  # mm for X Y Z I J R, seconds for P: anything larger is a typo
@@ -116,11 +116,9 @@ class Parser:
             if not self.after_end_line and not _blank(raw.replace("%", "")):
                 self.after_end_line = line
             return
-        where = f"{self.name}:{line}"
-        words = tokenize(raw, where)
-        if not words:
+        b = read_line(raw, line, self.name)
+        if b is None:
             return
-        b = sort_words(raw, words, line, where)
         if b.g_codes:
             self._g_codes(b)
         if b.vals:
@@ -137,10 +135,10 @@ class Parser:
         if b.dwell_col:
             yield Dwell(line, b.dwell_col, b.vals["P"][0])
         if b.has_xy or (b.has_arc_words and self.motion in (2.0, 3.0)):
-            yield from self._move(b.vals, line, b.motion_col)
+            yield self._move(b.vals, line, b.motion_col)
         if b.stop is not None:
             code, col = _fmt_code("M", b.stop[0]), b.stop[1]
-            pen = comment_pen(raw, where)
+            pen = comment_pen(raw, f"{self.name}:{line}")
             if pen is not None:
                 yield from self._change(line, pen, col, code)
             else:
@@ -171,6 +169,11 @@ class Parser:
                 raise self._err(b.line, col, f"unsupported code {_fmt_code('G', value)}{hint}")
 
     def _check_range(self, b: LineWords) -> None:
+        for value, _ in b.vals.values():  # a quick look first: |v| * 25.4 < MAX_VALUE
+            if not -39000.0 < value < 39000.0:
+                break
+        else:
+            return
         for letter in "XYZIJRP":
             if letter in b.vals:
                 value, col = b.vals[letter]
@@ -225,7 +228,7 @@ class Parser:
         if b.motion is not None:
             self.motion = b.motion
         b.has_xy = "X" in vals or "Y" in vals
-        b.has_arc_words = any(k in vals for k in "IJR")
+        b.has_arc_words = "I" in vals or "J" in vals or "R" in vals
         if (b.has_xy or b.has_arc_words) and self.motion is None:
             letter = next(k for k in "XYIJR" if k in vals)
             raise self._err(b.line, vals[letter][1],
@@ -321,7 +324,7 @@ class Parser:
                                     f"nor pen down (S {down[0]:g}..{down[1]:g}); see [gcode] "
                                     f"m280_up_s and m280_down_s in the config")
 
-    def _move(self, vals: dict, line: int, col: int) -> Iterator[Move]:
+    def _move(self, vals: dict, line: int, col: int) -> Move:
         s = self.scale
         x0, y0 = self.x, self.y
         if self.relative:
@@ -336,9 +339,8 @@ class Parser:
                                            f"(at most {MAX_VALUE:.0f} mm)")
         self.x, self.y = x1, y1
         if self.motion in (0.0, 1.0):
-            yield Move(line, col, x0, y0, x1, y1, 0, rapid=self.motion == 0.0,
-                       feed_mm_s=self.feed_mm_s)
-            return
+            return Move(line, col, x0, y0, x1, y1, 0, 0.0, 0.0, self.motion == 0.0,
+                        self.feed_mm_s)
         arc = -1 if self.motion == 2.0 else 1
         if "R" in vals:
             if "I" in vals or "J" in vals:
@@ -361,7 +363,7 @@ class Parser:
             if self.strict:
                 raise self._err(line, col, msg)
             self.warn(f"{self.name}:{line}:{col}: warning: {msg}; drawing a spiral")
-        yield Move(line, col, x0, y0, x1, y1, arc, cx, cy, False, self.feed_mm_s)
+        return Move(line, col, x0, y0, x1, y1, arc, cx, cy, False, self.feed_mm_s)
 
     def _r_centre(self, x0, y0, x1, y1, r, arc, line, col) -> tuple[float, float]:
         dx, dy = x1 - x0, y1 - y0

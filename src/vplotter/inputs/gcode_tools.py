@@ -61,8 +61,8 @@ def scan(lines: Iterable[str]) -> tuple[bool, tuple[str, ...]]:
     events = []
     has_m6 = False
     for raw in lines:
-        if not _HINT.search(raw):
-            continue
+        if not ("M" in raw or "T" in raw or "m" in raw or "t" in raw) or not _HINT.search(raw):
+            continue  # the first test is quicker than the search, which needs one of these
         try:
             words = tokenize(raw, "")
         except InputError:

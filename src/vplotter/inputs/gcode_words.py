@@ -15,6 +15,12 @@ ALLOWED_LETTERS = set("GMXYZIJRFPNST")
 _NUMBER = re.compile(r"[ \t]*([+-]?[ \t]*(?:[0-9]+\.?[0-9]*|\.[0-9]+))")
 _CHECKSUM = re.compile(r"\*[ \t]*([0-9]+)")
 _COMMENT = re.compile(r"\([^)]*\)|;.*")
+# The common line, read by two regular expressions instead of a loop over its characters
+# (`read_line`): words of the allowed letters with plain numbers, (comments), a ; comment at
+# the end. Anything else (checksums, %, a sign apart from its digits, errors) takes the loop.
+_WORD = r"[ \t]*+([GMXYZIJRFPNSTgmxyzijrfpnst])[ \t]*+([+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+))"
+_PLAIN_LINE = re.compile(rf"(?:{_WORD}|[ \t]*+\([^)]*\))*[ \t]*+(?:;.*)?", re.S)
+_PLAIN_WORD = re.compile(rf"{_WORD}|\([^)]*\)|;.*", re.S)
 
 
 def _blank(text: str) -> bool:
@@ -139,3 +145,35 @@ def sort_words(raw: str, words: list, line: int, where: str) -> LineWords:
                 raise InputError(f"{where}:{col}: error: {letter} appears twice on the line")
             vals[letter] = (value, col)
     return LineWords(raw, line, words[0][2], vals, g_codes, m_codes)
+
+
+def read_line(raw: str, line: int, name: str) -> LineWords | None:
+    """`sort_words(tokenize(raw))`, or None for a line without words; a plain line (the
+    common case) is read without the loop over its characters, to the same result."""
+    text = raw.rstrip("\r\n")
+    if _PLAIN_LINE.fullmatch(text):
+        g_codes: list[tuple[float, int]] = []
+        m_codes: list[tuple[float, int]] = []
+        vals: dict[str, tuple[float, int]] = {}
+        first = 0
+        for m in _PLAIN_WORD.finditer(text):
+            letter = m[1]
+            if not letter:
+                continue
+            letter, value, col = letter.upper(), float(m[2]), m.start(1) + 1
+            if letter == "G":
+                g_codes.append((value, col))
+            elif letter == "M":
+                m_codes.append((value, col))
+            elif letter in vals or (letter == "N" and first) or not math.isfinite(value):
+                break  # an error: the loop below reports it
+            elif letter != "N":
+                vals[letter] = (value, col)
+            first = first or col
+        else:
+            if not first:
+                return None
+            return LineWords(raw, line, first, vals, g_codes, m_codes)
+    where = f"{name}:{line}"
+    words = tokenize(raw, where)
+    return sort_words(raw, words, line, where) if words else None

@@ -217,12 +217,12 @@ class Scheduler:
         self.steps_total += np.abs(np.diff(targets, axis=0)).sum(axis=0)
         t0 = self.t_us
         self.t_us_floor = t0
-        starts = np.concatenate(([0.0], np.cumsum(dur)[:-1]))
         self.t_us = t0 + int(round(float(dur.sum()) * 1e6))
         if not emit:
             self.drv.advance(targets[-1] - targets[0])
             self._advance(targets, block)
             return None
+        starts = np.concatenate(([0.0], np.cumsum(dur)[:-1]))
         e = block.e
         T, S, V, A, s_cru, s_dec = block.phase_table(starts)
         table = (T * 1e6 + t0, S, V * 1e-6, A * 1e-12, s_cru, s_dec)   # in microseconds
@@ -260,6 +260,23 @@ class Scheduler:
             rows = [self._steps(t_all[order], motor, dirn, block.line[piece], head)]
         self._advance(targets, block)
         return Rows.concat(rows) if len(rows) > 1 else (rows[0] if rows else None)
+
+    def quiet(self, block: Block, parts: list[tuple[int, int]]) -> None:
+        """`motion(block[i:j], emit=False)` for each part (i, j) in turn, in one pass over the
+        block: the clock, the counts, the steps and the drivers end as they would."""
+        if not self.energized:
+            rows: list = []
+            self._energize(rows, False)
+            start = np.rint((block.cords[0] - self.ref) * self.spu).astype(np.int64)
+            self._take_up(rows, start, False)
+        targets = self.targets(block)
+        self.steps_total += np.abs(np.diff(targets, axis=0)).sum(axis=0)
+        dur = block.durations
+        for i, j in parts:   # a part's durations are dur[i:j], its targets targets[i:j + 1]
+            self.t_us_floor = self.t_us
+            self.t_us += int(round(float(dur[i:j].sum()) * 1e6))
+            self.drv.advance(targets[j] - targets[i])
+        self._advance(targets, block)
 
     def _advance(self, targets: np.ndarray, block: Block) -> None:
         self.counts = targets[-1].copy()
