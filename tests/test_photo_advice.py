@@ -13,15 +13,9 @@ import pytest
 from PIL import Image, ImageDraw, ImageFilter
 
 from vplotter import budget
+from support.cli import run
 from vplotter.cli import main
 from vplotter.drawing import advice
-
-
-def run(capsys, argv) -> tuple[int, str, str]:
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    assert "Traceback" not in err
-    return code, out, err
 
 
 @pytest.fixture

@@ -15,17 +15,11 @@ from PIL import Image, ImageDraw
 from support import tracecheck as tc
 from support import REPO
 from vplotter import budget
+from support.cli import run
 from vplotter.cli import main
 
 STYLES = ("hatch", "spiral", "squiggle", "stipple")
 PAGE_CENTRE = (0.0, 0.0)         # where a photo is centred: G-code X0 Y0 (docs: Placement)
-
-
-def run(capsys, argv) -> tuple[int, str, str]:
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    assert "Traceback" not in err
-    return code, out, err
 
 
 @pytest.fixture

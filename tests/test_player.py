@@ -15,14 +15,11 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from support import tracecheck as tc
-from support.backends import SHORT, concat, make_rows, steady
+from support.backends import cfg, concat, make_rows, parts, steady  # noqa: F401 - fixtures
 from support.fake_lgpio import SimClock
-from vplotter import config, kinematics, pipeline
-from vplotter.machine import state
+from vplotter import config
 from vplotter.backends import create
 from vplotter.backends.realtime import ORDER, Player, bit_order
-from vplotter.inputs import gcode
-from vplotter.machine.ahead import stretches as _split
 from vplotter.motion.sequencer import TABLES
 
 from support import REPO
@@ -31,19 +28,6 @@ CFG = config.load(REPO / "config.toml")
 TC_CFG = tc.load_config(REPO / "config.toml")
 PINS = [*CFG.motors.left_pins, *CFG.motors.right_pins]
 MIN_STEP_US = 1e6 / CFG.motors.max_step_rate
-
-
-@pytest.fixture(scope="module")
-def parts(tmp_path_factory):
-    path = tmp_path_factory.mktemp("g") / "short.ngc"
-    path.write_text(SHORT)
-    kin = kinematics.from_config(CFG)
-    cords = kin.inverse(kin.to_machine(np.array([[0.0, 0.0]])))[0]
-    pos = state.Position.at_cords(cords[0], cords[1], CFG.motors.steps_per_unit)
-    out = []
-    for rows in pipeline.stream(CFG, gcode.read(str(path)), pos.counts, pos.ref_mm):
-        out.extend(_split(rows))
-    return out
 
 
 class Pins:
