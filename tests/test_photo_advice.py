@@ -14,7 +14,6 @@ from PIL import Image, ImageDraw, ImageFilter
 
 from vplotter import budget
 from support.cli import run
-from vplotter.cli import main
 from vplotter.drawing import advice
 
 

@@ -16,7 +16,6 @@ from support import tracecheck as tc
 from support import REPO
 from vplotter import budget
 from support.cli import run
-from vplotter.cli import main
 
 STYLES = ("hatch", "spiral", "squiggle", "stipple")
 PAGE_CENTRE = (0.0, 0.0)         # where a photo is centred: G-code X0 Y0 (docs: Placement)
