@@ -85,7 +85,7 @@ def usage_error(parser: argparse.ArgumentParser, message: str) -> str:
         near = _near(word, choices)
         if what == "COMMAND":
             return (f"'{word}' is not a command" + (f"; did you mean '{near}'?" if near else "")
-                    + f" (vplotter --help lists them)")
+                    + " (vplotter --help lists them)")
         what = what if what.startswith("-") else f"the {what}"
         return (f"{what} {word}: not a choice" + (f"; did you mean {near}?" if near else "")
                 + f" (choose from {', '.join(choices)})")

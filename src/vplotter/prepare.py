@@ -206,13 +206,3 @@ def _timed(prep: Prepared, strokes: list, plot_time) -> float:
 
     strokes = resolve(strokes, prep.owned)      # the pens' speeds count (resolved: unchanged)
     return plot_time(_replace(prep, _strokes=strokes, _firsts=[], _drawing=None).records())
-
-
-def check_readable(path: str) -> None:
-    """The same one-line errors for a missing file or a directory, whatever its type."""
-    import os
-
-    if os.path.isdir(path):
-        raise InputError(f"{path}: error: is a directory, not a drawing file")
-    if not os.path.exists(path):
-        raise InputError(f"{path}: error: no such file")
