@@ -16,7 +16,6 @@ import time
 from dataclasses import dataclass, field
 from typing import Callable, Iterator
 
-from vplotter.errors import InputError
 # the file options and the readers, where they were before (imported by name elsewhere)
 from vplotter.file_options import (_number, add_file_options, join_limit,  # noqa: F401
                                    options_key, photo_options, placement)
