@@ -38,7 +38,7 @@ from typing import Callable
 
 import numpy as np
 
-from vplotter.errors import InputError
+from vplotter.errors import InputError, unreadable
 from vplotter.inputs import dxf_geom
 from vplotter.inputs.dxf_geom import (MAX_POINTS, Broken, entry, first_line, local_tol,
                                       m44)
@@ -103,12 +103,12 @@ def _open(path: str):
     except ImportError:     # pragma: no cover - a dependency; the message says what to do
         raise InputError(f"{path}: error: reading DXF needs the ezdxf package "
                          f"(pip install ezdxf)") from None
-    if os.path.isdir(path):
-        raise InputError(f"{path}: error: is a directory, not a DXF file")
     try:
+        if os.path.isdir(path):
+            raise IsADirectoryError(path)
         size = os.path.getsize(path)
-    except OSError as e:
-        raise InputError(f"{path}: error: cannot read: {e.strerror}") from None
+    except OSError as e:         # the same one line as every reader's (errors.unreadable)
+        raise unreadable(path, e, "a DXF file") from None
     if size == 0:
         raise InputError(f"{path}: error: the file is empty, not a DXF file")
     try:
