@@ -98,6 +98,13 @@ def draw_file(args, argv=None) -> DrawStarted | None:
 
         serial.draw(args, argv, cfg, pos, begin, PauseHandler(args.dry_run))
         return None
+    return draw_from(args, argv, cfg, pos, begin)
+
+
+def draw_from(args, argv, cfg, pos, begin=None, reached=None) -> DrawStarted | None:
+    """Draw FILE from the position `pos` (the lock taken): `draw`'s, and the Python API's
+    `Plotter.draw_file` (vplotter/api.py). reached(position): told where the pen is once the
+    file is drawn (the API goes on from there)."""
     # the session (lock, pins, signal handlers) is open first, so that a signal at any moment
     # ends the same way; nothing is output before the whole file has been validated
     with session(args, cfg, command_line(argv), pos, draw_job(args, argv, cfg)) as s:
@@ -105,6 +112,8 @@ def draw_file(args, argv=None) -> DrawStarted | None:
         if args.detach and summary is not None:
             return _detach(args, argv, s, said[0])
         _play(args, cfg, pos, begin, s, prep, summary)
+    if reached is not None:
+        reached(s.here())
     return None
 
 
