@@ -42,8 +42,11 @@ def append(rec: dict) -> None:
     path = history_path()
     path.parent.mkdir(parents=True, exist_ok=True)
     data = (json.dumps(rec) + "\n").encode()
-    fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+    fd = os.open(path, os.O_RDWR | os.O_APPEND | os.O_CREAT, 0o644)
     try:
+        size = os.fstat(fd).st_size
+        if size and os.pread(fd, 1, size - 1) != b"\n":      # a torn last line: end it
+            data = b"\n" + data
         os.write(fd, data)
         os.fsync(fd)
     finally:
