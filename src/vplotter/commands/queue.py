@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from vplotter.budget import clock_text
 from vplotter.commands.common import (add_machine_options, answering, eprint, load_config,
                                       say)
-from vplotter.errors import ConfigError, Interrupted, VplotterError
+from vplotter.errors import ConfigError, Interrupted, MachineError, VplotterError
 
 
 # ---------------------------------------------------------------- the command line
@@ -244,6 +244,8 @@ def run_queue(args, argv) -> QueueStarted | None:
 
     cfg = load_config(args)
     if not queue.jobs():
+        if args.detach:
+            raise MachineError("error: the queue is empty: nothing to draw")
         say("the queue is empty: `vplotter queue add FILE` puts a drawing in it")
         return None
     if args.detach and args.dry_run:

@@ -155,7 +155,9 @@ def copy_done(job_id: int) -> dict | None:
     """One more copy of job_id is drawn: the job (None once all its copies are drawn and it
     has left the queue)."""
     with changing() as data:
-        job = find(data, job_id)
+        job = next((j for j in data["jobs"] if j["id"] == job_id), None)
+        if job is None:                  # taken out of the queue while it was drawn
+            return None
         job["done"] = int(job["done"]) + 1
         job["stopped"] = False
         left = job["done"] < int(job["copies"])
@@ -168,7 +170,9 @@ def copy_done(job_id: int) -> dict | None:
 
 def mark_stopped(job_id: int, stopped: bool = True) -> None:
     with changing() as data:
-        find(data, job_id)["stopped"] = stopped
+        for job in data["jobs"]:
+            if job["id"] == job_id:
+                job["stopped"] = stopped
 
 
 def left_s(job: dict) -> float:

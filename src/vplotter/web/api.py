@@ -17,6 +17,7 @@ from pathlib import Path
 from vplotter.web.answers import body_json, error, first_line  # noqa: F401 - app uses error
 from vplotter.web.drawings import DrawingHandlers
 from vplotter.web.files import FileError
+from vplotter.web.queue import QueueHandlers
 from vplotter.web.setup import SetupHandlers
 
 STATUS_TTL_S = 0.3         # one status read serves every client asking within this time
@@ -66,10 +67,16 @@ def routes(state: State):
         Route("/api/setup", h.setup, methods=["GET"]),
         Route("/api/jog", h.jog, methods=["POST"]),
         Route("/api/events", h.events, methods=["GET"]),
+        Route("/api/queue", h.get_queue, methods=["GET"]),
+        Route("/api/queue", h.add_job, methods=["POST"]),
+        Route("/api/queue/run", h.run_queue, methods=["POST"]),
+        Route("/api/queue/{id}", h.remove_job, methods=["DELETE"]),
+        Route("/api/queue/{id}/move", h.move_job, methods=["POST"]),
+        Route("/api/history", h.get_history, methods=["GET"]),
     ]
 
 
-class Handlers(DrawingHandlers, SetupHandlers):
+class Handlers(DrawingHandlers, SetupHandlers, QueueHandlers):
     """The routes' handlers. What moves the plotter is asked of the Machine, whose answers
     are values (result objects with a `message`, or a VplotterError with its exit code)."""
 
