@@ -212,6 +212,24 @@ class Machine:
 
         return QueueStarted(**self._result(["queue", "run", "--detach"]))
 
+    def now_paths(self) -> dict | None:
+        """The running draw's planned path (commands/drawn.py), made once per drawing; None
+        when nothing is drawn."""
+        from vplotter.commands import drawn
+        from vplotter.machine import live
+
+        running = live.read()
+        if not running:
+            return None
+        key = (running["pid"], running["command"], running["file"])
+        cached = getattr(self, "_paths", None)
+        if cached is not None and cached[0] == key:
+            return cached[1]
+        got = drawn.paths(self.cfg, running)
+        if got is not None:
+            self._paths = (key, got)
+        return got
+
     def history(self) -> list[dict]:
         """`history --json`: the plots, oldest first."""
         from vplotter.machine import history

@@ -1,5 +1,6 @@
 """The handlers of the job queue and the history: GET/POST /api/queue, DELETE /api/queue/ID,
-POST /api/queue/ID/move, POST /api/queue/run, GET /api/history.
+POST /api/queue/ID/move, POST /api/queue/run, GET /api/history; and GET /api/now/paths, the
+running draw's planned path (the page shows the part drawn grow on it).
 
 A job is added from the upload folder (its name there, with the options kept for it unless
 the request gives its own), validated as `vplotter queue add` validates it (400 with the
@@ -90,3 +91,14 @@ class QueueHandlers(Acting):
         from starlette.responses import JSONResponse
 
         return JSONResponse(await asyncio.to_thread(self.state.machine.history))
+
+    async def now_paths(self, request):
+        """The running draw's planned path, once per drawing (the page draws the part done
+        from the events' `line`); 404 when nothing is drawn."""
+        from starlette.responses import JSONResponse
+
+        async with self.state.working:
+            got = await asyncio.to_thread(self.state.machine.now_paths)
+        if got is None:
+            return error(404, "nothing is being drawn")
+        return JSONResponse(got, headers={"Cache-Control": "no-store"})
