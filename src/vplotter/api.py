@@ -398,7 +398,8 @@ def _file_args(command: str, path: str, options: dict):
     """The arguments of `vplotter COMMAND PATH` with `options` (draw's file options as
     keywords: fit=True, offset=(10, 0), layer=["a"]), parsed by the command's own parser, so
     that a bad value is refused as the command line refuses it (ConfigError, one line)."""
-    from vplotter import cli
+    from vplotter.commands import draw
+    from vplotter.commands.usage import Parser
 
     bad = sorted(set(options) & MACHINE_OPTIONS)
     if bad:
@@ -419,13 +420,13 @@ def _file_args(command: str, path: str, options: dict):
         else:
             argv += [flag, str(value)]
 
-    class _Parser(cli.Parser):
+    class _Parser(Parser):
         def exit(self, status: int = 0, message: str | None = None):
             raise ConfigError((message or "error: bad option").strip().replace(
                 f"{self.prog}: ", "", 1))
 
     parser = _Parser(prog=f"Plotter.{'draw_file' if command == 'draw' else command}")
-    cli.COMMANDS[command][1](parser)
+    (draw.add_draw if command == "draw" else draw.add_estimate)(parser)
     args = parser.parse_args(argv)
     args.command = command
     args.config = None
