@@ -93,7 +93,7 @@ def measure(name: str, strokes, folder: Path) -> str:
 
 
 def main() -> None:
-    print("| drawing | moves | parts | trace rows identical | tracecheck problems (0.02 mm) "
+    print("| drawing | moveto + lineto | parts | trace rows identical | tracecheck problems (0.02 mm) "
           "| plot time, API | plot time, file | ratio | host time, API | host time, draw |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     with tempfile.TemporaryDirectory() as tmp:

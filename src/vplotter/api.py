@@ -319,7 +319,8 @@ class Plotter:
     def draw_file(self, path: str | os.PathLike, **options: Any) -> None:
         """Draw a file as `vplotter draw FILE` does, with draw's file options as keywords
         (fit=True, offset=(10, 0), rotate=90, order="best", layer=["ink"], ...), from where the
-        pen is; the script goes on from where the file ends."""
+        pen is; the script goes on from where the file ends. An error in the file (or a stop)
+        ends the Plotter as it ends `draw` (`estimate(path)` checks a file without moving)."""
         from vplotter.commands import draw
 
         self._check()
@@ -335,12 +336,17 @@ class Plotter:
         reached: list = []
         try:
             draw.draw_from(args, None, self.cfg, pos, reached=reached.append)
-        except Interrupted as e:
-            self._start(pos, trace=False)
-            self._stopped_idle = False
-            raise self._stopped(e.signum) from None
-        except BaseException:
-            self._start(pos, trace=False)
+        except BaseException as e:
+            # the draw's session left the machine safe and stored where it stopped: the
+            # Plotter ends here (its `with` block sees the error)
+            from vplotter.machine import lock
+
+            self._open = False
+            lock.release_all()
+            if isinstance(e, Interrupted):
+                raise Stopped(f"{e}: {args.file} stopped; pen lifted, coils released"
+                              f"{'' if self._args.dry_run else ', position saved'}",
+                              e.signum) from None
             raise
         self._start(reached[0], trace=False)
 
