@@ -371,8 +371,8 @@ class Plotter:
     def _estimate_file(self, path: str, options: dict):
         import numpy as np
 
-        from vplotter import kinematics, pipeline
-        from vplotter.commands import files
+        from vplotter import kinematics
+        from vplotter.commands import draw
 
         args = _file_args("estimate", path, options)
         pos = self._session.position
@@ -384,9 +384,8 @@ class Plotter:
         q = kin.inverse(kin.to_machine(np.asarray([self._xy], dtype=float)))[0]
         counts = np.rint((q - np.asarray(pos.ref_mm)) * np.asarray(self.cfg.motors.steps_per_unit))
         here = pos.moved_to((int(counts[0]), int(counts[1])))
-        prep = files.prepare_file(args, self.cfg, here, warn=lambda m: None, say_notes=False)
-        return pipeline.validate(self.cfg, prep.records(), here.counts, here.ref_mm, path,
-                                 where=prep.where)
+        return draw.estimate_file(args, self.cfg, here, warn=lambda m: None,
+                                  say_notes=False)[1]
 
 
 def _estimate(s) -> Estimate:
