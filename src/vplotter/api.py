@@ -24,6 +24,7 @@ import math
 import os
 import sys
 from dataclasses import dataclass
+from types import TracebackType
 from typing import Any, Iterable, Sequence
 
 from vplotter.errors import BusyError, ConfigError, Interrupted, MachineError
@@ -144,7 +145,8 @@ class Plotter:
         self._chain = pipeline.Chain(self.cfg, pos.counts, pos.ref_mm, self._command,
                                      where=self._where, park=self._xy)
 
-    def __exit__(self, exc_type, exc, tb) -> bool:
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> bool:
         if not self._open:
             return False
         try:
