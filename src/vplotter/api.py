@@ -24,9 +24,11 @@ import math
 import os
 import sys
 from dataclasses import dataclass
+from types import TracebackType
 from typing import Any, Iterable, Sequence
 
 from vplotter.errors import BusyError, ConfigError, Interrupted, MachineError
+from vplotter.machine.job import DrawJob
 
 __all__ = ["Estimate", "Plotter", "Stopped"]
 
@@ -54,6 +56,14 @@ class Estimate:
     pen_lifts: int
     moves: int
     text: str
+
+
+class _ScriptJob(DrawJob):
+    """A script's session: it waits at a pen change as `draw` does (`on_pause`), and stores
+    nothing to resume (a script is no file that `draw --resume` could go on with)."""
+
+    def record(self) -> dict:
+        return {}
 
 
 def _point(what: str, x: Any, y: Any) -> tuple[float, float]:
@@ -102,6 +112,8 @@ class Plotter:
         self._first = 1                              # the line (call number) of _places[0]
         self._xy = (0.0, 0.0)
         self._down = False
+        self._pens = 0              # pen changes asked for
+        self._parked = False        # the last part ended at a pen change: at the change point
         self._stopped_idle = False
         self._open = False
 
@@ -135,8 +147,11 @@ class Plotter:
         from vplotter import pipeline
         from vplotter.commands import common, jog
 
+        from vplotter.commands.draw import PauseHandler
+
         args = self._args if trace else _without_trace(self._args)
-        self._session = common.session(args, self.cfg, self._command, pos)
+        job = _ScriptJob(self._command, "", "", on_pause=PauseHandler(self._args.dry_run))
+        self._session = common.session(args, self.cfg, self._command, pos, job)
         self._session.__enter__()
         self._session.signals.idle = self._signal
         xy = jog.pen_xy(self.cfg, pos, pos.counts)
@@ -144,7 +159,8 @@ class Plotter:
         self._chain = pipeline.Chain(self.cfg, pos.counts, pos.ref_mm, self._command,
                                      where=self._where, park=self._xy)
 
-    def __exit__(self, exc_type, exc, tb) -> bool:
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> bool:
         if not self._open:
             return False
         try:
@@ -233,9 +249,14 @@ class Plotter:
         """Lower the pen where it is."""
         self._check()
         if not self._down:
-            from vplotter.inputs.gcode import Pen
+            from vplotter.inputs.gcode import Move, Pen
 
-            self._records.append(Pen(self._line(), 0, True))
+            line = self._line()
+            if self._parked:        # back from the pen change point first
+                cx, cy = self._change_point()
+                self._records.append(Move(line, 0, cx, cy, *self._xy, rapid=True))
+                self._parked = False
+            self._records.append(Pen(line, 0, True))
             self._down = True
 
     def moveto(self, x: float, y: float) -> None:
@@ -247,7 +268,9 @@ class Plotter:
         if self._down:
             self.penup()
         line = self._line()
-        self._records.append(Move(line, 0, self._xy[0], self._xy[1], fx, fy, rapid=True))
+        x0, y0 = self._change_point() if self._parked else self._xy
+        self._records.append(Move(line, 0, x0, y0, fx, fy, rapid=True))
+        self._parked = False
         self._xy = (fx, fy)
 
     def lineto(self, x: float, y: float, speed: float | None = None) -> None:
@@ -280,9 +303,29 @@ class Plotter:
             self.pendown()          # one point: a dot
         self.penup()
 
+    def change_pen(self, pen: str) -> None:
+        """A pen change, as `draw` does one: what is buffered is drawn, then the pen is lifted
+        and the gondola travels to the change point ([pens] change_x_mm, change_y_mm, else
+        where the script started) and waits for the person to put in `pen` (Enter, or
+        `vplotter continue`; a dry run does not wait); the script goes on from where it was."""
+        from vplotter.inputs.gcode import Pause
+
+        self._check()
+        if self._down:
+            self.penup()
+        self.flush()
+        self._pens += 1
+        self._records.append(Pause(self._line(), 0, "", pen=str(pen), index=self._pens))
+
+    def _change_point(self) -> tuple[float, float]:
+        xy = self.cfg.pens.change_at
+        return (float(xy[0]), float(xy[1])) if xy is not None else self._chain.park
+
     def flush(self) -> None:
         """Draw what the calls so far asked for: validated, then planned and played as one
         part (it ends at rest); nothing is left buffered."""
+        from vplotter.inputs.gcode import Pause
+
         self._check()
         if not self._records:
             return
@@ -291,6 +334,7 @@ class Plotter:
         if part is None:
             raise self._stopped(self._session.signals.signum or 2)
         self._play(self._chain.rows(part, records))
+        self._parked = self._parked or isinstance(records[-1], Pause)
         self._records = []
         self._first += len(self._places)
         self._places = []
@@ -371,8 +415,8 @@ class Plotter:
     def _estimate_file(self, path: str, options: dict):
         import numpy as np
 
-        from vplotter import kinematics, pipeline
-        from vplotter.commands import files
+        from vplotter import kinematics
+        from vplotter.commands import draw
 
         args = _file_args("estimate", path, options)
         pos = self._session.position
@@ -384,9 +428,8 @@ class Plotter:
         q = kin.inverse(kin.to_machine(np.asarray([self._xy], dtype=float)))[0]
         counts = np.rint((q - np.asarray(pos.ref_mm)) * np.asarray(self.cfg.motors.steps_per_unit))
         here = pos.moved_to((int(counts[0]), int(counts[1])))
-        prep = files.prepare_file(args, self.cfg, here, warn=lambda m: None, say_notes=False)
-        return pipeline.validate(self.cfg, prep.records(), here.counts, here.ref_mm, path,
-                                 where=prep.where)
+        return draw.estimate_file(args, self.cfg, here, warn=lambda m: None,
+                                  say_notes=False)[1]
 
 
 def _estimate(s) -> Estimate:

@@ -197,10 +197,11 @@ class _Command(click.Command):
 def vplotter(document: vp.Document, action: str, **opts) -> vp.Document:
     """Draw, convert (-o OUT.ngc) or estimate the document with vplotter.
 
-    Each layer is a pen (its name, else its colour, else its number), drawn in vplotter's pen
-    order; the lines in the order vpype left them (--order best to reorder); placed as
-    `vplotter draw` places an SVG, with the same placement options (--fit, --align, --offset,
-    --rotate ...). Example: vpype read in.svg linemerge linesort vplotter draw --fit
+    Each layer is a pen (its name, else its colour: vp_color, or vpype's own colour for the
+    layer), drawn in vplotter's pen order; the lines in the order vpype left them (--order
+    best to reorder); placed as `vplotter draw` places an SVG, with the same placement options
+    (--fit, --align, --offset, --rotate ...). Example: vpype read in.svg linemerge linesort
+    vplotter draw --fit
     """
     code = run(document, action, opts)
     if code:

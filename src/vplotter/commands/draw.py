@@ -346,16 +346,23 @@ def wait_enter(stdin, stop, poll_s: float = POLL_S, go=lambda: False,
     return True
 
 
-def cmd_estimate(args, argv=None) -> int:
+def estimate_file(args, cfg, pos, **prepare):
+    """The file prepared and validated from `pos`: (prep, summary), estimate's and the Python
+    API's `Plotter.estimate` (prepare: prepare_file's warn, say_notes)."""
     from vplotter import pipeline
-    from vplotter.commands import warnings
     from vplotter.commands.files import prepare_file
+
+    prep = prepare_file(args, cfg, pos, **prepare)
+    return prep, pipeline.validate(cfg, prep.records(), pos.counts, pos.ref_mm, args.file,
+                                   where=prep.where)
+
+
+def cmd_estimate(args, argv=None) -> int:
+    from vplotter.commands import warnings
 
     cfg = load_config(args)
     pos = position(cfg, args, True)
-    prep = prepare_file(args, cfg, pos)
-    summary = pipeline.validate(cfg, prep.records(), pos.counts, pos.ref_mm, args.file,
-                                where=prep.where)
+    prep, summary = estimate_file(args, cfg, pos)
     warnings.flush()
     for line in _ordered(prep):
         say(line)

@@ -6,8 +6,9 @@ with y down; `starts` (M + 1) where each line begins in it; `layer` (M) each lin
 index into the `meta` JSON's `layers` [{"id", "name", "color"}]; `meta` also has `page` (the
 document's page size in pixels, or null). It is placed as vpype's `write` would write it as an
 SVG and the SVG reader would read that: the page (else the tight bounds of the drawing, moved to
-0, 0) centred on G-code X0 Y0, +Y up. Each layer is a pen: its name, else its colour, else its
-number; the lines keep the order vpype left them in (the reader's order is `keep`)."""
+0, 0) centred on G-code X0 Y0, +Y up. Each layer is a pen: its name, else its colour (the plugin
+gives a layer without one vpype's own colour for it, as vpype's `write` does), else its number;
+the lines keep the order vpype left them in (the reader's order is `keep`)."""
 
 from __future__ import annotations
 
