@@ -22,7 +22,7 @@ from support import tracecheck as tc
 from support.grbl_standin import GrblStandin
 from vplotter import config, kinematics
 from vplotter.motion import linestream, motorcut
-from vplotter.machine import state
+from vplotter.machine import history, state
 from vplotter.backends import grbl
 from vplotter.cli import main
 
@@ -252,6 +252,10 @@ def test_ctrl_c_holds_lifts_resets_and_resume_completes(tmp_path, standins, monk
     monkeypatch.setattr(grbl.Streamer, "poll", orig)
     assert run(cfg_path, "draw", str(CIRCLES), "--backend", "serial", "--resume") == 0
     assert g.overflow == 0
+    # the history keeps both, as for the GPIO backends: stopped part way, then done
+    stopped, done_ = history.read()
+    assert (stopped["result"], done_["result"]) == ("stopped", "done")
+    assert stopped["drawn_m"] > 0 and done_["drawn_m"] > 0
     # both parts together draw the whole file, and nothing else
     check_path(cfg_path, CIRCLES, g.segments)
     assert "resume" not in state.load().extra

@@ -16,7 +16,8 @@ def draw(args, argv, cfg, pos, begin, on_pause=None) -> int:
     import numpy as np
 
     from vplotter import pipeline
-    from vplotter.machine import live, notify
+    from vplotter.commands.common import error_line
+    from vplotter.machine import history, live, notify
     from vplotter.machine.job import DrawJob
     from vplotter.machine.serial_job import SerialSession
     from vplotter.inputs import gcode
@@ -37,19 +38,25 @@ def draw(args, argv, cfg, pos, begin, on_pause=None) -> int:
             made.append(self)
 
     path = os.path.abspath(args.file)
+    plot = history.plot_for(args)           # None for a dry run
 
     def publisher(time_s: float):
-        return live.Publisher(command_line(argv), path, time_s, on_state=notify.hook(cfg.notify))
+        hook = notify.hook(cfg.notify)
+        return live.Publisher(command_line(argv), path, time_s,
+                              on_state=plot.hook(hook) if plot is not None else hook)
 
     # M0, a pen change: all before it runs, then it asks
     job = DrawJob(args.file, path, file_hash(args.file), on_pause=on_pause,
                   publisher=None if args.dry_run else publisher)
-    with SerialSession(cfg, command_line(argv), args.dry_run, pos, args.save_stream, job) as s:
+    with SerialSession(cfg, command_line(argv), args.dry_run, pos, args.save_stream, job) as s, \
+            history.kept(plot, s, error_line):
         records = gcode.read(args.file, strict=args.strict)
         summary = pipeline.validate(cfg, records, pos.counts, pos.ref_mm, args.file, begin,
                                     lambda: s.stop_pending, Counted)
         if summary is not None:
             s.go_live(summary.time_s)      # for `vplotter status`
+            if plot is not None:
+                plot.started_with(summary)
             say(f"{args.file}: {summary.text()}")
             say(f"{args.file}: {made[-1].lines_total} lines to stream "
                 f"({cfg.serial.axes} axes, {cfg.serial.port})")

@@ -31,6 +31,7 @@ class SerialSession(Session):
         self.spu = np.asarray(cfg.motors.steps_per_unit, dtype=float)
         self.stop_xy: tuple[float, float] | None = None    # G-code point where it stopped
         self.lines_sent = 0
+        self.t_us = 0            # the plan's time the controller has reached (the history)
         self._clean = True
         self._streamer: Streamer | None = None
         self._halted = False
@@ -106,7 +107,7 @@ class SerialSession(Session):
             self._here(st.pos)
             k = min(st.current, st.pulled - 1)
             _, _, (line, _, t_us) = st.line_at(k)
-            self.line = line
+            self.line, self.t_us = line, int(t_us)
             self.pen_down = st.line_at(k - 1)[2][1] if k > st.base else self.pen_down
             self.lines_sent = st.sent
             if self.live is not None:
