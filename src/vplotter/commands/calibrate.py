@@ -128,7 +128,8 @@ def calibrate_pattern(args, cfg, command: str) -> int:
         if not 2 <= v <= 10:
             raise ConfigError(f"error: {name} must be 2..10 (got {v})")
     pg = cfg.page
-    room = max(pattern.CIRCLE_MM + 1.5 + 2 * 0.9 * pattern.DIGIT_MM, 2 * pattern.CIRCLE_MM)
+    room = max(pattern.CIRCLE_MM + pattern.DIGIT_GAP_MM + 2 * 0.9 * pattern.DIGIT_MM,
+               2 * pattern.CIRCLE_MM)
     if not room <= args.margin < min(pg.x_max_mm - pg.x_min_mm, pg.y_max_mm - pg.y_min_mm) / 2:
         raise ConfigError(f"error: --margin must leave room for the marks: {room:g} mm or more, "
                           f"and less than half the page (got {args.margin:g})")
