@@ -1,0 +1,139 @@
+"""Numbering the marks found in a photo: which candidate is which mark of pattern.csv.
+
+Mark 1 is the candidate whose hole is a ring (between two circles: it fills little of its
+ellipse); the hole inside its inner circle is left out.
+Its nearest marks on the page (along the row and along the column) are looked for among the
+candidates nearest it in the photo, both ways round where the sense of rotation allows (a
+photo is not a mirror image: the page's y is up, the photo's down). From those three an
+affine map of the page into the photo, then a homography from every mark matched so far,
+predicts where each mark should be; the candidate nearest a prediction (within
+MATCH_SHARE of the marks' spacing there) is that mark. The hypothesis that matches most
+marks wins. What was not matched is said with where it should have been.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from vplotter.calibration import photo_camera as cam
+from vplotter.calibration.photo_marks import Candidates
+
+FIRST_FILL = (0.1, 0.65)      # mark 1's ring between two circles
+MARK_FILL = 0.65              # the other marks: a circle round a dot fills more
+SIZE_RANGE = (0.05, 1.5)      # a mark's ellipse area over mark 1's
+MATCH_SHARE = 0.3
+FIRST_TRIES, NEAR_TRIES = 8, 6
+
+
+@dataclass
+class Numbering:
+    found: dict[int, int]           # mark id -> candidate index
+    predicted: np.ndarray           # (N, 2) where each mark of `ids` should be (pixels)
+    first: int                      # the candidate that is mark 1
+
+
+def _map(src, dst):
+    """A homography through 4+ points, or the affine map through 3."""
+    if len(src) >= 4:
+        return cam.homography(src, dst)
+    a = np.column_stack((src, np.ones(len(src))))
+    m = np.linalg.lstsq(a, dst, rcond=None)[0].T
+    return np.vstack((m, [0, 0, 1]))
+
+
+def _cross(a, b) -> float:
+    return float(a[0] * b[1] - a[1] * b[0])
+
+
+def _spacing(g: np.ndarray) -> float:
+    d = np.hypot(*(g[:, None, :] - g[None, :, :]).transpose(2, 0, 1))
+    d[d == 0] = np.inf
+    return float(d.min(axis=1).min())
+
+
+def _local_scale(h, g):
+    """Pixels per page mm of the map h at the page points g."""
+    e = 1.0
+    p = cam.apply(h, g)
+    px = cam.apply(h, g + [e, 0]) - p
+    py = cam.apply(h, g + [0, e]) - p
+    return np.sqrt(np.abs(px[:, 0] * py[:, 1] - px[:, 1] * py[:, 0])) / e
+
+
+def _grow(g, xy, seed: dict[int, int], spacing: float) -> dict[int, int]:
+    from scipy.spatial import cKDTree
+
+    tree = cKDTree(xy)
+    found = dict(seed)
+    for _ in range(8):
+        ids = sorted(found)
+        h = _map(g[ids], xy[[found[i] for i in ids]])
+        pred = cam.apply(h, g)
+        if not np.all(np.isfinite(pred)):
+            return found
+        tol = MATCH_SHARE * spacing * _local_scale(h, g)
+        dist, near = tree.query(pred)
+        order = np.argsort(dist)
+        new, used = {}, set()
+        for i in order:
+            if dist[i] <= tol[i] and near[i] not in used:
+                new[int(i)] = int(near[i])
+                used.add(near[i])
+        if new == found or len(new) < 3:
+            return new if len(new) >= len(found) else found
+        found = new
+    return found
+
+
+def _neighbours(g: np.ndarray, first: int) -> tuple[int, int]:
+    """The marks nearest mark 1 on the page in two directions at least 60 degrees apart."""
+    d = g - g[first]
+    dist = np.hypot(*d.T)
+    dist[first] = np.inf
+    b = int(np.argmin(dist))
+    cos = (d @ d[b]) / (np.maximum(dist, 1e-9) * dist[b])
+    dist2 = np.where(np.abs(cos) < 0.5, dist, np.inf)
+    return b, int(np.argmin(dist2))
+
+
+def number(c: Candidates, ids: list[int], g: np.ndarray) -> Numbering | None:
+    """Number the candidates c after the page positions g (G-code mm, y up) of the marks
+    `ids` (mark 1 first in `ids`' order or anywhere); None where no mark 1 is seen."""
+    first = ids.index(1) if 1 in ids else 0
+    b, cc = _neighbours(g, first)
+    sense = np.sign(_cross(g[b] - g[first], g[cc] - g[first]))
+    spacing = _spacing(g)
+    ones = np.flatnonzero((c.fill >= FIRST_FILL[0]) & (c.fill <= FIRST_FILL[1]))
+    ones = ones[np.argsort(-c.area[ones])][:FIRST_TRIES]
+    best = None
+    for one in ones:
+        size = c.area / c.area[one]
+        inside = np.hypot(*(c.xy - c.xy[one]).T) < np.sqrt(c.area[one] / np.pi)
+        pool = np.flatnonzero((size >= SIZE_RANGE[0]) & (size <= SIZE_RANGE[1])
+                              & (c.fill > MARK_FILL) & ~inside)
+        if len(pool) < 2:
+            continue
+        xy = c.xy[pool]
+        d = xy - c.xy[one]
+        near = np.argsort(np.hypot(*d.T))[:NEAR_TRIES]
+        for i in near:
+            for j in near:
+                if i == j or np.sign(_cross(d[i], d[j])) != -sense:
+                    continue
+                cosang = (d[i] @ d[j]) / (np.hypot(*d[i]) * np.hypot(*d[j]) + 1e-12)
+                if abs(cosang) > 0.8:
+                    continue
+                xy_all = np.vstack((xy, c.xy[one]))
+                seed = {first: len(xy), b: int(i), cc: int(j)}
+                found = _grow(g, xy_all, seed, spacing)
+                if best is None or len(found) > len(best[0]):
+                    back = {k: int(np.append(pool, one)[v]) for k, v in found.items()}
+                    best = (found, back, xy_all)
+    if best is None:
+        return None
+    found, back, xy_all = best
+    ks = sorted(found)
+    h = _map(g[ks], xy_all[[found[k] for k in ks]])
+    return Numbering({ids[k]: v for k, v in back.items()}, cam.apply(h, g), int(back[first]))
