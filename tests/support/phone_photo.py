@@ -3,9 +3,9 @@ bench/calibrate_photo.py).
 
 The drawing is given as pen-down polylines in wall mm (+y up), as tracecheck decodes a trace
 through the TRUE geometry (a polyline of one point is a dot). It is inked with a round pen of
-`pen_mm` on paper tile by tile (20 mm tiles at 0.04 mm a pixel, only where there is ink),
-and seen through a pinhole camera that looks at the drawing's centre from `distance_mm`,
-turned `yaw_deg` about the vertical and `pitch_deg` about the horizontal, rolled `roll_deg`,
+`pen_mm` on paper tile by tile (20 mm tiles at 0.04 mm a pixel, only where there is ink,
+each drawn PAD_MM larger so that its blur is whole at its edges), and seen through a pinhole
+camera that looks at the drawing's centre from `distance_mm`, turned `yaw_deg` about the vertical and `pitch_deg` about the horizontal, rolled `roll_deg`,
 with radial lens distortion k1, k2 (the normalised point u is seen at u (1 + k1 r^2 + k2 r^4)),
 its focal length chosen so the drawing spans `fill` of the frame. Every pixel is traced back
 to the wall (the undistortion by fixed-point iteration, independent of vplotter's), the
@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-TILE_MM, TILE_RES_MM = 20.0, 0.04
+TILE_MM, TILE_RES_MM, PAD_MM = 20.0, 0.04, 1.5
 
 
 @dataclass(frozen=True)
@@ -96,17 +96,22 @@ class Camera:
 
 
 def _tile(polylines, x0: float, y0: float, pen_mm: float) -> np.ndarray:
-    """Ink coverage 0..1 of the tile whose lower left corner is x0, y0 (rows: y down)."""
+    """Ink coverage 0..1 of the tile whose lower left corner is x0, y0, with PAD_MM round it
+    (rows: y down; x0, y0 are the padded tile's)."""
     from PIL import Image, ImageDraw
 
-    n = int(round(TILE_MM / TILE_RES_MM))
+    n = int(round((TILE_MM + 2 * PAD_MM) / TILE_RES_MM))
     im = Image.new("L", (n, n), 0)
     draw = ImageDraw.Draw(im)
     w = pen_mm / TILE_RES_MM
     for p in polylines:
-        q = np.column_stack(((p[:, 0] - x0) / TILE_RES_MM, (y0 + TILE_MM - p[:, 1]) / TILE_RES_MM))
+        q = np.column_stack(((p[:, 0] - x0) / TILE_RES_MM,
+                             (y0 + TILE_MM + 2 * PAD_MM - p[:, 1]) / TILE_RES_MM))
         if len(q) > 1:
-            draw.line([tuple(v) for v in q], fill=255, width=int(round(w)), joint="curve")
+            along = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(q, axis=0).T))))
+            keep = np.flatnonzero(np.diff(np.floor(along / 2.0), prepend=-1) > 0)
+            q = q[np.unique(np.append(keep, len(q) - 1))]     # a point every 2 px (0.08 mm)
+            draw.line([tuple(v) for v in q], fill=255, width=int(round(w)))
         for v in (q[0], q[-1]):
             draw.ellipse([v[0] - w / 2, v[1] - w / 2, v[0] + w / 2, v[1] + w / 2], fill=255)
     return np.asarray(im, dtype=np.float32) / 255
@@ -121,10 +126,11 @@ def _ink(cam: Camera, polylines, pen_mm: float) -> np.ndarray:
     keys = {tuple(k) for k in np.floor(pts / TILE_MM).astype(int)}
     for kx, ky in sorted(keys):
         x0, y0 = kx * TILE_MM, ky * TILE_MM
-        lo, hi = np.array([x0, y0]) - pen_mm, np.array([x0, y0]) + TILE_MM + pen_mm
+        grow = pen_mm + PAD_MM
+        lo, hi = np.array([x0, y0]) - grow, np.array([x0, y0]) + TILE_MM + grow
         near = [p for p in polylines
                 if (p.max(axis=0) >= lo).all() and (p.min(axis=0) <= hi).all()]
-        tile = _tile(near, x0, y0, pen_mm)
+        tile = _tile(near, x0 - PAD_MM, y0 - PAD_MM, pen_mm)
         corners = cam.pixels(np.array([[x0, y0], [x0 + TILE_MM, y0], [x0, y0 + TILE_MM],
                                        [x0 + TILE_MM, y0 + TILE_MM]]))
         a = np.clip(np.floor(corners.min(axis=0)).astype(int), 0, [w - 1, h - 1])
@@ -135,8 +141,8 @@ def _ink(cam: Camera, polylines, pen_mm: float) -> np.ndarray:
         tile = ndimage.gaussian_filter(tile, 0.5 * footprint / TILE_RES_MM)
         ys, xs = np.mgrid[a[1]:b[1], a[0]:b[0]]
         wall = cam.wall(np.column_stack((xs.ravel(), ys.ravel())))
-        col = (wall[:, 0] - x0) / TILE_RES_MM
-        row = (y0 + TILE_MM - wall[:, 1]) / TILE_RES_MM
+        col = (wall[:, 0] - x0 + PAD_MM) / TILE_RES_MM
+        row = (y0 + TILE_MM + PAD_MM - wall[:, 1]) / TILE_RES_MM
         v = ndimage.map_coordinates(tile, [row, col], order=1, mode="constant", cval=0.0)
         block = out[a[1]:b[1], a[0]:b[0]]
         np.maximum(block, v.reshape(block.shape).astype(np.float32), out=block)

@@ -29,7 +29,7 @@ from vplotter.inputs.strokes import Stroke
 HEADER = "# vplotter calibration pattern v1 (comment lines start with #)"
 COLUMNS = ["kind", "a", "b", "x_mm", "y_mm", "left_steps", "right_steps", "distance_mm"]
 CIRCLE_MM = 3.0          # radius of the circle around each dot
-FIRST_MM = 5.0           # mark 1 only: a second circle round the first (numbers a photo's marks)
+FIRST_MM = 6.0           # mark 1 only: a second circle round the first (numbers a photo's marks)
 DIGIT_GAP_MM = 2.5       # from the circle to the number (a photo tells them apart)
 DIGIT_MM = 4.0           # height of the numbers
 MOST_PAIRS = 30

@@ -54,11 +54,10 @@ def locate(photo: Photo, ids: list[int], page_xy: np.ndarray) -> Located:
                 else "nothing like a mark")
         raise InputError(f"{photo.name}: error: no calibration pattern found ({what}; mark 1 "
                          f"has two circles): is the whole pattern in the photo, and sharp?")
-    first = float(np.sqrt(cands.area[num.first] / np.pi))
-    radius = first * 0.55                     # the inner circle's hole (mark 1's ring is 3/5)
+    radius = num.radius_px
     px = {}
-    for k, i in num.found.items():
-        c = photo_marks.centre(photo.full, cands.xy[i], first if k == 1 else radius)
+    for k, i in num.found.items():                 # mark 1's outer circle: 5 mm, not 3
+        c = photo_marks.centre(photo.full, cands.xy[i], 2 * radius if k == 1 else radius)
         if c is not None:
             px[k] = c
     located = Located(px, {k: num.predicted[j] for j, k in enumerate(ids)}, radius)

@@ -102,7 +102,8 @@ def homography(src, dst) -> np.ndarray:
 
 def apply(h, pts) -> np.ndarray:
     p = np.column_stack((np.asarray(pts, dtype=float), np.ones(len(pts)))) @ np.asarray(h).T
-    return p[:, :2] / p[:, 2:3]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return p[:, :2] / p[:, 2:3]
 
 
 def focal_from_homography(h, centre) -> float | None:

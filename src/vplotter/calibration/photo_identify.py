@@ -1,14 +1,15 @@
 """Numbering the marks found in a photo: which candidate is which mark of pattern.csv.
 
-Mark 1 is the candidate whose hole is a ring (between two circles: it fills little of its
-ellipse); the hole inside its inner circle is left out.
-Its nearest marks on the page (along the row and along the column) are looked for among the
-candidates nearest it in the photo, both ways round where the sense of rotation allows (a
-photo is not a mirror image: the page's y is up, the photo's down). From those three an
-affine map of the page into the photo, then a homography from every mark matched so far,
-predicts where each mark should be; the candidate nearest a prediction (within
-MATCH_SHARE of the marks' spacing there) is that mark. The hypothesis that matches most
-marks wins. What was not matched is said with where it should have been.
+Mark 1 is the candidate whose ellipse is several times a mark's (FIRST_SIZE: the ring
+between its two circles, or the whole of its outer circle where the photo is too coarse to
+show the inner one); the hole inside its inner circle is left out. Its nearest marks on the
+page (along the row and along the column) are looked for among the candidates nearest it in
+the photo, both ways round where the sense of rotation allows (a photo is not a mirror
+image: the page's y is up, the photo's down). From those three an affine map of the page
+into the photo, then a homography from every mark matched so far, predicts where each mark
+should be; the candidate nearest a prediction (within MATCH_SHARE of the marks' spacing
+there) is that mark. The hypothesis that matches most marks wins (among equals, the one
+whose mark 1 is largest). What was not matched is said with where it should have been.
 """
 
 from __future__ import annotations
@@ -20,9 +21,9 @@ import numpy as np
 from vplotter.calibration import photo_camera as cam
 from vplotter.calibration.photo_marks import Candidates
 
-FIRST_FILL = (0.1, 0.65)      # mark 1's ring between two circles
-MARK_FILL = 0.65              # the other marks: a circle round a dot fills more
-SIZE_RANGE = (0.05, 1.5)      # a mark's ellipse area over mark 1's
+FIRST_SIZE = 2.5              # mark 1's ellipse area over a mark's, at least
+SIZE_RANGE = (0.3, 3.0)       # a mark's ellipse area over the typical mark's
+MARK_FILL = 0.7               # a circle round a dot fills its ellipse (mark 1's ring: 0.5)
 MATCH_SHARE = 0.3
 FIRST_TRIES, NEAR_TRIES = 8, 6
 
@@ -31,7 +32,7 @@ FIRST_TRIES, NEAR_TRIES = 8, 6
 class Numbering:
     found: dict[int, int]           # mark id -> candidate index
     predicted: np.ndarray           # (N, 2) where each mark of `ids` should be (pixels)
-    first: int                      # the candidate that is mark 1
+    radius_px: float                # a mark's hole: the median radius
 
 
 def _map(src, dst):
@@ -98,42 +99,55 @@ def _neighbours(g: np.ndarray, first: int) -> tuple[int, int]:
     return b, int(np.argmin(dist2))
 
 
+def _typical(c: Candidates, n: int) -> float:
+    """A mark's ellipse area: the median of the n largest round holes."""
+    round_ = np.sort(c.area[c.fill > MARK_FILL])[::-1][:n]
+    return float(np.median(round_)) if len(round_) else 1.0
+
+
+def _hypotheses(c: Candidates, one: int, typical: float, sense: float):
+    """(pool, xy, seeds): the candidates that may be marks (mark 1 last), and the pairs of
+    them nearest mark 1 that may be its neighbours along the row and the column."""
+    size = c.area / typical
+    inside = np.hypot(*(c.xy - c.xy[one]).T) < 0.6 * np.sqrt(c.area[one] / np.pi)
+    pool = np.flatnonzero((size >= SIZE_RANGE[0]) & (size <= SIZE_RANGE[1])
+                          & (c.fill > MARK_FILL) & ~inside)
+    xy = np.vstack((c.xy[pool], c.xy[one]))
+    d = xy[:-1] - c.xy[one]
+    near = np.argsort(np.hypot(*d.T))[:NEAR_TRIES]
+    seeds = []
+    for i in near:
+        for j in near:
+            if i == j or np.sign(_cross(d[i], d[j])) != -sense:
+                continue
+            if abs(d[i] @ d[j]) <= 0.8 * np.hypot(*d[i]) * np.hypot(*d[j]):
+                seeds.append((int(i), int(j)))
+    return np.append(pool, one), xy, seeds
+
+
 def number(c: Candidates, ids: list[int], g: np.ndarray) -> Numbering | None:
     """Number the candidates c after the page positions g (G-code mm, y up) of the marks
-    `ids` (mark 1 first in `ids`' order or anywhere); None where no mark 1 is seen."""
+    `ids`; None where no mark 1 is seen."""
     first = ids.index(1) if 1 in ids else 0
     b, cc = _neighbours(g, first)
     sense = np.sign(_cross(g[b] - g[first], g[cc] - g[first]))
     spacing = _spacing(g)
-    ones = np.flatnonzero((c.fill >= FIRST_FILL[0]) & (c.fill <= FIRST_FILL[1]))
+    typical = _typical(c, len(ids))
+    ones = np.flatnonzero(c.area >= FIRST_SIZE * typical)
     ones = ones[np.argsort(-c.area[ones])][:FIRST_TRIES]
-    best = None
+    best, score = None, (-1, 0.0)
     for one in ones:
-        size = c.area / c.area[one]
-        inside = np.hypot(*(c.xy - c.xy[one]).T) < np.sqrt(c.area[one] / np.pi)
-        pool = np.flatnonzero((size >= SIZE_RANGE[0]) & (size <= SIZE_RANGE[1])
-                              & (c.fill > MARK_FILL) & ~inside)
-        if len(pool) < 2:
-            continue
-        xy = c.xy[pool]
-        d = xy - c.xy[one]
-        near = np.argsort(np.hypot(*d.T))[:NEAR_TRIES]
-        for i in near:
-            for j in near:
-                if i == j or np.sign(_cross(d[i], d[j])) != -sense:
-                    continue
-                cosang = (d[i] @ d[j]) / (np.hypot(*d[i]) * np.hypot(*d[j]) + 1e-12)
-                if abs(cosang) > 0.8:
-                    continue
-                xy_all = np.vstack((xy, c.xy[one]))
-                seed = {first: len(xy), b: int(i), cc: int(j)}
-                found = _grow(g, xy_all, seed, spacing)
-                if best is None or len(found) > len(best[0]):
-                    back = {k: int(np.append(pool, one)[v]) for k, v in found.items()}
-                    best = (found, back, xy_all)
+        pool, xy, seeds = _hypotheses(c, one, typical, sense)
+        for i, j in seeds:
+            found = _grow(g, xy, {first: len(xy) - 1, b: i, cc: j}, spacing)
+            if (len(found), c.area[one]) > score:
+                score = (len(found), c.area[one])
+                best = ({k: int(pool[v]) for k, v in found.items()}, found, xy)
     if best is None:
         return None
-    found, back, xy_all = best
+    back, found, xy = best
     ks = sorted(found)
-    h = _map(g[ks], xy_all[[found[k] for k in ks]])
-    return Numbering({ids[k]: v for k, v in back.items()}, cam.apply(h, g), int(back[first]))
+    h = _map(g[ks], xy[[found[k] for k in ks]])
+    others = [v for k, v in back.items() if k != first]
+    radius = float(np.median(np.sqrt(c.area[others] / np.pi))) if others else 1.0
+    return Numbering({ids[k]: v for k, v in back.items()}, cam.apply(h, g), radius)

@@ -1,12 +1,13 @@
 """Finding the marks of the calibration pattern in a photo, and measuring their centres.
 
-Each mark is a closed circle (3 mm) round a dot; mark 1 has a second circle round it. On the
+Each mark is a closed circle (3 mm) round a dot; mark 1 has a second circle (6 mm) round it. On the
 reduced photo, ink is what is darker than INK_RATIO of the local paper brightness (a box mean
-much larger than a mark: uneven light divides out). Every hole of the ink (paper enclosed by
+much larger than a mark: uneven light divides out), with the fainter pixels that touch it. Every hole of the ink (paper enclosed by
 ink, what is inside it not counted) is a candidate, with its centre, the area of its ellipse
 of inertia (4 pi sqrt(det cov)) and `fill`: its own area over that. A circle round a dot fills
-most of its ellipse (about 0.9), mark 1's ring between two circles much less (about 0.35); the
-holes of the numbers are far smaller than the circles. All of it is done on label arrays with
+most of its ellipse (about 0.9), mark 1's ring between two circles less (about 0.5), and its
+ellipse is five times a mark's (four, where the photo is too coarse to show its inner
+circle); the holes of the numbers are far smaller than the circles. All of it is done on label arrays with
 bincount, no loop over candidates.
 
 `centre` then measures one mark at full resolution: in a window round it, the circle with
@@ -21,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 INK_RATIO = 0.85            # ink: darker than this share of the local paper
+FAINT_RATIO = 0.93          # or than this, where it touches ink
 BACKGROUND_PX = 61          # the box of the local paper brightness (reduced photo)
 MIN_HOLE_PX = 8
 MIN_AXES = 0.3              # the hole's short axis over its long one
@@ -35,10 +37,16 @@ class Candidates:
 
 
 def ink(img: np.ndarray) -> np.ndarray:
+    """Hysteresis: pixels darker than INK_RATIO of the local paper, and the fainter ones
+    (FAINT_RATIO) that touch them (a thin line's faint stretches close the circles)."""
     from scipy import ndimage
 
     bg = ndimage.uniform_filter(img, BACKGROUND_PX, mode="nearest")
-    return img < INK_RATIO * bg
+    lab, n = ndimage.label(img < FAINT_RATIO * bg, structure=np.ones((3, 3)))
+    strong = np.zeros(n + 1, dtype=bool)
+    strong[lab[img < INK_RATIO * bg]] = True
+    strong[0] = False
+    return strong[lab]
 
 
 def find(small: np.ndarray, scale: int) -> Candidates:

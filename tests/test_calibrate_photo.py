@@ -1,0 +1,187 @@
+"""`calibrate photo` on the simulated wall: phone photos of the drawn pattern and one tape
+distance instead of thirty ruler measurements.
+
+The pattern is drawn on the fake machine and decoded through the TRUE geometry
+(tests/support/wall.py); tests/support/phone_photo.py renders what a phone sees of those
+ink strokes (straight on; 25 degrees off-axis with lens distortion and a strong light
+gradient; upright, stored on its side with an EXIF orientation). With one tape distance
+(0.3 mm off) the fit must bring a 300 mm test drawing within 0.5 mm of its true shape on that
+wall. Bad photos (blurred, cut off, no pattern, a different pattern) are one line, exit 2,
+config.toml byte-identical.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from PIL import Image
+
+from support import phone_photo as pp
+from support import tracecheck as tc
+from support.cli import run
+from support.wall import draw_and_check, draw_pattern, new_wall
+from vplotter.calibration import pattern
+from vplotter.calibration import photo_camera as camera
+
+VIEWS = {
+    "straight": pp.View(),
+    "oblique": pp.View(yaw_deg=25, pitch_deg=6, roll_deg=-4, k1=-0.08, k2=0.012, light=0.65,
+                       noise=0.015, blur_px=0.9, quality=80),
+    "portrait": pp.View(size=(1500, 2000), roll_deg=2, k1=0.03, distance_mm=700,
+                        exif_orientation=6),
+}
+TAPE_ERROR_MM = 0.3
+
+
+@pytest.fixture(scope="module")
+def drawn(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("pattern")
+    d = draw_pattern(tmp)
+    d["strokes"] = tc.drawn_polylines(d["dec"])
+    d["photos"] = {}
+    for name, view in VIEWS.items():
+        d["photos"][name] = tmp / f"{name}.jpg"
+        pp.render(d["strokes"], d["photos"][name], view, seed=len(name))
+    return d
+
+
+@pytest.fixture
+def wall(tmp_path, drawn):
+    return new_wall(tmp_path, drawn)
+
+
+def _tape(w, a: int = 1, b: int = 16) -> list:
+    d = float(np.hypot(*(w["dots"][a] - w["dots"][b]))) + TAPE_ERROR_MM
+    return ["--distance", a, b, f"{d:.1f}"]
+
+
+def _photo(capsys, w, *photos, extra=()):
+    return run(capsys, ["--config", w["cfg"], "calibrate", "photo", *photos, "--pattern",
+                        w["csv"], *_tape(w), *extra])
+
+
+@pytest.mark.parametrize("kind", list(VIEWS))
+def test_one_photo_and_one_tape_distance(wall, drawn, capsys, kind):
+    before = draw_and_check(wall, "before")
+    found = wall["tmp"] / "found.png"
+    code, out, _ = _photo(capsys, wall, drawn["photos"][kind], extra=["-o", found])
+    assert code == 0
+    after = draw_and_check(wall, "after")
+    print(f"{kind}: {before:.2f} mm before, {after:.3f} mm after")
+    assert before > 2.0 and after < 0.5
+    for word in ("anchor_distance_mm", "stretch", "±", "residual on the wall", "16:",
+                 "distance 1-16", "300 mm", "config.toml: written"):
+        assert word in out
+    with Image.open(found) as im:
+        assert im.size[0] >= 800
+    if kind == "oblique":
+        assert "seen 2" in out                   # 25 degrees off-axis, more or less
+    cfg = tc.load_config(wall["cfg"])
+    assert cfg["cords"]["stretch"] > 0
+
+
+def test_two_photos_together(wall, drawn, capsys):
+    code, out, _ = _photo(capsys, wall, drawn["photos"]["oblique"], drawn["photos"]["portrait"])
+    assert code == 0 and out.count("marks, seen") == 2
+    assert draw_and_check(wall, "after") < 0.5
+
+
+def test_dry_run_writes_nothing(wall, drawn, capsys):
+    before, state = wall["cfg"].read_bytes(), (wall["tmp"] / "state").exists()
+    code, out, _ = _photo(capsys, wall, drawn["photos"]["straight"], extra=["--dry-run"])
+    assert code == 0 and "dry run" in out
+    assert wall["cfg"].read_bytes() == before
+
+
+def _bad(capsys, w, photo) -> str:
+    before = w["cfg"].read_bytes()
+    code, _, err = _photo(capsys, w, photo)
+    assert code == 2 and w["cfg"].read_bytes() == before
+    print(err.strip())
+    return err
+
+
+def test_a_cut_off_photo_says_which_marks_are_missing(wall, drawn, capsys):
+    cut = wall["tmp"] / "cut.jpg"
+    with Image.open(drawn["photos"]["straight"]) as im:
+        im.crop((0, 0, im.size[0], int(im.size[1] * 0.75))).save(cut, quality=90)
+    err = _bad(capsys, wall, cut)
+    assert "found 12 of 16 marks: 13, 14, 15 and 16 not found (outside the photo?)" in err
+
+
+def test_a_blurred_photo_is_refused(wall, drawn, capsys, tmp_path):
+    blurred = tmp_path / "blurred.jpg"
+    pp.render(drawn["strokes"], blurred, pp.View(blur_px=5.0))
+    err = _bad(capsys, wall, blurred)
+    assert "no calibration pattern found" in err or "not found" in err
+
+
+def test_no_pattern_in_the_photo(wall, capsys, tmp_path):
+    rng = np.random.default_rng(3)
+    texture = rng.uniform(0, 255, (150, 200)).astype(np.uint8)
+    noise = tmp_path / "texture.png"
+    Image.fromarray(texture).resize((2000, 1500), Image.Resampling.BICUBIC).save(noise)
+    err = _bad(capsys, wall, noise)
+    assert "no calibration pattern found" in err or "not found" in err
+
+
+def test_another_pattern(wall, capsys, tmp_path):
+    """A 3 x 5 pattern drawn on some other page: not the 16 marks of pattern.csv."""
+    class Page:
+        x_min_mm, x_max_mm, y_min_mm, y_max_mm = -200.0, 200.0, -180.0, 180.0
+
+    strokes = [s.pts for m in pattern.grid(Page, 3, 5, 25.0) for s in pattern.mark_strokes(m)]
+    other = tmp_path / "other.jpg"
+    pp.render(strokes, other, pp.View())
+    err = _bad(capsys, wall, other)
+    assert "of 16 marks" in err or "no calibration pattern found" in err
+
+
+def test_photo_and_distance_are_checked(wall, drawn, capsys):
+    photo = drawn["photos"]["straight"]
+    argv = ["--config", wall["cfg"], "calibrate", "photo", photo, "--pattern", wall["csv"]]
+    assert run(capsys, argv)[2].count("--distance 1 16 MM") == 1
+    assert "no mark 17" in run(capsys, argv + ["--distance", 1, 17, 500])[2]
+    code, _, err = run(capsys, ["--config", wall["cfg"], "calibrate", "photo", "--pattern",
+                                wall["csv"], "--distance", 1, 16, 500])
+    assert code == 2 and "PHOTO.jpg" in err
+
+
+def test_a_heic_photo_without_pillow_heif_says_how_to_get_it(wall, capsys, tmp_path,
+                                                           monkeypatch):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "pillow_heif", None)
+    heic = tmp_path / "IMG_0001.HEIC"
+    heic.write_bytes(b"\0\0\0\x18ftypheic")
+    err = _bad(capsys, wall, heic)
+    assert "pip install pillow-heif" in err
+
+
+# ---------------------------------------------------------------- the camera model
+@given(st.floats(-0.25, 0.1), st.floats(-0.03, 0.05),
+       st.lists(st.floats(-0.6, 0.6), min_size=2, max_size=2))
+def test_lens_distortion_round_trip(k1, k2, u):
+    p = np.array([u])
+    assert np.allclose(camera.undistort(camera.distort(p, k1, k2), k1, k2), p, atol=1e-9)
+
+
+@given(st.floats(-0.5, 0.5), st.floats(-0.5, 0.5), st.floats(-3.2, 3.2),
+       st.floats(400, 2000), st.floats(-0.1, 0.05))
+def test_project_and_back(yaw, pitch, roll, distance, k1):
+    rot = camera.rotation([pitch, yaw, 0]) @ camera.rotation([0, 0, roll])
+    centre = np.array([210.0, 400.0, 0.0])
+    t = np.array([0, 0, distance]) - rot @ centre
+    cam = np.concatenate((camera.rotation_vector(rot), t, [np.log(1800.0), k1, 0.0]))
+    wall = centre[:2] + np.random.default_rng(0).uniform(-150, 150, (20, 2))
+    px = camera.project(cam, (999.5, 749.5), wall)
+    assert np.allclose(camera.backproject(cam, (999.5, 749.5), px), wall, atol=1e-6)
+    # without distortion the plane maps by a homography, and the camera is found from it
+    cam[7] = 0.0
+    px = camera.project(cam, (999.5, 749.5), wall)
+    h = camera.homography(wall, px)
+    assert np.allclose(camera.apply(h, wall), px, atol=1e-6)
+    again = camera.from_homography(h, (999.5, 749.5), 1800.0)
+    assert np.allclose(camera.project(again, (999.5, 749.5), wall), px, atol=1e-5)
