@@ -5,8 +5,9 @@ The drawing is given as pen-down polylines in wall mm (+y up), as tracecheck dec
 through the TRUE geometry (a polyline of one point is a dot). It is inked with a round pen of
 `pen_mm` on paper tile by tile (20 mm tiles at 0.04 mm a pixel, only where there is ink,
 each drawn PAD_MM larger so that its blur is whole at its edges), and seen through a pinhole
-camera that looks at the drawing's centre from `distance_mm`, turned `yaw_deg` about the vertical and `pitch_deg` about the horizontal, rolled `roll_deg`,
-with radial lens distortion k1, k2 (the normalised point u is seen at u (1 + k1 r^2 + k2 r^4)),
+camera that looks at the drawing's centre from `distance_mm`, turned `yaw_deg` about the
+vertical and `pitch_deg` about the horizontal, rolled `roll_deg`, with radial lens distortion
+k1, k2 (the normalised point u is seen at u (1 + k1 r^2 + k2 r^4)),
 its focal length chosen so the drawing spans `fill` of the frame. Every pixel is traced back
 to the wall (the undistortion by fixed-point iteration, independent of vplotter's), the
 ink tile sampled after a blur of the pixel's footprint. Then the light: a gradient across the

@@ -25,6 +25,7 @@ class Located:
     px: dict[int, np.ndarray]          # mark id -> centre (full-resolution pixels)
     predicted: dict[int, np.ndarray]   # mark id -> where it should be (pixels)
     radius_px: float
+    extra: int = 0                     # mark-like shapes that are no mark of the pattern
     error: str | None = None           # what was found, where not every mark was
 
 
@@ -40,8 +41,10 @@ def _missing(photo: Photo, ids, located: Located) -> str:
                                    and 0 <= located.predicted[k][1] < h)]
     why = ("outside the photo?" if len(out) == len(miss) else
            "hidden, smudged or outside the photo?" if out else "hidden, blurred or smudged?")
+    more = (f"; and {located.extra} marks that are not in the pattern (a photo of another "
+            f"pattern?)" if located.extra >= 2 else "")
     return (f"{photo.name}: error: found {len(located.px)} of {len(ids)} marks: "
-            f"{_listing(miss)} not found ({why})")
+            f"{_listing(miss)} not found ({why}){more}")
 
 
 def locate(photo: Photo, ids: list[int], page_xy: np.ndarray) -> Located:
@@ -49,9 +52,11 @@ def locate(photo: Photo, ids: list[int], page_xy: np.ndarray) -> Located:
     mark was); an InputError where no pattern is seen at all."""
     cands = photo_marks.find(photo.small, photo.scale)
     num = photo_identify.number(cands, ids, page_xy) if len(cands.xy) else None
-    if num is None or len(num.found) < 3:
-        what = (f"{len(cands.xy)} closed shapes, none of them the pattern's" if len(cands.xy)
-                else "nothing like a mark")
+    if num is None or len(num.found) < max(4, len(ids) // 2):
+        what = ("nothing like a mark" if not len(cands.xy) else
+                f"{len(cands.xy)} closed shapes, none of them the pattern's" if num is None
+                else f"{len(cands.xy)} closed shapes, only {len(num.found)} in the pattern's "
+                     f"grid")
         raise InputError(f"{photo.name}: error: no calibration pattern found ({what}; mark 1 "
                          f"has two circles): is the whole pattern in the photo, and sharp?")
     radius = num.radius_px
@@ -60,7 +65,7 @@ def locate(photo: Photo, ids: list[int], page_xy: np.ndarray) -> Located:
         c = photo_marks.centre(photo.full, cands.xy[i], 2 * radius if k == 1 else radius)
         if c is not None:
             px[k] = c
-    located = Located(px, {k: num.predicted[j] for j, k in enumerate(ids)}, radius)
+    located = Located(px, {k: num.predicted[j] for j, k in enumerate(ids)}, radius, num.extra)
     if len(px) < len(ids):
         located.error = _missing(photo, ids, located)
     return located

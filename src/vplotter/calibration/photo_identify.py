@@ -9,7 +9,8 @@ image: the page's y is up, the photo's down). From those three an affine map of 
 into the photo, then a homography from every mark matched so far, predicts where each mark
 should be; the candidate nearest a prediction (within MATCH_SHARE of the marks' spacing
 there) is that mark. The hypothesis that matches most marks wins (among equals, the one
-whose mark 1 is largest). What was not matched is said with where it should have been.
+whose mark 1 is largest); matches off the homography through them all, or of another size,
+are dropped. What was not matched is said with where it should have been.
 """
 
 from __future__ import annotations
@@ -24,7 +25,9 @@ from vplotter.calibration.photo_marks import Candidates
 FIRST_SIZE = 2.5              # mark 1's ellipse area over a mark's, at least
 SIZE_RANGE = (0.3, 3.0)       # a mark's ellipse area over the typical mark's
 MARK_FILL = 0.7               # a circle round a dot fills its ellipse (mark 1's ring: 0.5)
-MATCH_SHARE = 0.3
+MATCH_SHARE = 0.3             # a candidate this near a prediction is that mark
+FIT_SHARE = 0.12              # and then this near the homography through all of them
+SAME_SIZE = 1.8               # a mark's ellipse area within this factor of the others'
 FIRST_TRIES, NEAR_TRIES = 8, 6
 
 
@@ -33,6 +36,7 @@ class Numbering:
     found: dict[int, int]           # mark id -> candidate index
     predicted: np.ndarray           # (N, 2) where each mark of `ids` should be (pixels)
     radius_px: float                # a mark's hole: the median radius
+    extra: int = 0                  # mark-like shapes off the pattern's grid
 
 
 def _map(src, dst):
@@ -146,8 +150,40 @@ def number(c: Candidates, ids: list[int], g: np.ndarray) -> Numbering | None:
     if best is None:
         return None
     back, found, xy = best
-    ks = sorted(found)
-    h = _map(g[ks], xy[[found[k] for k in ks]])
+    back, h = _consistent(c, g, back, first, spacing)
     others = [v for k, v in back.items() if k != first]
     radius = float(np.median(np.sqrt(c.area[others] / np.pi))) if others else 1.0
-    return Numbering({ids[k]: v for k, v in back.items()}, cam.apply(h, g), radius)
+    return Numbering({ids[k]: v for k, v in back.items()}, cam.apply(h, g), radius,
+                     _extra(c, back, typical, back[first]) if first in back else 0)
+
+
+def _consistent(c: Candidates, g, back: dict[int, int], first: int, spacing: float):
+    """The matches that agree with the homography through all of them (within
+    FIT_SHARE of the spacing) and are a mark's size (SAME_SIZE of their median): shapes
+    that happened to lie near a prediction (a texture's holes) are not marks."""
+    for _ in range(3):
+        ks = sorted(back)
+        if len(ks) < 4:
+            break
+        h = _map(g[ks], c.xy[[back[k] for k in ks]])
+        off = np.hypot(*(cam.apply(h, g[ks]) - c.xy[[back[k] for k in ks]]).T)
+        tol = FIT_SHARE * spacing * _local_scale(h, g[ks])
+        area = np.array([c.area[back[k]] for k in ks])
+        mid = float(np.median([a for k, a in zip(ks, area) if k != first] or [1.0]))
+        same = (area >= mid / SAME_SIZE) & (area <= mid * SAME_SIZE)
+        keep = (off <= tol) & (same | (np.array(ks) == first))
+        if keep.all():
+            break
+        back = {k: back[k] for k, ok in zip(ks, keep) if ok}
+    ks = sorted(back)
+    return back, _map(g[ks], c.xy[[back[k] for k in ks]])
+
+
+def _extra(c: Candidates, back: dict[int, int], typical: float, one: int) -> int:
+    """Round holes of a mark's size that are no mark of the pattern (nor mark 1's inner
+    circle)."""
+    size = c.area / typical
+    inside = np.hypot(*(c.xy - c.xy[one]).T) < 0.6 * np.sqrt(c.area[one] / np.pi)
+    like = (size >= 1 / SAME_SIZE) & (size <= SAME_SIZE) & (c.fill > MARK_FILL) & ~inside
+    like[list(back.values())] = False
+    return int(like.sum())

@@ -1,18 +1,20 @@
 """Finding the marks of the calibration pattern in a photo, and measuring their centres.
 
-Each mark is a closed circle (3 mm) round a dot; mark 1 has a second circle (6 mm) round it. On the
-reduced photo, ink is what is darker than INK_RATIO of the local paper brightness (a box mean
-much larger than a mark: uneven light divides out), with the fainter pixels that touch it. Every hole of the ink (paper enclosed by
-ink, what is inside it not counted) is a candidate, with its centre, the area of its ellipse
-of inertia (4 pi sqrt(det cov)) and `fill`: its own area over that. A circle round a dot fills
-most of its ellipse (about 0.9), mark 1's ring between two circles less (about 0.5), and its
-ellipse is five times a mark's (four, where the photo is too coarse to show its inner
-circle); the holes of the numbers are far smaller than the circles. All of it is done on label arrays with
-bincount, no loop over candidates.
+Each mark is a closed circle (3 mm) round a dot; mark 1 has a second circle (6 mm) round
+it. On the reduced photo, ink is what is darker than INK_RATIO of the local paper brightness
+(a box mean much larger than a mark: uneven light divides out), with the fainter pixels that
+touch it. Every hole of the ink (paper enclosed by ink, what is inside it not counted) is a
+candidate, with its centre, the area of its ellipse of inertia (4 pi sqrt(det cov)) and
+`fill`: its own area over that. A circle round a dot fills most of its ellipse (about 0.9),
+mark 1's ring between two circles less (about 0.5), and its ellipse is five times a mark's
+(four, where the photo is too coarse to show its inner circle); the holes of the numbers are
+far smaller than the circles. All of it is done on label arrays with bincount, no loop over
+candidates.
 
 `centre` then measures one mark at full resolution: in a window round it, the circle with
-all it encloses (the dot, mark 1's inner circle) is taken, and the centroid of the ink's
-darkness over it is the centre: the figure is symmetric about the dot, the number is outside.
+all it encloses (the dot; mark 1: its outer circle and all inside) is taken, and the centroid
+of the ink's darkness over it is the centre: the figure is symmetric about the dot, the
+number is outside.
 """
 
 from __future__ import annotations
