@@ -72,8 +72,8 @@ def locate(photo: Photo, ids: list[int], page_xy: np.ndarray) -> Located:
 
 
 def draw_found(photo: Photo, located: Located, path, residual_mm: dict | None = None) -> None:
-    """found.png: the photo (reduced), each mark found circled in green with its number (and
-    its residual in mm), each missing one in red where it should have been."""
+    """found.png: the photo (reduced), each mark found circled in green with its number
+    above (and its residual in mm), each missing one in red where it should have been."""
     from PIL import Image, ImageDraw, ImageFont
 
     h, w = photo.full.shape
@@ -82,7 +82,7 @@ def draw_found(photo: Photo, located: Located, path, residual_mm: dict | None = 
     if k > 1:
         im = im.resize((round(w / k), round(h / k)), Image.Resampling.BILINEAR)
     d = ImageDraw.Draw(im)
-    r = max(6.0, 2.5 * located.radius_px / k)
+    r = max(8.0, 4.0 * located.radius_px / k)
     try:
         font = ImageFont.load_default(size=max(12, round(im.size[0] / 80)))
     except (TypeError, OSError):          # an older Pillow, or one without FreeType
@@ -95,7 +95,9 @@ def draw_found(photo: Photo, located: Located, path, residual_mm: dict | None = 
         label = str(mark) if found else f"{mark}?"
         if found and residual_mm and mark in residual_mm:
             label += f": {residual_mm[mark]:.2f} mm"
-        d.text((x + r + 2, y - r - 2), label, fill=colour, font=font)
+        box = d.textbbox((x - r, y - r - 3), label, font=font, anchor="ld")
+        d.rectangle(box, fill=(255, 255, 255))
+        d.text((x - r, y - r - 3), label, fill=colour, font=font, anchor="ld")
     try:
         im.save(path, "PNG")
     except (OSError, ValueError) as e:
