@@ -2,8 +2,10 @@
 chromium-driver, driven by selenium) on a phone's screen, 412 x 915 CSS pixels: upload, draw,
 watch the percent change, stop; options that change the estimate, the position set and the pen
 tuned from the page, a draw without a known position and a backend that cannot start explained
-on the page, the pen prompt with its colour; every control inside the screen's width; no
-console errors. Skipped, with the reason, where selenium or the browser is missing (.ci/run
+on the page, the pen prompt with its colour; the queue (add, copies, reorder, remove, run with
+Continue at the paper change), the history, and the drawing growing on its preview during a
+real-time draw, at a phone's size and a desktop's; status in a person's words (no process
+ids); every control inside the screen's width; no console errors. Skipped, with the reason, where selenium or the browser is missing (.ci/run
 installs them)."""
 
 from __future__ import annotations
@@ -108,7 +110,8 @@ def test_page_uploads_draws_shows_progress_and_stops(serve, browser, tmp_path): 
     wait_for(browser, lambda d: field("state").text != "drawing" or
              float(field("percent").text) > first)
     browser.find_element(By.CSS_SELECTOR, '[data-action="stop"]').click()
-    wait_for(browser, lambda d: "stopped pid" in field("message").text)     # the answer
+    wait_for(browser, lambda d: field("message").text.startswith("stopped: pen"))  # the answer
+    assert "pid" not in field("message").text and "pid" not in field("said").text
     wait_for(browser, lambda d: field("state").text == "paused")
     assert server.status()["resume"]["line"] > 0
     assert browser.find_element(By.CSS_SELECTOR, '[data-action="resume"]').is_enabled()
@@ -307,4 +310,99 @@ def test_page_prompts_for_each_pen_with_its_colour(serve, browser, tmp_path):  #
         wait_for(browser, lambda d: not _field(d, "prompt").is_displayed()
                  or _field(d, "pen-name").text != f"pen: {colour}")
     server.wait_status(lambda s: s["busy"] is None)
+    assert console_errors(browser) == []
+
+
+ZIGZAG = ("G21 G90\nG01 Z-1 F600\nG01 X2.5 Y0.5\nG01 X0.0 Y1.0\nG01 X2.5 Y1.5\n"
+          "G01 X0.0 Y2.0\nG01 X2.5 Y2.5\nG01 X0.0 Y3.0\nG01 X2.5 Y3.5\nG01 X0.0 Y4.0\n"
+          "G00 Z5\nM2\n")
+
+
+@pytest.mark.parametrize("size", [(W, H), (1280, 900)], ids=["phone", "desktop"])
+def test_page_queue_runs_with_continue_and_the_drawing_grows_on_its_preview(
+        serve, browser, tmp_path, size):  # noqa: F811
+    from selenium.webdriver.common.by import By
+
+    browser.execute_cdp_cmd("Emulation.setDeviceMetricsOverride",
+                            {"width": size[0], "height": size[1], "deviceScaleFactor": 1,
+                             "mobile": size[0] < 600})
+    server = serve()
+    assert main(["--config", str(server.config), "calibrate", "--at", "0", "0"]) == 0
+    assert server.upload("zig.ngc", ZIGZAG.encode())[0] == 201
+    assert server.upload("walk.ngc", DRAWING.encode())[0] == 201
+    browser.get(server.url)
+    wait_for(browser, lambda d: _field(d, "said").text == "Ready.")
+    jobs = lambda: browser.execute_script(  # noqa: E731 - read at once: the list is redrawn
+        "return [...document.querySelectorAll('[data-field=\"queue\"] li')]"
+        ".map((li) => li.dataset.job)")
+    # add: zig.ngc twice, walk.ngc once, walk.ngc again (then removed); reorder
+    for name, copies in (("zig.ngc", "2"), ("walk.ngc", "1"), ("walk.ngc", "1")):
+        wait_for(browser, lambda d: name in [o.get_attribute("value") for o in
+                                             d.find_elements(By.CSS_SELECTOR,
+                                                             '[data-field="queue-file"] option')])
+        browser.execute_script("arguments[0].value = arguments[1]", _field(browser, "queue-file"),
+                               name)
+        _type(browser, _field(browser, "queue-copies"), copies)
+        n = len(jobs())
+        _click(browser, "queue-add")
+        wait_for(browser, lambda d: len(jobs()) == n + 1)
+    assert jobs() == ["1", "2", "3"]
+    assert _field(browser, "said").text == "Ready. 3 drawings in the queue."
+    browser.find_element(By.CSS_SELECTOR, '[data-action="queue-remove"][data-job="3"]').click()
+    wait_for(browser, lambda d: jobs() == ["1", "2"])
+    browser.find_element(By.CSS_SELECTOR, '[data-action="queue-up"][data-job="2"]').click()
+    wait_for(browser, lambda d: jobs() == ["2", "1"])
+    browser.find_element(By.CSS_SELECTOR, '[data-action="queue-down"][data-job="2"]').click()
+    wait_for(browser, lambda d: jobs() == ["1", "2"])
+    assert [j["id"] for j in server.request("GET", "/api/queue")[1]["jobs"]] == [1, 2]
+    assert "2 drawings" in _field(browser, "queue-total").text
+    assert fits(browser) == []
+    # run: the drawing grows on its preview as the events come
+    _click(browser, "queue-run")
+    box = wait_for(browser, lambda d: _field(d, "live-box").is_displayed()
+                   and _field(d, "live"))
+    said, grown = set(), []
+    while True:
+        st = server.status()
+        said.add(_field(browser, "said").text)
+        k = int(box.get_attribute("data-drawn") or 0)
+        if not grown or k != grown[-1]:
+            grown.append(k)
+        waiting = ((st.get("drawing") or {}).get("waiting") or {}).get("prompt")
+        if waiting:
+            break
+        assert st["busy"] is not None, grown
+    assert waiting == "put in fresh paper for zig.ngc (2 of 2)"
+    total = int(box.get_attribute("data-points"))
+    assert len([k for k in grown if 0 < k < total]) >= 2 and grown == sorted(grown), grown
+    assert any(t.startswith("Drawing zig.ngc: ") and "% done" in t for t in said)
+    assert "of 0.02 m drawn" in _field(browser, "drawn").text
+    # a pen-down path on the canvas: dark pixels where it was drawn
+    dark = browser.execute_script("""
+        const c = arguments[0], d = c.getContext('2d').getImageData(0, 0, c.width, c.height);
+        let n = 0;
+        for (let i = 0; i < d.data.length; i += 4) if (d.data[i] < 80) n++;
+        return n;""", box)
+    assert dark > 0
+    browser.execute_script("window.scrollTo(0, 0)")
+    browser.save_screenshot(str(tmp_path / f"live-{size[0]}x{size[1]}.png"))
+    wait_for(browser, lambda d: _field(d, "said").text.startswith("Waiting for you: put in "
+                                                                    "fresh paper for zig.ngc"))
+    assert fits(browser) == []
+    browser.save_screenshot(str(tmp_path / f"queue-{size[0]}x{size[1]}.png"))
+    _click(browser, "continue")
+    wait_for(browser, lambda d: "walk.ngc" in _field(d, "said").text
+             or _field(d, "said").text.startswith("Waiting for you: put in fresh paper for walk"))
+    wait_for(browser, lambda d: _field(d, "prompt").is_displayed())
+    _click(browser, "continue")
+    server.wait_status(lambda s: s["busy"] is None)
+    wait_for(browser, lambda d: jobs() == [] and _field(d, "said").text == "Ready.")
+    history = wait_for(browser, lambda d: (lambda h: h if len(h) == 3 else None)(
+        d.execute_script("return [...document.querySelectorAll('[data-field=\"history\"] li')]"
+                         ".map((li) => li.textContent)")))
+    assert all(": done; planned " in h for h in history), history
+    assert "zig.ngc (1 of 2)" in history[-1] and "walk.ngc" in history[0]
+    texts = said | {_field(browser, "message").text}
+    assert not [t for t in texts if "pid" in t]
+    assert fits(browser) == []
     assert console_errors(browser) == []

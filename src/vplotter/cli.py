@@ -13,6 +13,7 @@ import sys
 from typing import Callable
 
 from vplotter.commands import draw, files, live, machine, pictures, serial, serve, setup
+from vplotter.commands import queue as queue_cmd
 from vplotter.commands import text as text_cmd
 from vplotter.commands import warnings
 from vplotter.commands.common import eprint, error_line, exit_code
@@ -50,6 +51,10 @@ COMMANDS: dict[str, tuple[Callable, Callable, str]] = {
                 "picture (PNG/SVG) of the planned drawing: order, travel, page, anchors"),
     "simulate": (pictures.cmd_simulate, pictures.add_simulate,
                  "picture (PNG/SVG) of what a GPIO trace draws"),
+    "queue": (queue_cmd.cmd_queue, queue_cmd.add_queue,
+              "the job queue: add, move, remove, clear, run (fresh paper between jobs)"),
+    "history": (queue_cmd.cmd_history, queue_cmd.add_history,
+                "the plots drawn: when, how long, how far, how they ended"),
     "serve": (serve.cmd_serve, serve.add_serve,
               "the page on the Pi: upload, preview, draw, watch and stop from a phone"),
 }
@@ -123,6 +128,7 @@ def main(argv: list[str] | None = None) -> int:
         args, extra = parser.parse_known_args(argv)
         if extra:       # named by the command's own parser, which knows its options
             sub = _subparser(parser, getattr(args, "command", None)) or parser
+            sub = _subparser(sub, getattr(args, "action", None)) or sub     # queue add
             sub.error(f"unrecognized arguments: {' '.join(extra)}")
     except SystemExit as e:  # argparse: usage errors are exit 2, --help is 0
         return int(e.code or 0)

@@ -135,7 +135,12 @@ def _schedule(cfg, steps: Iterator[Step], counts, ref_mm, emit: bool, summary: S
               scheduler=Scheduler) -> Iterator[Rows | Pause]:
     """The steps played: what `scheduler` makes of each (Rows), and each Wait's Pause."""
     kin = kinematics.from_config(cfg)
-    sched = scheduler(cfg, kin, counts, ref_mm)
+    yield from _scheduled(cfg, scheduler(cfg, kin, counts, ref_mm), steps, emit, summary)
+
+
+def _scheduled(cfg, sched, steps: Iterator[Step], emit: bool,
+               summary: Summary) -> Iterator[Rows | Pause]:
+    """The steps played by a scheduler made already (`Chain` keeps one for all its parts)."""
     spu = np.asarray(cfg.motors.steps_per_unit, dtype=float)
     for step in steps:
         kind = type(step)
@@ -252,12 +257,13 @@ def plan(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str
 
 def validate(cfg: Config, records: Iterable[gcode.Record], counts, ref_mm, name: str = "<input>",
              start_at: StartAt | None = None, stop=lambda: False,
-             scheduler=Scheduler, where=None, park=None) -> Summary | None:
+             scheduler=Scheduler, where=None, park=None,
+             pen_down: bool | None = None) -> Summary | None:
     """The validation pass: every record checked, planned and timed, no step computed.
-    Returns the summary, or None if stop() turned true first."""
+    Returns the summary, or None if stop() turned true first. pen_down: as for `stream`."""
     summary = Summary()
     kept = Kept()
-    steps = _keeping(plan(cfg, records, counts, ref_mm, name, summary, start_at,
+    steps = _keeping(plan(cfg, records, counts, ref_mm, name, summary, start_at, pen_down,
                           chord_share=getattr(scheduler, "chord_share", CHORD_SHARE),
                           where=where, park=park),
                      kept)
@@ -284,3 +290,55 @@ class _Watched:
                 self.stopped = True
                 return
             yield step
+
+
+class Chain:
+    """Records drawn in parts as one drawing: what the Python API (`vplotter.api`) plays.
+
+    One scheduler serves every part, so that the schedule's clock, the coils held and the pen
+    carry on from one part to the next as within one file. Each part is validated first (all
+    of it planned, timed and checked against the page before it moves: `validate`), planned
+    from where the last part ended, and ends stopped (its last move ends at rest, as at a pen
+    lift). `finish` ends the drawing as a file ends: pen up, coils released."""
+
+    def __init__(self, cfg: Config, counts, ref_mm, name: str = "<script>", where=None,
+                 park=None):
+        self.cfg, self.ref_mm, self.name, self.where, self.park = cfg, ref_mm, name, where, park
+        self.sched = Scheduler(cfg, kinematics.from_config(cfg), counts, ref_mm)
+        self.summary = Summary()
+        self.started = False
+
+    @property
+    def counts(self) -> tuple[int, int]:
+        """The step counts where the last part ends."""
+        return int(self.sched.counts[0]), int(self.sched.counts[1])
+
+    def _pen(self) -> bool | None:
+        return self.sched.pen_down if self.started else None     # None: lift it first
+
+    def validate(self, records: list[gcode.Record], stop=lambda: False) -> Summary | None:
+        """The validation pass of the next part (None: stop() turned true first)."""
+        return validate(self.cfg, records, self.counts, self.ref_mm, self.name, stop=stop,
+                        where=self.where, park=self.park, pen_down=self._pen())
+
+    def rows(self, part: Summary, records: list[gcode.Record]) -> Iterator[Rows | Pause]:
+        """The rows of a validated part: its kept plan, else `records` planned again."""
+        steps: Iterable[Step] = part.plan if part.plan is not None else plan(
+            self.cfg, records, self.counts, self.ref_mm, self.name, Summary(), None,
+            self._pen(), where=self.where, park=self.park)
+        self.started = True
+        s = self.summary
+        s.moves, s.pieces, s.pen_downs = (s.moves + part.moves, s.pieces + part.pieces,
+                                          s.pen_downs + part.pen_downs)
+        s.drawn_mm, s.travel_mm = s.drawn_mm + part.drawn_mm, s.travel_mm + part.travel_mm
+        s.motors = part.motors
+        kept = (step for step in steps if type(step) is not Finish)   # no lift, no release
+        yield from _scheduled(self.cfg, self.sched, kept, True, Summary())
+        s.steps, s.time_s = self.sched.steps_total.copy(), self.sched.t_us / 1e6
+
+    def finish(self) -> Iterator[Rows]:
+        """The end of the drawing: pen up, coils released."""
+        rows = self.sched.finish(lift=True)
+        if rows is not None:
+            yield rows
+        self.summary.time_s = self.sched.t_us / 1e6

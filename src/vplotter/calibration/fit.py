@@ -25,6 +25,7 @@ from vplotter.kinematics.vplotter import TwoCord
 
 GROSS_MM, GROSS_SHARE = 20.0, 0.05    # off the config's own prediction by more: a typo
 OUTLIER_SIGMAS, OUTLIER_MIN_MM = 4.0, 1.0
+MASS_START_MM = 30.0    # where a fit of the centre of mass starts when the config has none
 RMS_MAX_MM = 1.5        # a tape measure does better: the measurements do not fit together
 
 
@@ -41,10 +42,13 @@ class Machine:
     cord_spacing_mm: float
     pen_below_mm: float
     steps_per_rev: int
+    # the gondola's centre of mass below the pen (None: the gondola stays level)
+    mass_below_pen_mm: float | None = None
 
     def kin(self, origin=(0.0, 0.0)) -> TwoCord:
         return TwoCord(self.anchor_distance_mm, origin[0], origin[1], self.cord_spacing_mm,
-                       self.pen_below_mm, self.stretch)
+                       self.pen_below_mm, self.stretch,
+                       mass_below_pen_mm=self.mass_below_pen_mm)
 
     def cords(self, steps) -> np.ndarray:
         n = np.asarray(steps, dtype=float)
@@ -61,10 +65,12 @@ class Machine:
                 self.steps_per_rev / self.right_circumference_mm)
 
 
-def names(fit_spacing: bool) -> tuple[str, ...]:
+def names(fit_spacing: bool, fit_mass: bool = False) -> tuple[str, ...]:
+    """The parameters a fit adjusts (fields of Machine); `fit_mass`: the gondola's centre of
+    mass too (mass_below_pen_mm; a Machine without one starts from a level-ish gondola)."""
     first = "cord_spacing_mm" if fit_spacing else "anchor_distance_mm"
     return (first, "ref_left_mm", "ref_right_mm", "left_circumference_mm",
-            "right_circumference_mm", "stretch")
+            "right_circumference_mm", "stretch") + (("mass_below_pen_mm",) if fit_mass else ())
 
 
 def min_pairs(n_params: int) -> int:
@@ -145,10 +151,12 @@ def _lm(m0: Machine, keys, steps, a, b, dist):
 
 
 def fit(m0: Machine, steps: np.ndarray, a: np.ndarray, b: np.ndarray, dist: np.ndarray,
-        fit_spacing: bool = False) -> tuple[Result, list[int]]:
+        fit_spacing: bool = False, fit_mass: bool = False) -> tuple[Result, list[int]]:
     """Fit the parameters to the measured distances. Returns the result and the indices of
     the pairs left out as outliers (worst first)."""
-    keys = names(fit_spacing)
+    keys = names(fit_spacing, fit_mass)
+    if fit_mass and m0.mass_below_pen_mm is None:
+        m0 = replace(m0, mass_below_pen_mm=MASS_START_MM)
     # gross errors (a typo 1234 for 123.4, swapped rows): far off what the config predicts;
     # they may come back once the fit shows that they agree with it
     nominal = predicted(m0, steps, a, b)

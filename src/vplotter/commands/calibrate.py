@@ -183,12 +183,13 @@ def _machine_from(cfg, reference):
     left, right = m.circumferences_mm
     return fit.Machine(cfg.machine.anchor_distance_mm, reference[0], reference[1], left, right,
                        cfg.cords.stretch, cfg.gondola.cord_spacing_mm, cfg.gondola.pen_below_mm,
-                       m.steps_per_rev)
+                       m.steps_per_rev, cfg.gondola.mass_below_pen_mm)
 
 
 UNITS = {"anchor_distance_mm": ("mm", 3), "cord_spacing_mm": ("mm", 3), "ref_left_mm": ("mm", 3),
          "ref_right_mm": ("mm", 3), "left_circumference_mm": ("mm", 4),
-         "right_circumference_mm": ("mm", 4), "stretch": ("", 5)}
+         "right_circumference_mm": ("mm", 4), "stretch": ("", 5),
+         "mass_below_pen_mm": ("mm", 2)}
 
 
 def calibrate_fit(args, cfg, command: str) -> int:

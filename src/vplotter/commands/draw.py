@@ -98,18 +98,35 @@ def draw_file(args, argv=None) -> DrawStarted | None:
 
         serial.draw(args, argv, cfg, pos, begin, PauseHandler(args.dry_run))
         return None
+    return draw_from(args, argv, cfg, pos, begin)
+
+
+def draw_from(args, argv, cfg, pos, begin=None, reached=None) -> DrawStarted | None:
+    """Draw FILE from the position `pos` (the lock taken): `draw`'s, and the Python API's
+    `Plotter.draw_file` (vplotter/api.py). reached(position): told where the pen is once the
+    file is drawn (the API goes on from there)."""
     # the session (lock, pins, signal handlers) is open first, so that a signal at any moment
     # ends the same way; nothing is output before the whole file has been validated
-    with session(args, cfg, command_line(argv), pos, draw_job(args, argv, cfg)) as s:
+    from vplotter.commands.common import error_line
+    from vplotter.machine import history
+
+    plot = history.plot_for(args)
+    with session(args, cfg, command_line(argv), pos, draw_job(args, argv, cfg, plot)) as s, \
+            history.kept(plot, s, error_line):
         prep, summary, said = _validate(args, cfg, pos, begin, s)
         if args.detach and summary is not None:
             return _detach(args, argv, s, said[0])
+        if plot is not None and summary is not None:
+            plot.started_with(summary)
         _play(args, cfg, pos, begin, s, prep, summary)
+    if reached is not None:
+        reached(s.here())
     return None
 
 
-def draw_job(args, argv, cfg):
-    """What the draw's session needs from the command (machine/job.DrawJob)."""
+def draw_job(args, argv, cfg, plot=None):
+    """What the draw's session needs from the command (machine/job.DrawJob); plot: its
+    machine/history.Plot, told of the pauses."""
     import os
 
     from vplotter.machine import live, notify
@@ -119,7 +136,9 @@ def draw_job(args, argv, cfg):
     path = os.path.abspath(args.file)
 
     def publisher(time_s: float):
-        return live.Publisher(command_line(argv), path, time_s, on_state=notify.hook(cfg.notify))
+        hook = notify.hook(cfg.notify)
+        return live.Publisher(command_line(argv), path, time_s,
+                              on_state=plot.hook(hook) if plot is not None else hook)
 
     # a draw that goes on in the background publishes there, not here
     here = not args.dry_run and not args.detach

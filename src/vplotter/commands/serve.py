@@ -178,6 +178,64 @@ class Machine:
 
         return Jogged(**self._result(["jog", "--dx", f"{dx:.4f}", "--dy", f"{dy:.4f}"]))
 
+    # ------------------------------------------------------------ the queue
+    def queue(self) -> dict:
+        """`queue --json`: {"jobs": [...], "total_s"}."""
+        from vplotter.commands.queue import listing
+
+        return self._here(listing)
+
+    def queue_add(self, path: str, copies: int, options: dict | None = None):
+        """`queue add --copies N OPTIONS PATH` (validates the file: a subprocess): Added."""
+        from vplotter.commands import page_options
+        from vplotter.commands.queue import Added
+
+        page_options.check(path, _words(options))      # a bad value: its one line, here
+        return Added(**self._result(["queue", "add", "--copies", str(int(copies)),
+                                     *_words(options), path]))
+
+    def queue_move(self, job_id: int, position: int) -> dict:
+        from vplotter.machine import queue
+
+        self._here(lambda: queue.move(job_id, position))
+        return self.queue()
+
+    def queue_remove(self, job_id: int) -> dict:
+        from vplotter.machine import queue
+
+        self._here(lambda: queue.remove(job_id))
+        return self.queue()
+
+    def queue_run(self):
+        """`queue run --detach`: a commands.queue.QueueStarted."""
+        from vplotter.commands.queue import QueueStarted
+
+        return QueueStarted(**self._result(["queue", "run", "--detach"]))
+
+    def now_paths(self) -> dict | None:
+        """The running draw's planned path (commands/drawn.py), made once per drawing; None
+        when nothing is drawn."""
+        from vplotter.commands import drawn
+        from vplotter.machine import live
+
+        running = live.read()
+        if not running:
+            return None
+        key = (running["pid"], running["command"], running["file"])
+        cached = getattr(self, "_paths", None)
+        if cached is not None and cached[0] == key:
+            return cached[1]
+        got = drawn.paths(self.cfg, running)
+        if got is not None:
+            self._paths = (key, got)
+        return got
+
+    def history(self) -> list[dict]:
+        """`history --json`: the plots, oldest first."""
+        from vplotter.machine import history
+
+        return self._here(history.read)
+
     def error_line(self, e: VplotterError) -> str:
         """The line the command line prints for e."""
         from vplotter.commands.common import error_line

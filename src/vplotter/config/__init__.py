@@ -251,6 +251,11 @@ def _check_geometry(cfg: Config) -> None:
         raise ConfigError(f"{path}: [gondola] cord_spacing_mm must be below [machine] "
                           f"anchor_distance_mm (got {spacing:g} and "
                           f"{cfg.machine.anchor_distance_mm:g})")
+    mass = cfg.gondola.mass_below_pen_mm
+    if mass is not None and not mass + cfg.gondola.pen_below_mm > 0:
+        raise ConfigError(f"{path}: [gondola] mass_below_pen_mm = {mass:g} puts the centre of "
+                          f"mass above the line through the cords' points (pen_below_mm = "
+                          f"{cfg.gondola.pen_below_mm:g}): the gondola would tip over")
     # The whole page must hang below the anchor line (the cords' ends: pen_below_mm above it).
     top = cfg.origin.y_mm - pg.y_max_mm - cfg.gondola.pen_below_mm
     if top <= 0:

@@ -150,6 +150,11 @@ DESCRIPTIONS: dict[str, str] = {
                                "hold the gondola (`calibrate fit --fit-spacing` fits it).",
     "gondola.pen_below_mm": "How far the pen (midway between those points) is below the line "
                             "through them.",
+    "gondola.mass_below_pen_mm": "Where the gondola's centre of mass lies below the pen, on "
+                                 "its symmetry line (negative: above it). Set, the gondola "
+                                 "tilts as the cords pull unevenly and the kinematics follow "
+                                 "it (`calibrate fit --fit-mass` fits it); unset: the gondola "
+                                 "is taken to stay level.",
     # [cords]
     "cords.stretch": "The cords' elastic strain when one cord alone carries the gondola's "
                      "whole weight (`calibrate fit` fits it).",

@@ -95,6 +95,7 @@ SCHEMA: dict[str, dict[str, tuple]] = {
     "gondola": {
         "cord_spacing_mm": ("float", 0.0, 0.0, 1e4),
         "pen_below_mm": ("float", 0.0, -1e4, 1e4),
+        "mass_below_pen_mm": ("float", UNSET, -1e3, 1e4),
     },
     "cords": {"stretch": ("float", 0.0, 0.0, 0.5)},
     "gcode": {

@@ -158,6 +158,9 @@ class Gpio:
 class Gondola:
     cord_spacing_mm: float     # between the points where the two cords hold the gondola
     pen_below_mm: float        # the pen below the line through those points (midway)
+    # the centre of mass below the pen, on the gondola's symmetry line (negative: above);
+    # None: the gondola stays level (the plain model)
+    mass_below_pen_mm: float | None = None
 
 
 @dataclass(frozen=True)

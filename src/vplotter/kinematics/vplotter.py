@@ -21,6 +21,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from vplotter.kinematics.taylor import add as _add
+from vplotter.kinematics.taylor import div as _div
+from vplotter.kinematics.taylor import mul as _mul
+from vplotter.kinematics.taylor import scale as _scale
+from vplotter.kinematics.taylor import sqrt as _sqrt
+from vplotter.kinematics.taylor import sub as _sub
+from vplotter.kinematics.tilt import Gondola, cord_jets, cords_value, tensions
+
 NEWTON_STEPS = 40          # at most; they stop when every row is within TOL_MM
 TOL_MM = 1e-10
 
@@ -29,7 +37,8 @@ class TwoCord:
     motors = ("left", "right")
 
     def __init__(self, anchor_distance_mm: float, origin_x_mm: float, origin_y_mm: float,
-                 cord_spacing_mm: float = 0.0, pen_below_mm: float = 0.0, stretch: float = 0.0):
+                 cord_spacing_mm: float = 0.0, pen_below_mm: float = 0.0, stretch: float = 0.0,
+                 mass_below_pen_mm: float | None = None):
         self.d_mm = float(anchor_distance_mm)
         self.origin = np.array([origin_x_mm, origin_y_mm], dtype=float)
         self.spacing_mm = float(cord_spacing_mm)
@@ -39,6 +48,11 @@ class TwoCord:
         # the points the pen would hang from if the cords met at the pen (shifted anchors)
         self.anchors = np.array([[half, self.pen_below_mm],
                                  [self.d_mm - half, self.pen_below_mm]])
+        self.mass_below_pen_mm = None if mass_below_pen_mm is None else float(mass_below_pen_mm)
+        self.gondola = None if mass_below_pen_mm is None else Gondola(
+            self.d_mm, self.spacing_mm, self.pen_below_mm, self.mass_below_pen_mm)
+        # the closed forms hold: a level gondola and cords that do not stretch
+        self.plain = self.stretch == 0.0 and self.gondola is None
 
     def to_machine(self, xy_gcode: np.ndarray) -> np.ndarray:
         g = np.asarray(xy_gcode, dtype=float)
@@ -71,9 +85,12 @@ class TwoCord:
         return np.stack((x + self.anchors[0, 0], y + self.anchors[0, 1]), axis=-1)
 
     def inverse(self, xy: np.ndarray) -> np.ndarray:
-        if self.stretch == 0.0:
+        if self.plain:
             return self._geometric(xy)
         m = np.asarray(xy, dtype=float)
+        if self.gondola is not None:
+            r, _ = self.gondola.cords(m[..., 0], m[..., 1])
+            return cords_value(r, self.stretch)
         flat = m.reshape(-1, 2)
         q, _, _ = self._jets(flat, np.zeros_like(flat))
         return q.reshape(m.shape)
@@ -81,16 +98,22 @@ class TwoCord:
     def forward(self, cords: np.ndarray) -> np.ndarray:
         c = np.asarray(cords, dtype=float)
         p = self._triangulate(c)
-        if self.stretch == 0.0:
+        if self.plain:
             return p
-        # Newton on q(p) = c; the Jacobian rows are the slopes along x and y
+        # Newton on q(p) = c (with a tilting gondola, its angle phi the third unknown, held
+        # in balance at every step); the Jacobian rows are the slopes along x and y
         flat_c = c.reshape(-1, 2)
         p = p.reshape(-1, 2).copy()
         ex = np.broadcast_to([1.0, 0.0], p.shape)
         ey = np.broadcast_to([0.0, 1.0], p.shape)
+        phi = None
         for _ in range(NEWTON_STEPS):
-            q, jx, _ = self._jets(p, ex)
-            _, jy, _ = self._jets(p, ey)
+            state = None
+            if self.gondola is not None:
+                state = self.gondola.solve(p[:, 0], p[:, 1], phi)
+                phi = state[0]
+            q, jx, _ = self._jets(p, ex, state)
+            _, jy, _ = self._jets(p, ey, state)
             f = q - flat_c
             det = jx[:, 0] * jy[:, 1] - jy[:, 0] * jx[:, 1]
             dx = (f[:, 0] * jy[:, 1] - jy[:, 0] * f[:, 1]) / det
@@ -102,15 +125,25 @@ class TwoCord:
         return p.reshape(c.shape)
 
     def _rel(self, xy: np.ndarray) -> np.ndarray:
-        """(N, 2 motors, 2) vectors from each (shifted) anchor to the points."""
-        return np.asarray(xy, dtype=float)[:, None, :] - self.anchors[None, :, :]
+        """(N, 2 motors, 2) vectors from each (shifted) anchor to the points (the anchor
+        shifted as the tilted gondola holds the cords there)."""
+        xy = np.asarray(xy, dtype=float)
+        if self.gondola is not None:
+            r, _ = self.gondola.cords(xy[:, 0], xy[:, 1])
+            return -np.stack((np.stack(r[:2], axis=-1), np.stack(r[2:], axis=-1)), axis=1)
+        return xy[:, None, :] - self.anchors[None, :, :]
 
     # ------------------------------------------------------------------ stretch
-    def _jets(self, xy: np.ndarray, e: np.ndarray):
+    def _jets(self, xy: np.ndarray, e: np.ndarray, state=None):
         """Motor coordinates (N, 2) at xy with their first and second derivatives along the
-        unit direction e, by Taylor arithmetic: every quantity is (value, d/ds, d2/ds2)."""
+        unit direction e, by Taylor arithmetic: every quantity is (value, d/ds, d2/ds2).
+        `state`: the tilted gondola's balance at xy (Gondola.solve), when known."""
         xy = np.asarray(xy, dtype=float)
         e = np.asarray(e, dtype=float)
+        if self.gondola is not None:
+            r, _ = self.gondola.jets(xy, e, state)
+            ql, qr = cord_jets(r, self.stretch)
+            return tuple(np.stack((a, b), axis=-1) for a, b in zip(ql, qr))
         zero = np.zeros(len(xy))
         xl = (xy[:, 0] - self.anchors[0, 0], e[:, 0], zero)
         yl = (xy[:, 1] - self.anchors[0, 1], e[:, 1], zero)
@@ -127,6 +160,9 @@ class TwoCord:
 
     def tension(self, xy: np.ndarray) -> np.ndarray:
         """(N, 2) cord tensions in units of the gondola's weight."""
+        if self.gondola is not None:
+            xy = np.asarray(xy, dtype=float)
+            return tensions(self.gondola.cords(xy[:, 0], xy[:, 1])[0])
         rel = self._rel(xy)
         g = np.linalg.norm(rel, axis=2)
         cross = rel[:, 0, 0] * rel[:, 1, 1] - rel[:, 0, 1] * rel[:, 1, 0]
@@ -145,19 +181,19 @@ class TwoCord:
         return (x * e[:, 0, None] + y * e[:, 1, None]) / g, g
 
     def slope(self, xy: np.ndarray, e: np.ndarray) -> np.ndarray:
-        if self.stretch != 0.0:
+        if not self.plain:
             return self._jets(xy, e)[1]
         return self._along(xy, e)[0]
 
     def bend(self, xy: np.ndarray, e: np.ndarray) -> np.ndarray:
-        if self.stretch != 0.0:
+        if not self.plain:
             return self._jets(xy, e)[2]
         k, g = self._along(xy, e)
         return (1.0 - k * k) / g
 
     def slope_bend(self, xy: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """slope(xy, e) and bend(xy, e) at once."""
-        if self.stretch != 0.0:
+        if not self.plain:
             _, k, b = self._jets(xy, e)
             return k, b
         k, g = self._along(xy, e)
@@ -165,7 +201,7 @@ class TwoCord:
 
     def extrema(self, p0: np.ndarray, e: np.ndarray, d: np.ndarray) -> np.ndarray:
         # the cord is shortest where the pen passes the foot of the perpendicular from the anchor
-        if self.stretch != 0.0:
+        if not self.plain:
             s = self._slope_zero(p0, e, d)
         else:
             p0 = np.asarray(p0, dtype=float)
@@ -199,11 +235,11 @@ class TwoCord:
                  q: np.ndarray, rising: np.ndarray) -> np.ndarray:
         """Distance s along p0[piece] + s e[piece] at which motor coordinate `motor` reaches q.
         Each piece starts on the near side of its steps' q and the motor runs one way on it."""
-        rel = p0 - self.anchors[motor]
+        rel = p0 - self.anchors[motor] if self.gondola is None else self._rel(p0)[:, motor]
         b = rel[:, 0] * e[:, 0] + rel[:, 1] * e[:, 1]           # per piece
         c = b * b - (rel[:, 0] ** 2 + rel[:, 1] ** 2)
         b, c = b[piece], c[piece]                                # per step
-        if self.stretch == 0.0:
+        if self.plain:
             root = np.sqrt(np.maximum(c + q * q, 0.0))
             return np.where(rising, root - b, -b - root)
         # stretch: first guess where the cord, stretched as at the piece start, reaches q ...
@@ -246,32 +282,3 @@ def _bracketed(f, lo, hi, tol, s=None):
         if not step.max(initial=0.0) > tol:
             break
     return s
-
-
-# second-order Taylor arithmetic on (value, first, second derivative) triples
-def _add(a, b):
-    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
-
-
-def _sub(a, b):
-    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
-
-
-def _scale(a, k):
-    return (a[0] * k, a[1] * k, a[2] * k)
-
-
-def _mul(a, b):
-    return (a[0] * b[0], a[1] * b[0] + a[0] * b[1], a[2] * b[0] + 2.0 * a[1] * b[1] + a[0] * b[2])
-
-
-def _div(a, b):
-    q = a[0] / b[0]
-    q1 = (a[1] - q * b[1]) / b[0]
-    return (q, q1, (a[2] - 2.0 * q1 * b[1] - q * b[2]) / b[0])
-
-
-def _sqrt(a):
-    r = np.sqrt(a[0])
-    r1 = a[1] / (2.0 * r)
-    return (r, r1, (a[2] - 2.0 * r1 * r1) / (2.0 * r))

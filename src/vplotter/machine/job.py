@@ -212,6 +212,11 @@ class Session:
                             "stopped" if isinstance(exc, Interrupted) else "failed")
             self.live = None
 
+    def lift_and_release(self) -> None:
+        """Pen up and coils released now, between two plays (the Python API stopped by a
+        signal while its script's own code ran)."""
+        self._abort()
+
     def hand_over_pins(self):
         """`draw --detach`: before anything moved, give up the pins, the trace and the signal
         handlers, but not the lock, which is returned: the caller passes it on to the process

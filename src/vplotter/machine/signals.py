@@ -19,6 +19,9 @@ class Signals:
         self.signum = 0                 # the first signal that came, 0 while none
         self._on_stop: Callable[[], None] | None = None
         self._old: dict = {}
+        # called last at a signal, while set: the Python API raises there between two plays
+        # (its script's own code runs, nothing moves), as Ctrl+C stops any Python program
+        self.idle: Callable[[int], None] | None = None
 
     @property
     def pending(self) -> bool:
@@ -40,6 +43,8 @@ class Signals:
             self.signum = signum
         if self._on_stop is not None:
             self._on_stop()
+        if self.idle is not None:
+            self.idle(signum)
 
     def restore(self) -> None:
         for s, h in self._old.items():

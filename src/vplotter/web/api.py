@@ -17,10 +17,12 @@ from pathlib import Path
 from vplotter.web.answers import body_json, error, first_line  # noqa: F401 - app uses error
 from vplotter.web.drawings import DrawingHandlers
 from vplotter.web.files import FileError
+from vplotter.web.queue import QueueHandlers
 from vplotter.web.setup import SetupHandlers
 
 STATUS_TTL_S = 0.3         # one status read serves every client asking within this time
 EVENT_EVERY_S = 1.0        # an event this often while something drives the plotter
+DRAWING_EVERY_S = 0.5      # and while a draw moves (its line: the page grows the drawing)
 IDLE_EVERY_S = 10.0        # and at least this often (or at any change) when idle
 
 
@@ -66,10 +68,17 @@ def routes(state: State):
         Route("/api/setup", h.setup, methods=["GET"]),
         Route("/api/jog", h.jog, methods=["POST"]),
         Route("/api/events", h.events, methods=["GET"]),
+        Route("/api/queue", h.get_queue, methods=["GET"]),
+        Route("/api/queue", h.add_job, methods=["POST"]),
+        Route("/api/queue/run", h.run_queue, methods=["POST"]),
+        Route("/api/queue/{id}", h.remove_job, methods=["DELETE"]),
+        Route("/api/queue/{id}/move", h.move_job, methods=["POST"]),
+        Route("/api/history", h.get_history, methods=["GET"]),
+        Route("/api/now/paths", h.now_paths, methods=["GET"]),
     ]
 
 
-class Handlers(DrawingHandlers, SetupHandlers):
+class Handlers(DrawingHandlers, SetupHandlers, QueueHandlers):
     """The routes' handlers. What moves the plotter is asked of the Machine, whose answers
     are values (result objects with a `message`, or a VplotterError with its exit code)."""
 
@@ -155,7 +164,8 @@ class Handlers(DrawingHandlers, SetupHandlers):
                 d = st.get("drawing") or {}
                 key = (st.get("busy"), d.get("state"), st.get("last_stop"), st.get("resume"),
                        st.get("pen"), st.get("x_mm"), st.get("y_mm"))
-                every = EVENT_EVERY_S if st.get("busy") else IDLE_EVERY_S
+                every = (DRAWING_EVERY_S if d.get("state") == "drawing" else
+                         EVENT_EVERY_S if st.get("busy") else IDLE_EVERY_S)
                 if key != last or now - sent >= every:
                     yield f"data: {json.dumps(st)}\n\n"
                     last, sent = key, now

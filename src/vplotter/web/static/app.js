@@ -66,6 +66,235 @@ let files = [];           // GET /api/files
 let selected = null;      // the name of the file whose options, notes and preview are shown
 let pending = Promise.resolve();   // options being estimated: draw and preview wait for them
 
+let jobs = [];            // GET /api/queue: the jobs
+
+// ------------------------------------------------------------------ queue and history
+function el(tag, cls, text) {
+  const e = document.createElement(tag);
+  if (cls) e.className = cls;
+  if (text !== undefined) e.textContent = text;
+  return e;
+}
+
+function renderQueue(q) {
+  jobs = q.jobs;
+  field("queue").replaceChildren(...jobs.map((j, k) => {
+    const li = el("li");
+    li.dataset.job = j.id;
+    const left = j.copies - j.done;
+    const copies = j.copies > 1 ? `, copy ${j.done + 1} of ${j.copies}` : "";
+    const opts = j.options.length ? ` ${j.options.join(" ")}` : "";
+    li.append(el("span", "name", `${j.name}${opts}`),
+              el("span", "est", ` ${clock(j.left_s)}${copies}` +
+                 (left > 1 ? ` (${left} copies left)` : "")));
+    if (j.stopped) li.append(el("div", "stopped", "stopped part-way: Run goes on from there"));
+    const row = el("div", "row");
+    const mk = (action, label, off) => {
+      const b = el("button", "", label);
+      b.dataset.action = action;
+      b.dataset.job = j.id;
+      b.disabled = off;
+      return b;
+    };
+    row.append(mk("queue-up", "▲ earlier", k === 0),
+               mk("queue-down", "▼ later", k === jobs.length - 1),
+               mk("queue-remove", "Remove", false));
+    li.append(row);
+    return li;
+  }));
+  field("queue-total").textContent = jobs.length
+    ? `${jobs.length} drawing${jobs.length > 1 ? "s" : ""}, ${clock(q.total_s)} in all` : "empty";
+  if (status) show(status);
+}
+
+function historyLine(p) {
+  const t = (s) => new Date(s * 1000);
+  const two = (v) => String(v).padStart(2, "0");
+  const hm = (d) => `${two(d.getHours())}:${two(d.getMinutes())}`;
+  const start = t(p.start);
+  const day = `${start.getFullYear()}-${two(start.getMonth() + 1)}-${two(start.getDate())}`;
+  const when = `${day} ${hm(start)}${p.end ? "–" + hm(t(p.end)) : ""}`;
+  const copy = p.copy ? ` (${p.copy})` : "";
+  const took = p.actual_s !== null ? `, took ${clock(p.actual_s)}` : "";
+  const pens = p.pens.length ? `, pens ${p.pens.join(", ")}` : "";
+  return [`${when} ${p.file}${copy}: `, p.result + (p.error ? `: ${p.error}` : ""),
+          `; planned ${clock(p.estimate_s)}${took}, ${p.drawn_m.toFixed(2)} m drawn${pens}`];
+}
+
+function renderHistory(plots) {
+  field("history").replaceChildren(...plots.slice(-20).reverse().map((p) => {
+    const [head, result, tail] = historyLine(p);
+    const li = el("li");
+    li.append(head, el("b", p.result.split(" ")[0], result), tail);
+    return li;
+  }));
+  if (!plots.length) field("history").replaceChildren(el("li", "", "no plots yet"));
+  const last = plots[plots.length - 1];
+  if (plan && last && last.result === "done" && last.path === plan.file &&
+      status && !status.drawing) grow(plan.n, frame());      // ended: all of it is drawn
+}
+
+async function refreshQueue() {
+  try {
+    const [q, h] = await Promise.all([call("GET", "/api/queue"), call("GET", "/api/history")]);
+    renderQueue(q);
+    renderHistory(h);
+  } catch (e) {
+    say(e.message);
+  }
+}
+
+async function queueAct(a, button) {
+  const id = button.dataset.job;
+  if (a === "queue-add") {
+    const file = field("queue-file").value;
+    if (!file) { say("upload a drawing first, then add it to the queue"); return; }
+    await pending;
+    say(`checking ${file}…`);
+    const r = await call("POST", "/api/queue", { file,
+                                                 copies: Number(field("queue-copies").value) });
+    say(r.message);
+  } else if (a === "queue-up" || a === "queue-down") {
+    const k = jobs.findIndex((j) => String(j.id) === id);
+    renderQueue(await call("POST", `/api/queue/${id}/move`,
+                           { position: a === "queue-up" ? k : k + 2 }));
+    return;
+  } else if (a === "queue-remove") {
+    renderQueue(await call("DELETE", `/api/queue/${id}`));
+    return;
+  } else if (a === "queue-run") {
+    await call("POST", "/api/queue/run");
+    say("drawing the queue");
+  }
+  await refreshQueue();
+}
+
+// what changed since the last status: the queue and history when a drawing starts or ends
+function changed(before, st) {
+  const key = (x) => x ? [!!x.busy, x.drawing && x.drawing.file, x.drawing && x.drawing.state,
+                          !!x.resume].join("|") : "";
+  if (before && key(before) !== key(st)) refreshQueue();
+  follow(st.drawing);
+}
+
+// ------------------------------------------------------------------ the drawing as it grows
+let plan = null;          // the running drawing's path (GET /api/now/paths), and how far
+let planKey = null;
+
+async function follow(d) {
+  if (!d) return;
+  const key = `${d.file}\n${d.command}`;
+  if (key !== planKey && !d.command.includes(" queue run")) {
+    planKey = key;
+    try {
+      const p = await call("GET", "/api/now/paths");
+      setPlan(p);
+    } catch (e) {
+      plan = null;
+      field("live-box").hidden = true;
+    }
+  }
+  if (plan && key === planKey) grow(d.line);
+}
+
+function setPlan(p) {
+  const n = p.x.length;
+  const cum = new Float64Array(n + 1);      // pen-down length up to each point (mm)
+  let px = p.start[0], py = p.start[1], mono = true;
+  for (let i = 0; i < n; i++) {
+    const dl = Math.hypot(p.x[i] - px, p.y[i] - py);
+    cum[i + 1] = cum[i] + (p.down[i] ? dl : 0);
+    px = p.x[i]; py = p.y[i];
+    if (i && p.line[i] < p.line[i - 1]) mono = false;
+  }
+  // the drawing's own box (with where the pen starts), a margin around it
+  let x0 = p.start[0], x1 = p.start[0], y0 = p.start[1], y1 = p.start[1];
+  for (let i = 0; i < n; i++) {
+    x0 = Math.min(x0, p.x[i]); x1 = Math.max(x1, p.x[i]);
+    y0 = Math.min(y0, p.y[i]); y1 = Math.max(y1, p.y[i]);
+  }
+  const pad = Math.max(2, 0.06 * Math.max(x1 - x0, y1 - y0));
+  plan = { ...p, n, cum, mono, box: [x0 - pad, y0 - pad, x1 + pad, y1 + pad], drawnTo: 0 };
+  field("live-box").hidden = false;
+  paint(0);
+}
+
+// the points drawn once the record `line` is being drawn: those of the records before it
+function reached(line) {
+  const L = plan.line;
+  if (!plan.mono) { const k = L.findIndex((v) => v >= line); return k < 0 ? plan.n : k; }
+  let lo = 0, hi = plan.n;
+  while (lo < hi) { const mid = (lo + hi) >> 1; if (L[mid] < line) lo = mid + 1; else hi = mid; }
+  return lo;
+}
+
+function frame() {
+  const c = field("live");
+  const [x0, y0, x1, y1] = plan.box;
+  const ratio = window.devicePixelRatio || 1;
+  const w = Math.max(200, c.clientWidth || 380) * ratio;
+  const m = 0.03 * w;
+  const scale = (w - 2 * m) / Math.max(x1 - x0, 1e-6);
+  const h = Math.min(0.7 * (window.innerHeight || 900) * ratio, (y1 - y0) * scale + 2 * m);
+  const sc = Math.min(scale, (h - 2 * m) / Math.max(y1 - y0, 1e-6));
+  const ox = (w - (x1 - x0) * sc) / 2;        // centred across
+  if (c.width !== Math.round(w) || c.height !== Math.round(h)) {
+    c.width = Math.round(w);
+    c.height = Math.round(h);
+  }
+  return { ctx: c.getContext("2d"), ratio,
+           X: (x) => ox + (x - x0) * sc, Y: (y) => m + (y1 - y) * sc };
+}
+
+function strokes(f, from, to, down, colour, width, dash) {
+  const { ctx, X, Y } = f;
+  ctx.beginPath();
+  ctx.strokeStyle = colour;
+  ctx.lineWidth = width * f.ratio;
+  ctx.setLineDash(dash ? dash.map((v) => v * f.ratio) : []);
+  let open = false;
+  for (let i = from; i < to; i++) {
+    if (!!plan.down[i] !== down) { open = false; continue; }
+    const px = i ? plan.x[i - 1] : plan.start[0], py = i ? plan.y[i - 1] : plan.start[1];
+    if (!open) { ctx.moveTo(X(px), Y(py)); open = true; }
+    ctx.lineTo(X(plan.x[i]), Y(plan.y[i]));
+  }
+  ctx.stroke();
+}
+
+// the whole plan faint, the part drawn (up to point k) dark, pen-up travel fainter still
+function paint(k) {
+  const f = frame();
+  const { ctx, X, Y } = f;
+  const pg = plan.page;
+  ctx.setTransform(1, 0, 0, 1, 0, 0);
+  ctx.fillStyle = "#e4e4e0";
+  ctx.fillRect(0, 0, ctx.canvas.width, ctx.canvas.height);
+  ctx.fillStyle = "#fff";
+  ctx.fillRect(X(pg.x_min_mm), Y(pg.y_max_mm), X(pg.x_max_mm) - X(pg.x_min_mm),
+               Y(pg.y_min_mm) - Y(pg.y_max_mm));
+  strokes(f, 0, plan.n, true, "#c9ced6", 1);
+  strokes(f, 0, plan.n, false, "rgba(90, 120, 170, 0.18)", 0.7, [3, 3]);
+  plan.drawnTo = 0;
+  grow(k, f);
+}
+
+function grow(line, f) {
+  const k = f ? line : reached(line);
+  if (k < plan.drawnTo) { paint(k); return; }
+  if (k > plan.drawnTo) {
+    f = f || frame();
+    strokes(f, plan.drawnTo, k, false, "rgba(40, 80, 150, 0.35)", 0.8, [3, 3]);
+    strokes(f, plan.drawnTo, k, true, "#1b1b1b", 1.6);
+    plan.drawnTo = k;
+  }
+  const c = field("live");
+  c.dataset.drawn = String(k);
+  c.dataset.points = String(plan.n);
+  field("drawn").textContent = `${(plan.cum[k] / 1000).toFixed(2)} of ` +
+    `${(plan.cum[plan.n] / 1000).toFixed(2)} m drawn`;
+}
+
 function stateOf(st) {
   if (st.drawing) return st.drawing.state || "drawing";
   if (st.busy) return "busy";
@@ -85,12 +314,36 @@ function showPrompt(waiting) {
   sw.title = waiting.colour || "";
 }
 
+// what the plotter is doing, in a person's words (no process ids)
+function sentence(st) {
+  const d = st.drawing;
+  const name = (path) => (path || "").split("/").pop();
+  if (d && d.waiting) return `Waiting for you: ${d.waiting.prompt}. Press Continue when done.`;
+  if (d) return `Drawing ${name(d.file)}: ${d.percent.toFixed(0)} % done, ` +
+    `${clock(d.remaining_s)} left (finishes at ${d.finish}).`;
+  if (st.busy) {
+    const what = (st.busy.command || "").replace(/^vplotter /, "");
+    return what.startsWith("queue") ? "Drawing the queue: getting the next drawing ready."
+      : `Busy: ${what || "the plotter is moving"}.`;
+  }
+  if (st.resume) return `Stopped part-way through ${name(st.resume.file)}: ` +
+    "Resume goes on from where it stopped.";
+  if (!st.calibrated) return "Ready, but the pen's position is unknown: set it under Position.";
+  if (st.last_stop === "unclean") return "The last stop was not clean (a crash or power " +
+    "cut): check where the pen is and set the position.";
+  return jobs.length ? `Ready. ${jobs.length} drawing${jobs.length > 1 ? "s" : ""} in the ` +
+    "queue." : "Ready.";
+}
+
 function show(st) {
+  const before = status;
   status = st;
   const state = stateOf(st);
   const s = field("state");
   s.textContent = state;
   s.className = `state ${state}`;
+  field("said").textContent = sentence(st);
+  changed(before, st);
   const d = st.drawing;
   const pct = d ? d.percent : 0;
   field("percent").textContent = pct.toFixed(1);
@@ -116,6 +369,7 @@ function show(st) {
   $('[data-action="stop"]').disabled = !busy;
   $('[data-action="resume"]').disabled = busy || !st.resume;
   $('[data-action="continue"]').disabled = !waiting;
+  $('[data-action="queue-run"]').disabled = busy || !jobs.length;
 }
 
 // ------------------------------------------------------------------ options
@@ -232,6 +486,15 @@ async function refreshFiles(choose) {
     return li;
   }));
   renderEstimates();
+  const qf = field("queue-file");
+  const keep = qf.value;
+  qf.replaceChildren(...files.map((f) => {
+    const o = document.createElement("option");
+    o.value = f.name;
+    o.textContent = f.name;
+    return o;
+  }));
+  if (files.some((f) => f.name === keep)) qf.value = keep;
   select(choose !== undefined ? choose : selected);
   if (status) show(status);
 }
@@ -276,17 +539,17 @@ async function act(button) {
       await pending;
       say(`validating ${file}…`);
       const r = await call("POST", "/api/draw", { file, resume: false });
-      say(`drawing ${file} (pid ${r.pid})`);
+      say(`drawing ${file}`);
     } else if (a === "resume") {
       const r = await call("POST", "/api/draw", { resume: true });
-      say(`resumed (pid ${r.pid})`);
+      say("going on with the stopped drawing");
     } else if (a === "continue") {
       const r = await call("POST", "/api/continue");
-      say(r.message);
+      say(r.message.replace(/^continuing pid \d+/, "going on"));
     } else if (a === "stop") {
       say("stopping…");
       const r = await call("POST", "/api/stop");
-      say(r.message);
+      say(r.message.replace(/^stopped pid \d+ \([^)]*\)/, "stopped"));
     } else if (a === "pen-up" || a === "pen-down") {
       await call("POST", "/api/pen", { state: a === "pen-up" ? "up" : "down" });
     } else if (a === "pen-try" || a === "pen-save") {
@@ -315,6 +578,8 @@ async function act(button) {
       await refreshFiles(selected === file ? null : selected);
     } else if (a === "preview") {
       await preview(file);
+    } else if (a.startsWith("queue-")) {
+      await queueAct(a, button);
     }
   } catch (e) {
     explain(e);
@@ -378,4 +643,6 @@ $('[data-action="upload"]').addEventListener("change", (ev) => upload(ev.target)
 $$("[data-option]").forEach((el) => el.addEventListener("change", optionsChanged));
 poll();
 loadSetup().then(() => refreshFiles()).catch((e) => say(e.message));
+refreshQueue();
 listen();
+window.addEventListener("resize", () => { if (plan) paint(plan.drawnTo); });

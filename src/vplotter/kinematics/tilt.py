@@ -1,0 +1,180 @@
+"""The tilting gondola of the V-plotter (`[gondola] mass_below_pen_mm`).
+
+A rigid gondola: the cords hold it at two points `cord_spacing_mm` apart, the pen midway between
+them and `pen_below_mm` below the line through them, its centre of mass G `mass_below_pen_mm`
+below the pen on its symmetry line (all in the gondola's frame). Wherever the two cords pull
+unevenly the gondola turns by an angle phi until it balances: the two cords and the weight
+(straight down through G) meet in one point, i.e. the torques about G cancel.
+
+Machine frame (origin at the left anchor, +y down), the anchors A_L = (0, 0), A_R = (D, 0).
+For a pen at p and the gondola turned by phi (R the rotation by phi):
+- the cords' points P_m = p + R v_m, v_L = (-spacing/2, -pen_below), v_R = (+spacing/2, ...);
+- the cords r_m = A_m - P_m (from the gondola to the anchor), geometric lengths |r_m|;
+- from G to the cords' points R a_m, a_m = v_m - (0, mass_below_pen);
+- balance: the tensions T_L, T_R carry the weight, T_L r_L/|r_L| + T_R r_R/|r_R| = (0, -W),
+  and the torque about G vanishes: sum (R a_m) x T_m r_m/|r_m| = 0. Eliminating the tensions
+  (T_L ∝ r_Rx, T_R ∝ -r_Lx, times the same positive factor), the balance is the polynomial
+  F(p, phi) = (R a_L x r_L) r_Rx - (R a_R x r_R) r_Lx = 0 (no square roots).
+The tensions with the gondola tilted come from the same force balance, so cord stretch (when
+set) uses them: t_L = r_Rx |r_L| / C, t_R = -r_Lx |r_R| / C, C = r_L x r_R (in units of the
+gondola's weight), the motor paying out q = |r| / (1 + stretch t).
+
+phi solves F = 0 for each point by Newton steps kept inside a bracket (bisection where a step
+would leave it); along a line p0 + s e, phi' and phi'' follow by implicit differentiation
+(F_phi phi' = -F_s, F_phi phi'' = -(F_ss + 2 F_sphi phi' + F_phiphi phi'^2)), and every cord
+with them by Taylor arithmetic: the planner's slopes and bends stay exact.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from vplotter.kinematics import taylor as tl
+
+PHI_LIMIT = 1.2           # rad: the bracket (no gondola that balances turns this far)
+PHI_TOL = 1e-13           # rad: Newton stops when every step is below (1e-11 mm at 100 mm)
+PHI_STEPS = 60
+
+
+class Gondola:
+    """The balance of a tilting gondola between anchors 0 and `d_mm` apart."""
+
+    def __init__(self, d_mm: float, spacing_mm: float, pen_below_mm: float,
+                 mass_below_pen_mm: float):
+        half = spacing_mm / 2.0
+        h, c = pen_below_mm, mass_below_pen_mm
+        self.d_mm = float(d_mm)
+        self.v = ((-half, -h), (half, -h))                    # pen -> the cords' points
+        self.a = ((-half, -h - c), (half, -h - c))            # centre of mass -> them
+        # the orientation of the stable balance: sign * F rises through zero there (the
+        # restoring torque), the same everywhere on the wall; taken below the middle
+        mid = np.array([self.d_mm / 2.0]), np.array([self.d_mm])
+        self.sign = 1.0 if self._terms(*mid, np.ones(1), np.zeros(1))[1][0] > 0 else -1.0
+
+    # ------------------------------------------------------------------ the balance
+    def _terms(self, x, y, c, s):
+        """F and dF/dphi at pen (x, y) with cos/sin of phi c, s; and the cords r_m."""
+        (vlx, vly), (vrx, vry) = self.v
+        (alx, aly), (arx, ary) = self.a
+        pl_x, pl_y = c * vlx - s * vly, s * vlx + c * vly        # R v_L
+        pr_x, pr_y = c * vrx - s * vry, s * vrx + c * vry
+        gl_x, gl_y = c * alx - s * aly, s * alx + c * aly        # R a_L
+        gr_x, gr_y = c * arx - s * ary, s * arx + c * ary
+        rlx, rly = -x - pl_x, -y - pl_y
+        rrx, rry = self.d_mm - x - pr_x, -y - pr_y
+        kl = gl_x * rly - gl_y * rlx
+        kr = gr_x * rry - gr_y * rrx
+        f = kl * rrx - kr * rlx
+        # d/dphi: d(R w) = (-(R w)_y, (R w)_x), dr_m = -d(R v_m)
+        dkl = -gl_y * rly - gl_x * rlx - gl_x * pl_x - gl_y * pl_y
+        dkr = -gr_y * rry - gr_x * rrx - gr_x * pr_x - gr_y * pr_y
+        df = dkl * rrx + kl * pr_y - dkr * rlx - kr * pl_y
+        return f, df, (rlx, rly, rrx, rry), (gl_x, gl_y, gr_x, gr_y)
+
+    def solve(self, x, y, phi=None):
+        """phi at pen points (x, y): (phi, cos, sin, dF/dphi, dF/dx, dF/dy, cords r)."""
+        x = np.asarray(x, dtype=float)
+        y = np.asarray(y, dtype=float)
+        phi = np.zeros(x.shape) if phi is None else np.array(phi, dtype=float)
+        lo = np.full(x.shape, -PHI_LIMIT)
+        hi = np.full(x.shape, PHI_LIMIT)
+        sg = self.sign
+        for _ in range(PHI_STEPS):
+            c, s = np.cos(phi), np.sin(phi)
+            f, df, _, _ = self._terms(x, y, c, s)
+            above = sg * f > 0
+            hi = np.where(above, phi, hi)
+            lo = np.where(above, lo, phi)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                nxt = phi - f / df
+            bad = ~((nxt > lo) & (nxt < hi)) | ~(sg * df > 0)
+            nxt = np.where(bad, (lo + hi) / 2.0, nxt)
+            step = np.abs(nxt - phi)
+            phi = nxt
+            if not step.max(initial=0.0) > PHI_TOL:
+                break
+        c, s = np.cos(phi), np.sin(phi)
+        f, df, r, g = self._terms(x, y, c, s)
+        gl_x, gl_y, gr_x, gr_y = g
+        rlx, _, rrx, _ = r
+        kl = gl_x * r[1] - gl_y * rlx
+        kr = gr_x * r[3] - gr_y * rrx
+        # dr/dx = (-1, 0), dr/dy = (0, -1) for both cords
+        fx = gl_y * rrx - kl - gr_y * rlx + kr
+        fy = -gl_x * rrx + gr_x * rlx
+        return phi, c, s, df, fx, fy, r
+
+    def cords(self, x, y, phi=None) -> tuple:
+        """The cord vectors (r_Lx, r_Ly, r_Rx, r_Ry) of the balanced gondola, and phi."""
+        phi, _, _, _, _, _, r = self.solve(x, y, phi)
+        return r, phi
+
+    # ------------------------------------------------------------------ along a line
+    def _r_jets(self, X, Y, C, S):
+        """The cords r_m and the balance F as triples, for triples of x, y, cos and sin."""
+        out = []
+        for (vx, vy), ax in zip(self.v, (0.0, self.d_mm)):
+            px = tl.sub(tl.scale(C, vx), tl.scale(S, vy))
+            py = tl.add(tl.scale(S, vx), tl.scale(C, vy))
+            rx = tl.sub(tl.scale(X, -1.0), px)
+            rx = (rx[0] + ax, rx[1], rx[2])
+            out.append((rx, tl.sub(tl.scale(Y, -1.0), py)))
+        k = []
+        for (axx, ayy), (rx, ry) in zip(self.a, out):
+            gx = tl.sub(tl.scale(C, axx), tl.scale(S, ayy))
+            gy = tl.add(tl.scale(S, axx), tl.scale(C, ayy))
+            k.append(tl.sub(tl.mul(gx, ry), tl.mul(gy, rx)))
+        f = tl.sub(tl.mul(k[0], out[1][0]), tl.mul(k[1], out[0][0]))
+        return out, f
+
+    def jets(self, xy, e, state=None):
+        """The cords r_m along p(s) = xy + s e at s = 0 as triples (value, d/ds, d2/ds2):
+        ((rLx, rLy), (rRx, rRy)), with phi's own triple; `state`: solve(xy) when known."""
+        x, y = xy[:, 0], xy[:, 1]
+        phi, c, s, df, fx, fy, _ = self.solve(x, y) if state is None else state
+        ex, ey = e[:, 0], e[:, 1]
+        zero = np.zeros(len(x))
+        p1 = -(fx * ex + fy * ey) / df
+        X, Y = (x, ex, zero), (y, ey, zero)
+        C, S = tl.cos_sin((phi, p1, zero), c, s)
+        r, f = self._r_jets(X, Y, C, S)
+        p2 = -f[2] / df
+        # phi'' enters the second derivatives of the cords linearly: d r_m / d phi = -d(R v_m)
+        out = []
+        for (vx, vy), (rx, ry) in zip(self.v, r):
+            dx = s * vx + c * vy                  # -d(R v)_x = (R v)_y
+            dy = -(c * vx - s * vy)               # -d(R v)_y = -(R v)_x
+            out.append(((rx[0], rx[1], rx[2] + dx * p2), (ry[0], ry[1], ry[2] + dy * p2)))
+        return out, (phi, p1, p2)
+
+
+def cord_jets(r, stretch: float):
+    """Motor coordinates (value, d/ds, d2/ds2) of the left and right cord from the cords'
+    triples; with stretch, the tilted force balance gives the tensions."""
+    (lx, ly), (rx, ry) = r
+    gl = tl.sqrt(tl.add(tl.mul(lx, lx), tl.mul(ly, ly)))
+    gr = tl.sqrt(tl.add(tl.mul(rx, rx), tl.mul(ry, ry)))
+    if stretch == 0.0:
+        return gl, gr
+    cross = tl.sub(tl.mul(lx, ry), tl.mul(ly, rx))
+    # q = g / (1 + k t) = g C / (C + k t C), t_L C = r_Rx g_L, t_R C = -r_Lx g_R
+    ql = tl.div(tl.mul(gl, cross), tl.add(cross, tl.scale(tl.mul(rx, gl), stretch)))
+    qr = tl.div(tl.mul(gr, cross), tl.sub(cross, tl.scale(tl.mul(lx, gr), stretch)))
+    return ql, qr
+
+
+def cords_value(r, stretch: float) -> np.ndarray:
+    """(N, 2) motor coordinates from the cord vectors (r_Lx, r_Ly, r_Rx, r_Ry)."""
+    lx, ly, rx, ry = r
+    gl, gr = np.hypot(lx, ly), np.hypot(rx, ry)
+    if stretch != 0.0:
+        cross = lx * ry - ly * rx
+        gl, gr = gl * cross / (cross + stretch * rx * gl), gr * cross / (cross - stretch * lx * gr)
+    return np.stack((gl, gr), axis=-1)
+
+
+def tensions(r) -> np.ndarray:
+    """(N, 2) tensions in units of the gondola's weight."""
+    lx, ly, rx, ry = r
+    cross = lx * ry - ly * rx
+    return np.stack((rx * np.hypot(lx, ly), -lx * np.hypot(rx, ry)), axis=-1) / cross[:, None]
