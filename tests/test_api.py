@@ -260,3 +260,16 @@ def test_importing_vplotter_stays_light():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert out.returncode == 0 and out.stdout.strip() == "Plotter", out.stderr
     assert (REPO / "src" / "vplotter" / "py.typed").exists()
+
+
+def test_a_bad_file_ends_the_plotter_and_frees_the_lock(config_path, tmp_path):
+    from vplotter.machine import lock
+
+    calibrated(config_path)
+    with pytest.raises(InputError, match="no such file"):
+        with api.Plotter(config_path, backend="fake") as p:
+            p.moveto(5, 5)
+            p.draw_file(tmp_path / "missing.svg", fit=True)
+    assert lock.holder() is None and state.load().clean
+    with api.Plotter(config_path, backend="fake") as p:     # the plotter is free again
+        p.lineto(6, 5)

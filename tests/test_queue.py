@@ -253,3 +253,41 @@ def test_a_job_that_no_longer_validates_fails_with_its_line_and_stays(capsys, cf
     assert [j["name"] for j in queue.jobs()] == ["a.ngc"]
     (plot,) = history.read()
     assert plot["result"] == "failed" and plot["error"] == err.strip()
+
+
+CRASH = """
+import os, sys
+from vplotter.backends.fake import FakeBackend
+from vplotter.cli import main
+orig, n = FakeBackend.play, [0]
+def play(self, rows):
+    n[0] += 1
+    if n[0] == 3:
+        os._exit(9)          # the power goes in the middle of the job
+    return orig(self, rows)
+FakeBackend.play = play
+main(["--config", sys.argv[1], "queue", "run", "--backend", "fake"])
+"""
+
+
+def test_a_job_cut_short_by_a_power_cut_is_resumed_by_the_next_run(capsys, cfg, tmp_path):
+    import subprocess
+
+    a = square(tmp_path, "a.ngc", 0)
+    assert vp(capsys, cfg, "queue", "add", a, "--copies", "2")[0] == 0
+    proc = subprocess.run([sys.executable, "-c", CRASH, cfg], capture_output=True, text=True,
+                          env=dict(os.environ))
+    assert proc.returncode == 9
+    assert [(j["done"], j["stopped"]) for j in queue.jobs()] == [(0, False)]
+    assert [p["result"] for p in history.read()] == ["interrupted (power cut or crash)"]
+    code, _, err = vp(capsys, cfg, "queue", "run", "--backend", "fake")    # not trusted yet
+    assert code == 2 and "not clean" in err
+    monkey_stdin = io.StringIO("\n")
+    sys_stdin, sys.stdin = sys.stdin, monkey_stdin
+    try:
+        code, out, _ = vp(capsys, cfg, "queue", "run", "--backend", "fake", "--trust-position")
+    finally:
+        sys.stdin = sys_stdin
+    assert code == 0 and "queue: job 1: a.ngc (1 of 2), resumed" in out
+    assert [p["result"] for p in history.read()] == ["interrupted (power cut or crash)",
+                                                     "failed", "done", "done"]

@@ -406,3 +406,25 @@ def test_page_queue_runs_with_continue_and_the_drawing_grows_on_its_preview(
     assert not [t for t in texts if "pid" in t]
     assert fits(browser) == []
     assert console_errors(browser) == []
+
+
+def test_page_resumes_a_stopped_queue_job_by_running_the_queue(serve, browser):  # noqa: F811
+    server = serve()
+    assert main(["--config", str(server.config), "calibrate", "--at", "0", "0"]) == 0
+    assert server.upload("zig.ngc", ZIGZAG.encode())[0] == 201
+    assert server.request("POST", "/api/queue", {"file": "zig.ngc"})[0] == 201
+    assert server.request("POST", "/api/queue/run")[0] == 202
+    server.wait_status(lambda s: (s.get("drawing") or {}).get("line", 0) > 3)
+    assert server.request("POST", "/api/stop")[0] == 200
+    browser.get(server.url)
+    wait_for(browser, lambda d: _field(d, "said").text == (
+        "Stopped part-way through zig.ngc (the queue's first drawing): Resume goes on from "
+        "where it stopped."))
+    _click(browser, "resume")
+    wait_for(browser, lambda d: _field(d, "message").text == "going on with the queue")
+    server.wait_status(lambda s: s["busy"] is None)
+    wait_for(browser, lambda d: _field(d, "said").text == "Ready.")
+    assert server.request("GET", "/api/queue")[1]["jobs"] == []
+    plots = server.request("GET", "/api/history")[1]
+    assert [p["result"] for p in plots] == ["stopped", "done"]
+    assert console_errors(browser) == []

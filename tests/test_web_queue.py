@@ -83,3 +83,40 @@ def test_the_queue_routes_keep_the_token_rules(serve):
     code, err, _ = local.request("DELETE", "/api/queue/1", headers={"X-Vplotter": None,
                                                                      "Referer": "http://x/"})
     assert code == 403 and "X-Vplotter" in err["error"]
+
+
+CIRCLES = """<svg xmlns="http://www.w3.org/2000/svg" width="40mm" height="20mm"
+ viewBox="0 0 40 20"><circle cx="10" cy="10" r="8" stroke="black" fill="none"/>
+<path d="M22 2 L38 18 M22 18 L38 2" stroke="black" fill="none"/></svg>"""
+
+
+def test_the_running_draws_path_is_what_convert_writes(tmp_path, config_path, capsys):
+    """GET /api/now/paths's path (commands/drawn.py) from a draw's command line: its pen-down
+    points lie on what `convert` writes with the same options, and cover it; each point's
+    record is one the draw reports as its `line`, in drawing order."""
+    import numpy as np
+
+    from support import tracecheck as tc
+    from vplotter import config
+    from vplotter.commands import drawn
+
+    svg = tmp_path / "c.svg"
+    svg.write_text(CIRCLES)
+    cfg = str(config_path)
+    assert main(["--config", cfg, "calibrate", "--at", "-30", "20"]) == 0
+    out = tmp_path / "c.ngc"
+    assert main(["--config", cfg, "convert", str(svg), "--width", "80", "-o", str(out)]) == 0
+    command = f"vplotter --config {cfg} draw {svg} --width=80 --backend fake --detached"
+    got = drawn.paths(config.load(cfg), {"command": command, "file": str(svg)})
+    pts = np.column_stack((got["x"], got["y"]))
+    down = np.asarray(got["down"], bool)
+    ref = tc.reference_path(str(out), start_xy=(-30.0, 20.0))
+    assert tc.distances_to_polylines(pts[down], ref).max() <= 0.02
+    from scipy.spatial import cKDTree
+
+    dense = np.vstack(ref)
+    chords = np.vstack([np.linspace(a, b, 2 + int(np.hypot(*(b - a)) / 0.02))
+                        for a, b, d in zip(pts[:-1], pts[1:], down[1:]) if d])
+    assert cKDTree(chords).query(dense)[0].max() <= 0.05        # and covers it
+    assert np.all(np.diff(got["line"]) >= 0) and got["start"] == [-30.0, 20.0]
+    assert drawn.draw_args("vplotter --config c queue run") is None

@@ -319,7 +319,8 @@ class Plotter:
     def draw_file(self, path: str | os.PathLike, **options: Any) -> None:
         """Draw a file as `vplotter draw FILE` does, with draw's file options as keywords
         (fit=True, offset=(10, 0), rotate=90, order="best", layer=["ink"], ...), from where the
-        pen is; the script goes on from where the file ends."""
+        pen is; the script goes on from where the file ends. An error in the file (or a stop)
+        ends the Plotter as it ends `draw` (`estimate(path)` checks a file without moving)."""
         from vplotter.commands import draw
 
         self._check()
@@ -335,12 +336,17 @@ class Plotter:
         reached: list = []
         try:
             draw.draw_from(args, None, self.cfg, pos, reached=reached.append)
-        except Interrupted as e:
-            self._start(pos, trace=False)
-            self._stopped_idle = False
-            raise self._stopped(e.signum) from None
-        except BaseException:
-            self._start(pos, trace=False)
+        except BaseException as e:
+            # the draw's session left the machine safe and stored where it stopped: the
+            # Plotter ends here (its `with` block sees the error)
+            from vplotter.machine import lock
+
+            self._open = False
+            lock.release_all()
+            if isinstance(e, Interrupted):
+                raise Stopped(f"{e}: {args.file} stopped; pen lifted, coils released"
+                              f"{'' if self._args.dry_run else ', position saved'}",
+                              e.signum) from None
             raise
         self._start(reached[0], trace=False)
 
@@ -398,7 +404,8 @@ def _file_args(command: str, path: str, options: dict):
     """The arguments of `vplotter COMMAND PATH` with `options` (draw's file options as
     keywords: fit=True, offset=(10, 0), layer=["a"]), parsed by the command's own parser, so
     that a bad value is refused as the command line refuses it (ConfigError, one line)."""
-    from vplotter import cli
+    from vplotter.commands import draw
+    from vplotter.commands.usage import Parser
 
     bad = sorted(set(options) & MACHINE_OPTIONS)
     if bad:
@@ -419,13 +426,13 @@ def _file_args(command: str, path: str, options: dict):
         else:
             argv += [flag, str(value)]
 
-    class _Parser(cli.Parser):
+    class _Parser(Parser):
         def exit(self, status: int = 0, message: str | None = None):
             raise ConfigError((message or "error: bad option").strip().replace(
                 f"{self.prog}: ", "", 1))
 
     parser = _Parser(prog=f"Plotter.{'draw_file' if command == 'draw' else command}")
-    cli.COMMANDS[command][1](parser)
+    (draw.add_draw if command == "draw" else draw.add_estimate)(parser)
     args = parser.parse_args(argv)
     args.command = command
     args.config = None

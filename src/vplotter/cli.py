@@ -17,6 +17,8 @@ from vplotter.commands import queue as queue_cmd
 from vplotter.commands import text as text_cmd
 from vplotter.commands import warnings
 from vplotter.commands.common import eprint, error_line, exit_code
+# one-line usage errors (commands/usage.py; the Python API parses draw's options with them)
+from vplotter.commands.usage import Parser, usage_error  # noqa: F401
 from vplotter.errors import VplotterError
 
 
@@ -58,51 +60,6 @@ COMMANDS: dict[str, tuple[Callable, Callable, str]] = {
     "serve": (serve.cmd_serve, serve.add_serve,
               "the page on the Pi: upload, preview, draw, watch and stop from a phone"),
 }
-
-
-class Parser(argparse.ArgumentParser):
-    """argparse with one-line usage errors: what is wrong, the nearest option or choice when
-    a word is mistyped, and where the full usage is (`vplotter draw --help`)."""
-
-    def error(self, message: str):
-        self.exit(2, f"{self.prog}: error: {usage_error(self, message)}\n")
-
-
-def _near(word: str, words) -> str | None:
-    import difflib
-
-    found = difflib.get_close_matches(word, list(words), n=1, cutoff=0.6)
-    return found[0] if found else None
-
-
-def _options(parser: argparse.ArgumentParser) -> list[str]:
-    return [o for a in parser._actions for o in a.option_strings if o.startswith("--")]
-
-
-def usage_error(parser: argparse.ArgumentParser, message: str) -> str:
-    """argparse's `message` for a person, on one line."""
-    import re
-
-    m = re.match(r"argument (\S+): invalid choice: '(.*)' \(choose from (.*)\)$", message)
-    if m:
-        what, word = m.group(1), m.group(2)
-        choices = [c.strip(" '") for c in m.group(3).split(",")]
-        near = _near(word, choices)
-        if what == "COMMAND":
-            return (f"'{word}' is not a command" + (f"; did you mean '{near}'?" if near else "")
-                    + " (vplotter --help lists them)")
-        what = what if what.startswith("-") else f"the {what}"
-        return (f"{what} {word}: not a choice" + (f"; did you mean {near}?" if near else "")
-                + f" (choose from {', '.join(choices)})")
-    m = re.match(r"unrecognized arguments: (.*)$", message)
-    if m:
-        word = m.group(1).split()[0]
-        if word.startswith("-"):
-            near = _near(word.split("=")[0], _options(parser))
-            return (f"unknown option {word}" + (f"; did you mean {near}?" if near else "")
-                    + f" ({parser.prog} --help lists the options)")
-        return f"unexpected argument {word!r} ({parser.prog} --help says what it takes)"
-    return f"{message} ({parser.prog} --help)"
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -220,7 +220,7 @@ def _stopped(args, cfg, pos, s, prep, progress) -> None:
              else f"{args.file}: stopped before drawing")
     eprint(f"{where} at X{xy[0]:.3f} Y{xy[1]:.3f}; pen lifted, coils released"
            f"{'' if s.dry_run else ', position saved'}")
-    if not s.dry_run and resume:
+    if not s.dry_run and resume and not getattr(args, "job_name", None):   # a queue job: queue run
         eprint(f"resume with: vplotter draw {args.file} --resume")
 
 

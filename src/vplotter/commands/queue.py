@@ -282,13 +282,14 @@ def _draw(args, job: dict) -> None:
 
     k = int(job["done"]) + 1
     copy = _copy_text(job, k)
-    resume = bool(job["stopped"])
-    if resume:
-        stored = (state.load() or state.Position(1, 1, 0, 0, (1, 1))).extra.get("resume") or {}
-        if stored.get("file") != os.path.abspath(job["file"]):
-            eprint(f"vplotter: warning: {job['name']} was stopped part-way, but the stored "
-                   f"position no longer says where: drawing it from the start")
-            resume = False
+    # stopped (`vplotter stop`) or cut short by a crash or power cut: go on where it was
+    stored = state.load()
+    info = (state.recovered(stored).extra.get("resume") or {}) if stored else {}
+    mine = info.get("file") == os.path.abspath(job["file"])
+    resume = mine and (bool(job["stopped"]) or not stored.clean)
+    if job["stopped"] and not mine:
+        eprint(f"vplotter: warning: {job['name']} was stopped part-way, but the stored "
+               f"position no longer says where: drawing it from the start")
     dargs, words = _draw_args(args, job, resume)
     dargs.job_name, dargs.job_copy = job["name"], copy
     dargs.plot = plot = history.Plot(os.path.abspath(job["file"]), job["name"], copy)

@@ -32,7 +32,7 @@ import numpy as np
 from vplotter.kinematics import taylor as tl
 
 PHI_LIMIT = 1.2           # rad: the bracket (no gondola that balances turns this far)
-PHI_TOL = 1e-13           # rad: Newton stops when every step is below (1e-11 mm at 100 mm)
+PHI_NEWTON = 1e-7         # rad: Newton stops after a step below this: phi within 1e-13
 PHI_STEPS = 60
 
 
@@ -87,11 +87,12 @@ class Gondola:
             lo = np.where(above, lo, phi)
             with np.errstate(divide="ignore", invalid="ignore"):
                 nxt = phi - f / df
-            bad = ~((nxt > lo) & (nxt < hi)) | ~(sg * df > 0)
+            bad = ~((nxt >= lo) & (nxt <= hi)) | ~(sg * df > 0)
             nxt = np.where(bad, (lo + hi) / 2.0, nxt)
             step = np.abs(nxt - phi)
             phi = nxt
-            if not step.max(initial=0.0) > PHI_TOL:
+            # Newton doubles the digits: after a step this small phi is within about 1e-13
+            if not step.max(initial=0.0) > PHI_NEWTON:
                 break
         c, s = np.cos(phi), np.sin(phi)
         f, df, r, g = self._terms(x, y, c, s)

@@ -27,10 +27,12 @@ from vplotter.kinematics.taylor import mul as _mul
 from vplotter.kinematics.taylor import scale as _scale
 from vplotter.kinematics.taylor import sqrt as _sqrt
 from vplotter.kinematics.taylor import sub as _sub
+from vplotter.kinematics import tilt_steps
 from vplotter.kinematics.tilt import Gondola, cord_jets, cords_value, tensions
 
 NEWTON_STEPS = 40          # at most; they stop when every row is within TOL_MM
 TOL_MM = 1e-10
+FAST_TILT = True           # tilt: the step solver of tilt_steps (False: the exact one)
 
 
 class TwoCord:
@@ -235,6 +237,14 @@ class TwoCord:
                  q: np.ndarray, rising: np.ndarray) -> np.ndarray:
         """Distance s along p0[piece] + s e[piece] at which motor coordinate `motor` reaches q.
         Each piece starts on the near side of its steps' q and the motor runs one way on it."""
+        if self.gondola is not None and FAST_TILT:
+            return tilt_steps.crossing(self, p0, e, motor, piece, q, rising, self._exact_crossing)
+        return self._exact_crossing(p0, e, motor, piece, q, rising)
+
+    def _exact_crossing(self, p0, e, motor, piece, q, rising) -> np.ndarray:
+        """crossing() by bracketed Newton steps on the exact cords (stretch, tilt)."""
+        if self.gondola is not None:          # the steps it gets are few: solve per step
+            p0, e, piece = p0[piece], e[piece], np.arange(len(piece))
         rel = p0 - self.anchors[motor] if self.gondola is None else self._rel(p0)[:, motor]
         b = rel[:, 0] * e[:, 0] + rel[:, 1] * e[:, 1]           # per piece
         c = b * b - (rel[:, 0] ** 2 + rel[:, 1] ** 2)

@@ -8,7 +8,7 @@ format is a module with its READER and one line here (docs/design.md, "Readers")
 
 from __future__ import annotations
 
-from vplotter.readers import dxf, gcode, photo, svg, text
+from vplotter.readers import dxf, gcode, photo, svg, text, vpype
 from vplotter.readers.base import Context, Reader
 
 __all__ = ["READERS", "Context", "Reader", "file_kind", "reader_for", "reader_of"]
@@ -18,6 +18,7 @@ READERS: tuple[Reader, ...] = (
     dxf.READER,             # a DXF section or sentinel
     svg.READER,             # gzip or markup
     text.READER,
+    vpype.READER,           # by name only: *.vpype.npz (the vpype plugin's)
     gcode.READER,           # last: what no other reader takes
 )
 

@@ -1,5 +1,15 @@
 """V-plotter kinematics: cord lengths paid out <-> pen position (G-code mm), with the
-``[gondola]`` cord spacing and pen offset and the ``[cords]`` stretch models."""
+``[gondola]`` cord spacing and pen offset, the ``[cords]`` stretch models, and the gondola
+that tilts (``[gondola] mass_below_pen_mm``: its centre of mass that far below the pen).
+
+The tilting gondola, written from the physics (not from vplotter's method): a rigid body
+held by the two cords at its two points, its weight through its centre of mass. For a turn
+``phi`` the cord forces come from the force balance (Cramer's rule on the cords' angles) and
+their torque about the centre of mass is summed; ``phi`` is where that torque vanishes, found
+by bisection (the stable balance: the torque changes sign there).  Forward: for each trial
+``phi`` the pen is where the two circles about the turned gondola's anchors meet, and the
+bisection runs on the torque there; with stretch, the tensions are iterated outside.
+"""
 
 from __future__ import annotations
 
@@ -38,11 +48,97 @@ def _machine_cords(c: dict, x, y):
     return geo_l / (1.0 + k * np.cos(beta) / both), geo_r / (1.0 + k * np.cos(alpha) / both)
 
 
+TILT_LIMIT = 1.0        # rad: the bisection's bracket
+TILT_HALVINGS = 36       # 2 / 2^36 rad: 3e-11 rad
+
+
+def _mass(c: dict):
+    m = c.get("gondola", {}).get("mass_below_pen_mm")
+    return None if m is None else float(m)
+
+
+def _turned(u, v, cos, sin):
+    return u * cos - v * sin, u * sin + v * cos
+
+
+def _forces(c: dict, x, y, phi):
+    """(torque about the centre of mass, left tension, right tension, left cord, right cord)
+    for a pen at machine (x, y) and the gondola turned by phi; weight 1, +y down."""
+    D, s, h, _ = _models(c)
+    cos, sin = np.cos(phi), np.sin(phi)
+    lx, ly = _turned(-s / 2.0, -h, cos, sin)
+    rx, ry = _turned(s / 2.0, -h, cos, sin)
+    gx, gy = _turned(0.0, _mass(c), cos, sin)
+    # the cords' points on the wall, the cords' angles towards their anchors
+    Lx, Ly, Rx, Ry = x + lx, y + ly, x + rx, y + ry
+    aL = np.arctan2(-Ly, -Lx)
+    aR = np.arctan2(-Ry, D - Rx)
+    # TL (cos aL, sin aL) + TR (cos aR, sin aR) = (0, -1): the cords carry the weight
+    det = np.sin(aR - aL)
+    TL = np.cos(aR) / det
+    TR = -np.cos(aL) / det
+    torque = ((lx - gx) * TL * np.sin(aL) - (ly - gy) * TL * np.cos(aL)
+              + (rx - gx) * TR * np.sin(aR) - (ry - gy) * TR * np.cos(aR))
+    return torque, TL, TR, np.hypot(Lx, Ly), np.hypot(D - Rx, Ry)
+
+
+def _bisect(fn, shape):
+    """The phi in [-TILT_LIMIT, TILT_LIMIT] where fn(phi) changes sign."""
+    lo = np.full(shape, -TILT_LIMIT)
+    hi = np.full(shape, TILT_LIMIT)
+    f_lo = np.sign(fn(lo))
+    for _ in range(TILT_HALVINGS):
+        mid = 0.5 * (lo + hi)
+        same = np.sign(fn(mid)) == f_lo
+        lo = np.where(same, mid, lo)
+        hi = np.where(same, hi, mid)
+    return 0.5 * (lo + hi)
+
+
+def _tilted_cords(c: dict, x, y):
+    x, y = np.broadcast_arrays(np.asarray(x, dtype=float), np.asarray(y, dtype=float))
+    phi = _bisect(lambda p: _forces(c, x, y, p)[0], x.shape)
+    _, TL, TR, gl, gr = _forces(c, x, y, phi)
+    k = _models(c)[3]
+    return gl / (1.0 + k * TL), gr / (1.0 + k * TR)
+
+
+def _tilted_forward(c: dict, a, b):
+    """Machine (x, y) of the tilted gondola from the cords paid out (NaN: no triangle)."""
+    D, s, h, k = _models(c)
+    a, b = np.broadcast_arrays(np.asarray(a, dtype=float), np.asarray(b, dtype=float))
+    gl, gr = a.copy(), b.copy()
+
+    def pen(phi):
+        cos, sin = np.cos(phi), np.sin(phi)
+        lx, ly = _turned(-s / 2.0, -h, cos, sin)
+        rx, ry = _turned(s / 2.0, -h, cos, sin)
+        # the circles about the anchors moved back by the turned gondola's points
+        ex, ey, fx, fy = -lx, -ly, D - rx, -ry
+        dx, dy = fx - ex, fy - ey
+        d = np.hypot(dx, dy)
+        along = (gl * gl - gr * gr + d * d) / (2.0 * d)
+        with np.errstate(invalid="ignore"):
+            up = np.sqrt(gl * gl - along * along)
+        # the lower of the two points (+y down): the pen hangs below the anchors
+        return ex + along * dx / d - up * dy / d, ey + along * dy / d + up * dx / d
+
+    for _ in range(6 if k else 1):
+        phi = _bisect(lambda p: _forces(c, *pen(p), p)[0], a.shape)
+        x, y = pen(phi)
+        if k:
+            _, TL, TR, _, _ = _forces(c, x, y, phi)
+            gl, gr = a * (1.0 + k * TL), b * (1.0 + k * TR)
+    return x, y
+
+
 def inverse_kinematics(cfg: dict, X, Y):
     """Cord lengths paid out (left, right) in mm for G-code point(s) ``(X, Y)``."""
     c = merge_config(cfg)
     x = c["origin"]["x_mm"] + np.asarray(X, dtype=float)
     y = c["origin"]["y_mm"] - np.asarray(Y, dtype=float)
+    if _mass(c) is not None:
+        return _tilted_cords(c, x, y)
     return _machine_cords(c, x, y)
 
 
@@ -55,6 +151,9 @@ def forward_kinematics(cfg: dict, left, right):
     there.  Cord pairs that do not form a triangle with the anchor line give NaN.
     """
     c = merge_config(cfg)
+    if _mass(c) is not None:
+        x, y = _tilted_forward(c, left, right)
+        return x - c["origin"]["x_mm"], c["origin"]["y_mm"] - y
     D, s, h, k = _models(c)
     a = np.asarray(left, dtype=float)
     b = np.asarray(right, dtype=float)

@@ -68,6 +68,10 @@ let pending = Promise.resolve();   // options being estimated: draw and preview 
 
 let jobs = [];            // GET /api/queue: the jobs
 
+// the stopped drawing is the queue's first job: resuming it is running the queue
+const queueStopped = () => !!(jobs.length && jobs[0].stopped && status && status.resume &&
+                              status.resume.file.endsWith(`/${jobs[0].id}/${jobs[0].name}`));
+
 // ------------------------------------------------------------------ queue and history
 function el(tag, cls, text) {
   const e = document.createElement(tag);
@@ -326,8 +330,9 @@ function sentence(st) {
     return what.startsWith("queue") ? "Drawing the queue: getting the next drawing ready."
       : `Busy: ${what || "the plotter is moving"}.`;
   }
-  if (st.resume) return `Stopped part-way through ${name(st.resume.file)}: ` +
-    "Resume goes on from where it stopped.";
+  if (st.resume) return `Stopped part-way through ${name(st.resume.file)}` +
+    (queueStopped() ? " (the queue's first drawing)" : "") +
+    ": Resume goes on from where it stopped.";
   if (!st.calibrated) return "Ready, but the pen's position is unknown: set it under Position.";
   if (st.last_stop === "unclean") return "The last stop was not clean (a crash or power " +
     "cut): check where the pen is and set the position.";
@@ -540,8 +545,11 @@ async function act(button) {
       say(`validating ${file}…`);
       const r = await call("POST", "/api/draw", { file, resume: false });
       say(`drawing ${file}`);
+    } else if (a === "resume" && queueStopped()) {      // a queue job: the queue goes on
+      await call("POST", "/api/queue/run");
+      say("going on with the queue");
     } else if (a === "resume") {
-      const r = await call("POST", "/api/draw", { resume: true });
+      await call("POST", "/api/draw", { resume: true });
       say("going on with the stopped drawing");
     } else if (a === "continue") {
       const r = await call("POST", "/api/continue");

@@ -1,0 +1,235 @@
+"""The tilting gondola ([gondola] mass_below_pen_mm, kinematics/tilt.py): the balance against
+independent formulations (lowest centre of mass, torques from the force balance), inverse and
+forward, exact slopes and bends, the step solver, the independent decoder, and a drawing on a
+tilting gondola decoded by tracecheck. Unset, nothing changes (test_traces.py)."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from vplotter import config
+from vplotter.kinematics import from_config
+from vplotter.kinematics.vplotter import TwoCord
+
+D, OX, OY = 422.5, 211.25, 430.0
+MODELS = {
+    "tilt": TwoCord(D, OX, OY, 40.0, 12.0, mass_below_pen_mm=30.0),
+    "tilt+stretch": TwoCord(D, OX, OY, 40.0, 12.0, 0.004, mass_below_pen_mm=30.0),
+    "low mass": TwoCord(D, OX, OY, 40.0, 5.0, mass_below_pen_mm=120.0),
+    "pen below": TwoCord(D, OX, OY, 40.0, 45.0, mass_below_pen_mm=-20.0),
+}
+gx = st.floats(-190, 190, allow_nan=False)
+gy = st.floats(-240, 290, allow_nan=False)
+angle = st.floats(0, 2 * math.pi, allow_nan=False)
+model = st.sampled_from(sorted(MODELS))
+
+
+def _body(kin, phi):
+    """The turned gondola: from the pen to the cords' points and to the centre of mass."""
+    c, s = math.cos(phi), math.sin(phi)
+    rot = np.array([[c, -s], [s, c]])
+    half, h = kin.spacing_mm / 2, kin.pen_below_mm
+    return rot @ [-half, -h], rot @ [half, -h], rot @ [0.0, kin.mass_below_pen_mm]
+
+
+def _lowest(kin, cords) -> np.ndarray:
+    """Where the pen hangs on inextensible cords of these lengths: the turn that puts the
+    centre of mass lowest (+y down), each turn's pen where the two circles meet (SciPy)."""
+    from scipy.optimize import minimize_scalar
+
+    def pen(phi):
+        vl, vr, _ = _body(kin, phi)
+        e_l, e_r = -vl, np.array([D, 0.0]) - vr
+        dv = e_r - e_l
+        d = np.hypot(*dv)
+        a = (cords[0] ** 2 - cords[1] ** 2 + d * d) / (2 * d)
+        h = math.sqrt(cords[0] ** 2 - a * a)
+        return e_l + a * dv / d + h * np.array([-dv[1], dv[0]]) / d
+
+    res = minimize_scalar(lambda phi: -(pen(phi) + _body(kin, phi)[2])[1], bounds=(-1.0, 1.0),
+                          method="bounded", options={"xatol": 1e-12})
+    return pen(res.x)
+
+
+@pytest.mark.parametrize("name", ["tilt", "low mass", "pen below"])
+def test_inverse_is_exact_against_the_lowest_centre_of_mass(name):
+    """The pen the inverse plans for is where a gondola on those cords comes to rest: the
+    balance of the torques is the lowest centre of mass (an independent formulation)."""
+    kin = MODELS[name]
+    rng = np.random.default_rng(3)
+    g = np.column_stack((rng.uniform(-200, 200, 60), rng.uniform(-250, 300, 60)))
+    g = np.vstack((g, [[-200, 300], [200, 300], [-200, -250], [200, -250]]))    # the corners
+    m = kin.to_machine(g)
+    q = kin.inverse(m)
+    worst = max(np.hypot(*(_lowest(kin, c) - p)) for c, p in zip(q, m))
+    assert worst < 1e-3
+
+
+@settings(max_examples=100, deadline=None)
+@given(model, gx, gy)
+def test_the_torques_about_the_centre_of_mass_cancel(name, x, y):
+    kin = MODELS[name]
+    p = kin.to_machine(np.array([[x, y]]))[0]
+    phi = float(kin.gondola.solve(p[:1], p[1:])[0][0])
+    vl, vr, vg = _body(kin, phi)
+    ul, ur = -(p + vl), np.array([D, 0.0]) - (p + vr)          # cords towards the anchors
+    ul, ur = ul / np.hypot(*ul), ur / np.hypot(*ur)
+    t = np.linalg.solve(np.column_stack((ul, ur)), [0.0, -1.0])  # they carry the weight
+    assert (t > 0).all()
+    torque = sum((v - vg)[0] * ti * u[1] - (v - vg)[1] * ti * u[0]
+                 for v, ti, u in ((vl, t[0], ul), (vr, t[1], ur)))
+    assert abs(torque) < 1e-9 * (abs(kin.mass_below_pen_mm) + kin.spacing_mm)
+    assert kin.tension(p[None])[0] == pytest.approx(t, rel=1e-9)
+
+
+@settings(max_examples=150, deadline=None)
+@given(model, gx, gy)
+def test_forward_inverts_inverse(name, x, y):
+    kin = MODELS[name]
+    m = kin.to_machine(np.array([[x, y]]))
+    assert np.allclose(kin.forward(kin.inverse(m)), m, atol=1e-9)
+
+
+def test_level_on_the_centre_line_and_when_unset(config_path):
+    kin = MODELS["tilt"]
+    level = TwoCord(D, OX, OY, 40.0, 12.0)
+    p = np.array([[D / 2, 300.0], [D / 2, 700.0]])
+    assert np.abs(kin.gondola.solve(p[:, 0], p[:, 1])[0]).max() < 1e-12
+    assert np.allclose(kin.inverse(p), level.inverse(p), atol=1e-9)
+    # off the centre line it turns, and the cords differ from the level gondola's by mm
+    p = np.array([[60.0, 200.0]])
+    assert abs(kin.gondola.solve(p[:, 0], p[:, 1])[0][0]) > 0.1
+    assert np.abs(kin.inverse(p) - level.inverse(p)).max() > 1.0
+    # the key unset: the plain model (no balance solved at all)
+    cfg = config.load(config_path)
+    assert cfg.gondola.mass_below_pen_mm is None and from_config(cfg).gondola is None
+
+
+@settings(max_examples=150, deadline=None)
+@given(model, gx, gy, angle)
+def test_slope_and_bend_are_the_derivatives_along_the_line(name, x, y, a):
+    kin = MODELS[name]
+    p = kin.to_machine(np.array([[x, y]]))
+    e = np.array([[math.cos(a), math.sin(a)]])
+    h = 1e-3
+    qm, q0, qp = (kin.inverse(p + k * h * e) for k in (-1, 0, 1))
+    assert np.allclose(kin.slope(p, e), (qp - qm) / (2 * h), atol=1e-7)
+    assert np.allclose(kin.bend(p, e), (qp - 2 * q0 + qm) / h ** 2, atol=1e-4)
+
+
+@settings(max_examples=100, deadline=None)
+@given(model, gx, gy, angle, st.floats(1.0, 200.0), st.floats(0.01, 0.99))
+def test_extrema_and_crossing(name, x, y, a, d, frac):
+    kin = MODELS[name]
+    p0 = kin.to_machine(np.array([[x, y]]))
+    e = np.array([[math.cos(a), math.sin(a)]])
+    ext = kin.extrema(p0, e, np.array([d]))[0]
+    for m in (0, 1):
+        cuts = [0.0, *([ext[m]] if not math.isnan(ext[m]) else []), d]
+        if not math.isnan(ext[m]):
+            assert abs(kin.slope(p0 + e * ext[m], e)[0, m]) < 1e-9
+        for s0, s1 in zip(cuts[:-1], cuts[1:]):
+            a0, a1 = p0 + e * s0, p0 + e * s1
+            q0, q1 = kin.inverse(a0)[0, m], kin.inverse(a1)[0, m]
+            if abs(q1 - q0) < 1e-6:
+                continue
+            target = q0 + frac * (q1 - q0)
+            s = kin.crossing(a0, e, m, np.array([0]), np.array([target]), np.array([q1 > q0]))[0]
+            assert -1e-9 <= s <= s1 - s0 + 1e-6
+            assert kin.inverse(a0 + e * s)[0, m] == pytest.approx(target, abs=1e-5)
+
+
+@pytest.mark.parametrize("name", sorted(MODELS))
+def test_the_step_solver_on_a_polyline(name):
+    """Steps all along a long polyline of pieces that follow one another (as the schedule
+    gives them): every step's cord within 1e-5 mm of its target (a step is 6e-3 mm)."""
+    kin = MODELS[name]
+    rng = np.random.default_rng(11)
+    g = np.cumsum(rng.normal(0, 40, (40, 2)), axis=0)
+    g = np.clip(g - g.mean(axis=0), [-190, -240], [190, 290])
+    verts = kin.to_machine(g)
+    # cut where a motor turns round (as the planner does)
+    seg = np.diff(verts, axis=0)
+    d = np.hypot(*seg.T)
+    e = seg / d[:, None]
+    ext = kin.extrema(verts[:-1], e, d)
+    pts = [verts[0]]
+    for i in range(len(d)):
+        for s in sorted(v for v in ext[i] if not math.isnan(v)):
+            pts.append(verts[i] + e[i] * s)
+        pts.append(verts[i + 1])
+    verts = np.array(pts)
+    seg = np.diff(verts, axis=0)
+    d = np.hypot(*seg.T)
+    keep = d > 1e-6
+    verts = np.vstack((verts[:1], verts[1:][keep]))
+    seg = np.diff(verts, axis=0)
+    e = seg / np.hypot(*seg.T)[:, None]
+    q = kin.inverse(verts)
+    for m in (0, 1):
+        n = np.floor(np.abs(np.diff(q[:, m])) / 0.006).astype(int)
+        piece = np.repeat(np.arange(len(n)), n)
+        j = np.arange(len(piece)) - np.repeat(np.cumsum(n) - n, n)
+        sign = np.sign(np.diff(q[:, m]))[piece]
+        target = q[piece, m] + sign * 0.006 * (j + 0.5)
+        s = kin.crossing(verts[:-1], e, m, piece, target, sign > 0)
+        got = kin.inverse(verts[:-1][piece] + e[piece] * s[:, None])[:, m]
+        assert len(target) > 10_000 and np.abs(got - target).max() < 1e-5
+
+
+@pytest.mark.parametrize("stretch", [0.0, 0.003])
+def test_tracecheck_tilt_agrees_with_the_package(stretch):
+    from support import tracecheck as tc
+
+    cfg = tc.load_config({"gondola": {"cord_spacing_mm": 40.0, "pen_below_mm": 12.0,
+                                      "mass_below_pen_mm": 30.0}, "cords": {"stretch": stretch}})
+    kin = TwoCord(D, OX, OY, 40.0, 12.0, stretch, mass_below_pen_mm=30.0)
+    rng = np.random.default_rng(5)
+    g = np.column_stack((rng.uniform(-200, 200, 300), rng.uniform(-250, 300, 300)))
+    left, right = tc.inverse_kinematics(cfg, g[:, 0], g[:, 1])
+    assert np.abs(np.column_stack((left, right)) - kin.inverse(kin.to_machine(g))).max() < 1e-6
+    x, y = tc.forward_kinematics(cfg, left, right)
+    assert np.abs(np.column_stack((x, y)) - g).max() < 1e-6
+
+
+def test_config_key(config_path):
+    import tomllib
+
+    data = tomllib.loads(config_path.read_text())
+    data["gondola"] = {"cord_spacing_mm": 40.0, "pen_below_mm": 12.0, "mass_below_pen_mm": 30.0}
+    kin = from_config(config.from_dict(data))
+    assert kin.mass_below_pen_mm == 30.0 and kin.gondola is not None
+    data["gondola"]["mass_below_pen_mm"] = -12.0        # at the cords' line: it would tip over
+    with pytest.raises(config.ConfigError, match="mass_below_pen_mm") as err:
+        config.from_dict(data)
+    assert "tip over" in str(err.value) and "\n" not in str(err.value)
+
+
+TILT_KEYS = "[gondola]\ncord_spacing_mm = 40.0\npen_below_mm = 12.0\nmass_below_pen_mm = 30.0\n"
+
+
+@pytest.mark.parametrize("stretch", ["", "[cords]\nstretch = 0.004\n"], ids=["tilt", "stretch"])
+def test_a_drawing_on_a_tilting_gondola(stretch, config_path, tmp_path):
+    """The dry-run trace decoded through the tilting gondola by tracecheck (which knows
+    nothing of vplotter) stays within 0.02 mm of the path, within every motor limit; read
+    as a level gondola it is off by far more."""
+    from support import REPO
+    from support import tracecheck as tc
+    from vplotter.cli import main
+
+    gfile = REPO / "tests/data/corners.ngc"
+    cfg_path = tmp_path / "tilt.toml"
+    cfg_path.write_text(config_path.read_text() + TILT_KEYS + stretch)
+    trace = tmp_path / "t.csv"
+    assert main(["--config", str(cfg_path), "calibrate", "--at", "0", "0"]) == 0
+    assert main(["--config", str(cfg_path), "draw", str(gfile), "--dry-run", "--trace",
+                 str(trace)]) == 0
+    tr = tc.read_trace(trace)
+    assert tc.verify(tr, gfile, tc.load_config(cfg_path), tol_mm=0.02) == []
+    level = tc.load_config(cfg_path)
+    del level["gondola"]["mass_below_pen_mm"]
+    dec = tc.decode(tr, level)
+    assert tc.distances_to_polylines(dec.down_points[::20], tc.reference_path(gfile)).max() > 0.5
