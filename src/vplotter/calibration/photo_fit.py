@@ -86,7 +86,7 @@ def _solve(m0, keys, steps, photos, used, tapes, x0):
     from scipy.optimize import least_squares
 
     sol = least_squares(_residuals, x0, args=(m0, keys, steps, photos, used, tapes),
-                        method="lm", x_scale="jac", diff_step=1e-7)
+                        method="lm", x_scale="jac", diff_step=1e-5)
     return sol
 
 

@@ -78,6 +78,8 @@ def _seen(args, photos, ids, page_xy):
 
 
 def calibrate_photo(args, cfg, command: str) -> int:
+    import dataclasses
+
     import numpy as np
 
     from vplotter.calibration import fit, pattern, photo, photo_fit
@@ -96,7 +98,10 @@ def calibrate_photo(args, cfg, command: str) -> int:
     reference = cal._reference(args.pattern, pat.reference, stored)
     old = cal._machine_from(cfg, reference)
     seen, pictures = _seen(args, photos, ids, page_xy)
-    keys = fit.names(args.fit_spacing)
+    fit_mass = bool(getattr(args, "fit_mass", False))      # `calibrate fit`'s, where it has it
+    keys = fit.names(args.fit_spacing, fit_mass)
+    if fit_mass and old.mass_below_pen_mm is None:
+        old = dataclasses.replace(old, mass_below_pen_mm=fit.MASS_START_MM)
     tape_rows = np.array([[index[a], index[b], d] for a, b, d in tapes], dtype=float)
     res = photo_fit.fit(old, keys, steps, seen, tape_rows)
     if args.output:
