@@ -137,6 +137,20 @@ def test_another_pattern(wall, capsys, tmp_path):
     assert "of 16 marks" in err and "3 marks that are not in the pattern" in err
 
 
+def test_marks_that_do_not_fit_the_machine_are_refused(wall, drawn, capsys, tmp_path):
+    """Every mark moved by about a millimetre (the pen knocked between the marks, or a photo
+    of another drawing): no machine puts the dots there, the fit is not trusted."""
+    dots = np.array(list(wall["dots"].values()))
+    shift = np.random.default_rng(7).normal(0, 1.0, (len(dots), 2))
+    moved = []
+    for p in drawn["strokes"]:
+        near = int(np.argmin(np.hypot(*(dots - p.mean(axis=0)).T)))
+        moved.append(p + shift[near])
+    photo = tmp_path / "moved.jpg"
+    pp.render(moved, photo, pp.View())
+    assert "do not fit the machine" in _bad(capsys, wall, photo)
+
+
 def test_photo_and_distance_are_checked(wall, drawn, capsys):
     photo = drawn["photos"]["straight"]
     argv = ["--config", wall["cfg"], "calibrate", "photo", photo, "--pattern", wall["csv"]]
@@ -158,7 +172,41 @@ def test_a_heic_photo_without_pillow_heif_says_how_to_get_it(wall, capsys, tmp_p
     assert "pip install pillow-heif" in err
 
 
-# ---------------------------------------------------------------- the camera model
+# ---------------------------------------------------------------- the joint fit, the camera
+def test_the_joint_fit_finds_a_tilting_gondola():
+    """A gondola whose centre of mass hangs 35 mm below the pen, seen 25 degrees off-axis
+    through a distorting lens with 0.1 px noise: fitted with the centre of mass, the machine
+    puts the dots where they are; kept level, it cannot."""
+    from dataclasses import replace
+
+    from vplotter.calibration import fit, photo_fit
+
+    true = fit.Machine(428.5, 480.0, 470.0, 25.375, 24.7, 0.003, 40.0, 12.0, 4096, 35.0)
+    start = fit.Machine(422.5, 479.0, 479.0, 25.0, 25.0, 0.0, 40.0, 12.0, 4096, None)
+    gx, gy = np.meshgrid(np.linspace(40, 380, 4), np.linspace(180, 680, 4))
+    spots = np.column_stack((gx.ravel(), gy.ravel()))
+    steps = (start.kin().inverse(spots) - [479.0, 479.0]) * start.steps_per_unit()
+    wall = true.pen(steps)
+    cam = np.array([0.1, 0.4, 0.02, -150, -400, 900, np.log(2000), -0.08, 0.01])
+    px = camera.project(cam, (999.5, 749.5), wall)
+    px += np.random.default_rng(1).normal(0, 0.1, px.shape)
+    seen = [photo_fit.Seen("p", np.arange(16), px, (999.5, 749.5), 1800.0)]
+    tape = np.array([[0, 15, np.hypot(*(wall[0] - wall[15])) + TAPE_ERROR_MM]])
+
+    def shape_error(m):
+        p, q = m.pen(steps), wall
+        u, _, vt = np.linalg.svd((p - p.mean(0)).T @ (q - q.mean(0)))
+        return np.hypot(*((p - p.mean(0)) @ (vt.T @ u.T).T + q.mean(0) - q).T).max()
+
+    level = photo_fit.fit(start, fit.names(False), steps, seen, tape)
+    tilt = photo_fit.fit(replace(start, mass_below_pen_mm=fit.MASS_START_MM),
+                         fit.names(False, True), steps, seen, tape)
+    assert shape_error(level.machine) > 1.0 and level.rms_mm > 0.15
+    assert shape_error(tilt.machine) < 0.4 and tilt.rms_mm < 0.05
+    assert tilt.machine.mass_below_pen_mm == pytest.approx(35.0, abs=4 * tilt.sigma[-1] + 1)
+
+
+
 @given(st.floats(-0.25, 0.1), st.floats(-0.03, 0.05),
        st.lists(st.floats(-0.6, 0.6), min_size=2, max_size=2))
 def test_lens_distortion_round_trip(k1, k2, u):
