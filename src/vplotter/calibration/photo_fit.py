@@ -29,6 +29,7 @@ SIGMA_MARK_MM = 0.1         # a mark's centre in a phone photo
 SIGMA_TAPE_MM = 0.3         # a tape measure
 OUTLIER_SIGMAS, OUTLIER_MIN_MM = 5.0, 0.5
 MOST_LEFT_OUT = 3
+MOST_EVALUATIONS = 40       # per parameter and solve: a fit that good data gives in fewer
 
 
 @dataclass
@@ -86,7 +87,8 @@ def _solve(m0, keys, steps, photos, used, tapes, x0):
     from scipy.optimize import least_squares
 
     sol = least_squares(_residuals, x0, args=(m0, keys, steps, photos, used, tapes),
-                        method="lm", x_scale="jac", diff_step=1e-5)
+                        method="lm", x_scale="jac", diff_step=1e-5,
+                        max_nfev=MOST_EVALUATIONS * (len(x0) + 1))
     return sol
 
 
