@@ -95,9 +95,9 @@ def test_dry_run_writes_nothing(wall, drawn, capsys):
     assert wall["cfg"].read_bytes() == before
 
 
-def _bad(capsys, w, photo) -> str:
+def _bad(capsys, w, photo, extra=()) -> str:
     before = w["cfg"].read_bytes()
-    code, _, err = _photo(capsys, w, photo)
+    code, _, err = _photo(capsys, w, photo, extra=extra)
     assert code == 2 and w["cfg"].read_bytes() == before
     print(err.strip())
     return err
@@ -107,8 +107,12 @@ def test_a_cut_off_photo_says_which_marks_are_missing(wall, drawn, capsys):
     cut = wall["tmp"] / "cut.jpg"
     with Image.open(drawn["photos"]["straight"]) as im:
         im.crop((0, 0, im.size[0], int(im.size[1] * 0.75))).save(cut, quality=90)
-    err = _bad(capsys, wall, cut)
+    found = wall["tmp"] / "found.png"
+    err = _bad(capsys, wall, cut, extra=["-o", found])
     assert "found 12 of 16 marks: 13, 14, 15 and 16 not found (outside the photo?)" in err
+    with Image.open(found) as im:                 # what was found, circled in green
+        rgb = np.asarray(im.convert("RGB"), dtype=int)
+    assert ((rgb[..., 1] > 150) & (rgb[..., 0] < 40)).any()
 
 
 def test_a_blurred_photo_is_refused(wall, drawn, capsys, tmp_path):
