@@ -89,10 +89,12 @@ def test_two_photos_together(wall, drawn, capsys):
 
 
 def test_dry_run_writes_nothing(wall, drawn, capsys):
-    before, state = wall["cfg"].read_bytes(), (wall["tmp"] / "state").exists()
+    from vplotter.machine import state
+
+    before, stored = wall["cfg"].read_bytes(), state.state_path().read_bytes()
     code, out, _ = _photo(capsys, wall, drawn["photos"]["straight"], extra=["--dry-run"])
-    assert code == 0 and "dry run" in out
-    assert wall["cfg"].read_bytes() == before
+    assert code == 0 and "dry run" in out and "16:" in out
+    assert wall["cfg"].read_bytes() == before and state.state_path().read_bytes() == stored
 
 
 def _bad(capsys, w, photo, extra=()) -> str:

@@ -73,7 +73,8 @@ def _seen(args, photos, ids, page_xy):
             raise InputError(loc.error)
         px = np.array([loc.px[k] for k in ids])
         seen.append(photo_fit.Seen(name, np.arange(len(ids)), px, ph.centre, ph.focal_px))
-        pictures.append((ph, loc))
+        if args.output:                   # the photo is kept only to draw found.png
+            pictures.append((ph, loc))
     return seen, pictures
 
 
@@ -113,7 +114,7 @@ def calibrate_photo(args, cfg, command: str) -> int:
     _check(args, res, tapes)
     new = cal._rounded(res.machine, keys)
     home, origin = cal._origin(cfg, reference, new)
-    _report(cfg, photos, old, new, res, ids, tapes, home, origin)
+    _report(cfg, photos, cal._machine_from(cfg, reference), new, res, ids, tapes, home, origin)
     path = Path(args.config)
     text = cal._config_text(path, args.fit_spacing, new, origin)
     if args.dry_run:
@@ -148,7 +149,9 @@ def _report(cfg, photos, old, new, res, ids, tapes, home, origin) -> None:
     print(f"{'parameter':<24}{'old':>12}{'new':>12}{'uncertainty':>14}")
     for k, sig in zip(res.names, res.sigma):
         unit, dec = cal.UNITS.get(k, ("mm", 3))
-        print(f"{k:<24}{getattr(old, k):>12.{dec}f}{getattr(new, k):>12.{dec}f}"
+        was = getattr(old, k)
+        was = f"{'level':>12}" if was is None else f"{was:>12.{dec}f}"
+        print(f"{k:<24}{was}{getattr(new, k):>12.{dec}f}"
               f"{'±':>6}{sig:.{dec}f} {unit}")
     print(f"{'origin (x_mm, y_mm)':<24}{cfg.origin.x_mm:>6.2f},{cfg.origin.y_mm:.2f}"
           f"{origin[0]:>6.2f},{origin[1]:.2f}  (keeps the calibrated point at "
