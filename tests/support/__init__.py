@@ -6,6 +6,8 @@
 - ``grbl_standin.py``: a grbl 1.1 stand-in on a pseudo-terminal pair.
 - ``bezier_svg.py``: SVGs of smooth cubic Béziers with their true curves.
 - ``wall.py``: the simulated wall of the wall-calibration tests (and bench/wall_fit.py).
+- ``phone_photo.py``: phone photos of a drawing on that wall (test_calibrate_photo.py and
+  bench/calibrate_photo.py).
 - the helpers of more than one test file (no test file imports another): ``backends.py``
   (a short drawing in the parts a backend gets, rows, gpiozero's mock pins), ``signals.py``
   (``interrupt_after``, ``SHORT``), ``cli.py`` (``run``, ``GARBAGE``), ``stepdir.py``

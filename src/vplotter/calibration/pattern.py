@@ -29,6 +29,8 @@ from vplotter.inputs.strokes import Stroke
 HEADER = "# vplotter calibration pattern v1 (comment lines start with #)"
 COLUMNS = ["kind", "a", "b", "x_mm", "y_mm", "left_steps", "right_steps", "distance_mm"]
 CIRCLE_MM = 3.0          # radius of the circle around each dot
+FIRST_MM = 6.0           # mark 1 only: a second circle round the first (numbers a photo's marks)
+DIGIT_GAP_MM = 2.5       # from the circle to the number (a photo tells them apart)
 DIGIT_MM = 4.0           # height of the numbers
 MOST_PAIRS = 30
 
@@ -104,16 +106,22 @@ def choose_pairs(rows: int, cols: int, most: int = MOST_PAIRS) -> list[Pair]:
     return out[:most]
 
 
+def _circle(x: float, y: float, r: float, line: int) -> Stroke:
+    ang = np.linspace(0.0, 2 * np.pi, 49)
+    circle = Stroke(np.column_stack((x + r * np.cos(ang), y + r * np.sin(ang))), line=line)
+    circle.pts[-1] = circle.pts[0]
+    return circle
+
+
 def mark_strokes(mark: Mark) -> list[Stroke]:
-    """The dot (one point: pen down and up without a step), the circle, the number."""
+    """The dot (one point: pen down and up without a step), the circle (mark 1: a second one
+    round it, so that a photo shows which mark is the first), the number."""
     x, y = mark.x_mm, mark.y_mm
     dot = Stroke(np.array([[x, y]]), line=mark.id)
-    ang = np.linspace(0.0, 2 * np.pi, 49)
-    circle = Stroke(np.column_stack((x + CIRCLE_MM * np.cos(ang), y + CIRCLE_MM * np.sin(ang))),
-                    line=mark.id)
-    circle.pts[-1] = circle.pts[0]
-    out = [dot, circle]
-    left = x + CIRCLE_MM + 1.5
+    out = [dot, _circle(x, y, CIRCLE_MM, mark.id)]
+    if mark.id == 1:
+        out.append(_circle(x, y, FIRST_MM, mark.id))
+    left = x + (FIRST_MM if mark.id == 1 else CIRCLE_MM) + DIGIT_GAP_MM
     for ch in str(mark.id):
         for poly in FONT[ch]:
             p = np.array(poly, dtype=float) * DIGIT_MM

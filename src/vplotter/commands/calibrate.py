@@ -128,7 +128,8 @@ def calibrate_pattern(args, cfg, command: str) -> int:
         if not 2 <= v <= 10:
             raise ConfigError(f"error: {name} must be 2..10 (got {v})")
     pg = cfg.page
-    room = max(pattern.CIRCLE_MM + 1.5 + 2 * 0.9 * pattern.DIGIT_MM, 2 * pattern.CIRCLE_MM)
+    room = max(pattern.FIRST_MM + pattern.DIGIT_GAP_MM + 2 * 0.9 * pattern.DIGIT_MM,
+               2 * pattern.FIRST_MM)
     if not room <= args.margin < min(pg.x_max_mm - pg.x_min_mm, pg.y_max_mm - pg.y_min_mm) / 2:
         raise ConfigError(f"error: --margin must leave room for the marks: {room:g} mm or more, "
                           f"and less than half the page (got {args.margin:g})")
@@ -155,16 +156,17 @@ def calibrate_pattern(args, cfg, command: str) -> int:
     pat = pattern.Pattern({m.id: m for m in marks}, pattern.choose_pairs(args.rows, args.cols),
                           {"left_mm": ref[0], "right_mm": ref[1],
                            "left_steps_per_mm": spu[0], "right_steps_per_mm": spu[1]})
-    pattern.write(args.output, pat)
+    output = args.output or "pattern.csv"
+    pattern.write(output, pat)
     pairs = ", ".join(f"{p.a}-{p.b}" for p in pat.pairs)
-    print(f"{args.output}: {len(marks)} marks, {len(pat.pairs)} pairs to measure\n"
+    print(f"{output}: {len(marks)} marks, {len(pat.pairs)} pairs to measure\n"
           f"Now, with a tape measure or a long ruler, measure the distance between the centres "
           f"of the dots (inside the small circles, next to their numbers) of each of these pairs "
           f"of marks, in mm, to a few tenths of a mm if you can:\n  {pairs}\n"
           f"Write each distance into the distance_mm column of that pair's row in "
-          f"{args.output} (any spreadsheet or text editor; rows left empty are skipped), "
+          f"{output} (any spreadsheet or text editor; rows left empty are skipped), "
           f"do not move the pen or the cords meanwhile, then run:\n"
-          f"  vplotter calibrate fit {args.output}")
+          f"  vplotter calibrate fit {output}")
     return 0
 
 
@@ -192,8 +194,6 @@ UNITS = {"anchor_distance_mm": ("mm", 3), "cord_spacing_mm": ("mm", 3), "ref_lef
 
 def calibrate_fit(args, cfg, command: str) -> int:
     """Fit the machine to the measured distances; write config.toml and the stored position."""
-    import numpy as np
-
     from vplotter.calibration import fit, pattern
 
     _vplotter_only(cfg, "fit")
@@ -221,13 +221,22 @@ def calibrate_fit(args, cfg, command: str) -> int:
     if args.dry_run:
         print(f"dry run: {path} and the stored position not changed")
         return 0
+    return store(command, path, text, stored, pat.reference, new, home, origin)
+
+
+def store(command: str, path: Path, text: str, stored, reference: dict, new, home,
+          origin) -> int:
+    """Write config.toml's new text and keep the stored position where the pen really is
+    (`calibrate fit` and `calibrate photo`)."""
+    import numpy as np
+
     from vplotter.machine import lock
 
     held = lock.acquire(command)
     try:
         state.atomic_write(path, text)
         print(f"{path}: written (comments and layout kept)")
-        if stored is None or not stored.clean or not _same_reference(stored, pat.reference):
+        if stored is None or not stored.clean or not _same_reference(stored, reference):
             print("the stored position was not kept (no position, an unclean stop, or calibrated "
                   "again since the pattern was drawn): put the pen on a known point and run "
                   "`vplotter calibrate --at X Y`")

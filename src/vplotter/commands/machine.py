@@ -11,10 +11,16 @@ from vplotter.errors import ConfigError, MachineError
 
 
 def add_calibrate(p) -> None:
-    p.add_argument("what", nargs="?", choices=("steps", "pattern", "fit"),
+    p.add_argument("what", nargs="?", choices=("steps", "pattern", "fit", "photo"),
                    help="`steps`: measure steps per mm by moving one motor; `pattern`: draw "
-                        "numbered marks to measure; `fit`: fit the machine to the measurements")
-    p.add_argument("file", nargs="?", help="with `fit`: the pattern file with the distances")
+                        "numbered marks to measure; `fit`: fit the machine to the measurements; "
+                        "`photo`: fit it to photos of the marks")
+    p.add_argument("file", nargs="?", help="with `fit`: the pattern file with the distances; "
+                                           "with `photo`: the photo")
+    p.add_argument("photos", nargs="*", help="with `photo`: more photos of the same marks")
+    p.add_argument("--pattern", metavar="FILE", help="with `photo`: the pattern's pattern.csv")
+    p.add_argument("--distance", nargs=3, action="append", metavar=("I", "J", "MM"),
+                   help="with `photo`: marks I and J are MM apart (tape measure); repeatable")
     g = p.add_mutually_exclusive_group()
     g.add_argument("--at", nargs=2, type=float, metavar=("X", "Y"),
                    help="the pen is now at this G-code point")
@@ -26,8 +32,9 @@ def add_calibrate(p) -> None:
     p.add_argument("--cols", type=int, default=4, help="with `pattern`: columns (default 4)")
     p.add_argument("--margin", type=float, default=25.0, metavar="MM",
                    help="with `pattern`: marks this far inside the page (default 25)")
-    p.add_argument("-o", "--output", default="pattern.csv",
-                   help="with `pattern`: the file to write (default pattern.csv)")
+    p.add_argument("-o", "--output",
+                   help="with `pattern`: the file to write (default pattern.csv); with "
+                        "`photo`: a picture of the marks found (found.png)")
     p.add_argument("--fit-spacing", action="store_true",
                    help="with `fit`: fit [gondola] cord_spacing_mm instead of the anchor distance")
     add_machine_options(p)
@@ -56,6 +63,10 @@ def cmd_calibrate(args, argv=None) -> int:
 
         run = calibrate.calibrate_pattern if args.what == "pattern" else calibrate.calibrate_fit
         return run(args, cfg, command_line(argv))
+    if args.what == "photo":
+        from vplotter.commands.calibrate_photo import calibrate_photo
+
+        return calibrate_photo(args, cfg, command_line(argv))
     if args.at is None and args.cords is None:
         raise ConfigError("error: say where the pen is: --at X Y or --cords LEFT RIGHT "
                           "(or `calibrate steps --motor left`)")

@@ -1,0 +1,93 @@
+"""`vplotter calibrate photo` on 12 MP phone photos: wall time, peak memory and accuracy.
+
+The simulated wall of tests/support/wall.py draws the calibration pattern; its strokes,
+decoded through the TRUE geometry, are rendered by tests/support/phone_photo.py as 12 MP
+JPEGs (straight on; 25 degrees off-axis with lens distortion and a strong light gradient;
+upright, stored on its side with an EXIF orientation). For each, `vplotter calibrate photo`
+runs with one tape distance (0.3 mm off): its wall time and peak resident size
+(resource.getrusage of the children, from a small process that runs it), then
+the 300 mm test drawing is drawn and decoded through the true geometry (rigid match): how
+far it is off its true shape.
+
+Run: python -m bench.calibrate_photo [--mp 12]
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import math
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from bench import test_support
+
+# the command runs in a grandchild forked from this small process: a child forked from the
+# bench itself would count the bench's own pages (the rendered photos) in its peak
+MEASURE = ("import resource, subprocess, sys; r = subprocess.run(sys.argv[1:]); "
+           "print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss, file=sys.stderr); "
+           "sys.exit(r.returncode)")
+
+wall = test_support("wall")
+pp = test_support("phone_photo")
+tc = test_support("tracecheck")
+
+
+def views(mp: float) -> dict:
+    w = int(round(math.sqrt(mp * 1e6 * 4 / 3)))
+    h = int(round(w * 3 / 4))
+    return {
+        "straight": pp.View(size=(w, h)),
+        "25 degrees, lens, light": pp.View(size=(w, h), yaw_deg=25, pitch_deg=6, roll_deg=-4,
+                                           k1=-0.08, k2=0.012, light=0.65, noise=0.015,
+                                           blur_px=1.2, quality=80),
+        "portrait, EXIF": pp.View(size=(h, w), roll_deg=2, k1=0.03, distance_mm=700,
+                                  exif_orientation=6),
+    }
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--mp", type=float, default=12.0, help="megapixels (default 12)")
+    args = ap.parse_args()
+    tmp = Path(tempfile.mkdtemp(prefix="photo"))
+    os.environ["XDG_STATE_HOME"] = str(tmp / "state")
+    with contextlib.redirect_stdout(io.StringIO()):
+        (tmp / "pattern").mkdir()
+        drawn = wall.draw_pattern(tmp / "pattern")
+    strokes = tc.drawn_polylines(drawn["dec"])
+    print("| photo | pixels | time | peak memory | test drawing off its shape |")
+    print("| --- | --- | --- | --- | --- |")
+    for i, (name, view) in enumerate(views(args.mp).items()):
+        here = tmp / f"w{i}"
+        here.mkdir()
+        os.environ["XDG_STATE_HOME"] = str(here / "state")
+        w = wall.new_wall(here, drawn)
+        photo = here / "photo.jpg"
+        pp.render(strokes, photo, view, seed=i)
+        d = float(np.hypot(*(w["dots"][1] - w["dots"][16]))) + 0.3
+        cmd = [sys.executable, "-m", "vplotter", "--config", str(w["cfg"]), "calibrate",
+               "photo", str(photo), "--pattern", str(w["csv"]), "--distance", "1", "16",
+               f"{d:.1f}"]
+        t0 = time.perf_counter()
+        r = subprocess.run([sys.executable, "-c", MEASURE, *cmd], capture_output=True, text=True)
+        took = time.perf_counter() - t0
+        *err, rss = r.stderr.strip().splitlines()
+        if r.returncode:
+            print(f"| {name} | failed: {' '.join(err)} | | | |")
+            continue
+        with contextlib.redirect_stdout(io.StringIO()):
+            off = wall.draw_and_check(w, "after")
+        print(f"| {name} | {view.size[0]} x {view.size[1]} | {took:.1f} s | "
+              f"{int(rss) / 1024:.0f} MB | {off:.3f} mm |", flush=True)
+
+
+if __name__ == "__main__":
+    main()

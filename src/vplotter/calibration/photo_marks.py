@@ -1,0 +1,123 @@
+"""Finding the marks of the calibration pattern in a photo, and measuring their centres.
+
+Each mark is a closed circle (3 mm) round a dot; mark 1 has a second circle (6 mm) round
+it. On the reduced photo, ink is what is darker than INK_RATIO of the local paper brightness
+(a box mean much larger than a mark: uneven light divides out), with the fainter pixels that
+touch it. Every hole of the ink (paper enclosed by ink, what is inside it not counted) is a
+candidate, with its centre, the area of its ellipse of inertia (4 pi sqrt(det cov)) and
+`fill`: its own area over that. A circle round a dot fills most of its ellipse (about 0.9),
+mark 1's ring between two circles less (about 0.5), and its ellipse is five times a mark's
+(four, where the photo is too coarse to show its inner circle); the holes of the numbers are
+far smaller than the circles. All of it is done on label arrays with bincount, no loop over
+candidates.
+
+`centre` then measures one mark at full resolution: in a window round it, the circle with
+all it encloses (the dot; mark 1: its outer circle and all inside) is taken, and the centroid
+of the ink's darkness over it is the centre: the figure is symmetric about the dot, the
+number is outside.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+INK_RATIO = 0.85            # ink: darker than this share of the local paper
+FAINT_RATIO = 0.93          # or than this, where it touches ink
+BACKGROUND_PX = 61          # the box of the local paper brightness (reduced photo)
+MIN_HOLE_PX = 8
+MIN_AXES = 0.3              # the hole's short axis over its long one
+MIN_FILL = 0.2
+
+
+@dataclass
+class Candidates:
+    xy: np.ndarray              # (n, 2) centres, full-resolution pixels (x right, y down)
+    area: np.ndarray            # ellipse areas, full-resolution pixels^2
+    fill: np.ndarray            # hole area / ellipse area
+
+
+def ink(img: np.ndarray) -> np.ndarray:
+    """Hysteresis: pixels darker than INK_RATIO of the local paper, and the fainter ones
+    (FAINT_RATIO) that touch them (a thin line's faint stretches close the circles)."""
+    from scipy import ndimage
+
+    bg = ndimage.uniform_filter(img, BACKGROUND_PX, mode="nearest")
+    lab, n = ndimage.label(img < FAINT_RATIO * bg, structure=np.ones((3, 3)))
+    strong = np.zeros(n + 1, dtype=bool)
+    strong[lab[img < INK_RATIO * bg]] = True
+    strong[0] = False
+    return strong[lab]
+
+
+def find(small: np.ndarray, scale: int) -> Candidates:
+    """The holes of the ink on the reduced photo that could be marks."""
+    from scipy import ndimage
+
+    dark = ink(small)
+    lab, n = ndimage.label(~dark)                       # paper; holes: not at the border
+    edge = np.unique(np.concatenate((lab[0], lab[-1], lab[:, 0], lab[:, -1])))
+    keep = np.ones(n + 1, dtype=bool)
+    keep[edge] = False
+    keep[0] = False
+    lab = np.where(keep[lab], lab, 0)
+    idx = np.flatnonzero(lab)
+    if len(idx) == 0:
+        return Candidates(np.zeros((0, 2)), np.zeros(0), np.zeros(0))
+    lv = lab.ravel()[idx]
+    y, x = np.divmod(idx, small.shape[1])
+    x, y = x.astype(float), y.astype(float)
+
+    def total(w=None):
+        return np.bincount(lv, weights=w, minlength=n + 1)[1:]
+
+    a = np.maximum(total(), 1)
+    mx, my = total(x) / a, total(y) / a
+    sxx = total(x * x) / a - mx ** 2 + 1 / 12
+    syy = total(y * y) / a - my ** 2 + 1 / 12
+    sxy = total(x * y) / a - mx * my
+    det = np.maximum(sxx * syy - sxy ** 2, 1e-12)
+    tr = sxx + syy
+    disc = np.sqrt(np.maximum(tr * tr / 4 - det, 0))
+    axes = np.sqrt(np.maximum(tr / 2 - disc, 0) / (tr / 2 + disc))
+    ellipse = 4 * np.pi * np.sqrt(det)
+    fill = a / ellipse
+    ok = ((a >= MIN_HOLE_PX) & (axes >= MIN_AXES) & (fill >= MIN_FILL)
+          & (ellipse <= small.size / 50))
+    xy = (np.column_stack((mx, my))[ok] + 0.5) * scale - 0.5
+    return Candidates(xy, ellipse[ok] * scale ** 2, fill[ok])
+
+
+def centre(full: np.ndarray, xy, radius_px: float) -> np.ndarray | None:
+    """The centre of the mark near xy (full-resolution pixels), or None where its circle is
+    not closed there (cut by the photo's edge, too faint)."""
+    from scipy import ndimage
+
+    half = int(np.ceil(1.7 * radius_px + 4))
+    x0, y0 = int(round(xy[0])) - half, int(round(xy[1])) - half
+    h, w = full.shape
+    if x0 < 0 or y0 < 0 or x0 + 2 * half + 1 > w or y0 + 2 * half + 1 > h:
+        return None
+    crop = full[y0:y0 + 2 * half + 1, x0:x0 + 2 * half + 1].astype(np.float32)
+    paper = float(np.percentile(crop, 90))
+    if not paper > 0:
+        return None
+    dark = crop < INK_RATIO * paper
+    filled = ndimage.binary_fill_holes(dark)
+    lab, _ = ndimage.label(filled)
+    mid = lab[half - 2:half + 3, half - 2:half + 3]
+    labels = mid[mid > 0]
+    if labels.size == 0:
+        return None
+    region = lab == np.bincount(labels).argmax()
+    if not (dark[region].sum() < region.sum()):        # no hole: not a circle
+        return None
+    region = ndimage.binary_dilation(region, iterations=2)
+    weight = np.clip((paper - crop) / paper - 0.05, 0, None) * region
+    total = float(weight.sum())
+    if not total > 0:
+        return None
+    ys, xs = np.indices(crop.shape)
+    return np.array([float((weight * xs).sum()) / total + x0,
+                     float((weight * ys).sum()) / total + y0])
