@@ -144,13 +144,28 @@ def run_time(kin, run, rate_u, acc_u, tol, profile=False):
             hi, lo = min(hi, x2), max(lo, x1)
         return lo, hi
 
+    # Backward: the controllable set, the most u at each sample from which the rest can be
+    # followed within every limit (at sample i some a in [lo(u), hi(u)] with
+    # u + 2 a ds <= K[i+1]; lo is the largest of each motor's lower bound, a line in u:
+    # a >= -(A + b u sgn k) / |k|).
+    K = [0.0] * S
+    for i in range(S - 2, -1, -1):
+        best = u_lim[i]
+        two_ds = 2.0 * ds[i]
+        for m in range(M):
+            km, bm = kk[i][m], bb[i][m]
+            if abs(km) < 1e-12:
+                continue
+            coef = 1.0 - two_ds * bm / km
+            if coef > 0.0:
+                best = min(best, (K[i + 1] + two_ds * A[m] / abs(km)) / coef)
+        K[i] = max(best, 0.0)
+    # Forward: the most a allowed at u (negative where the pen must brake to stay within the
+    # limits), within the controllable set ahead.
     u = [0.0] * S
-    for i in range(S - 1):            # forward
+    for i in range(S - 1):
         lo, hi = a_bounds(u[i], i)
-        u[i + 1] = min(u_lim[i + 1], u[i] + 2 * max(hi, 0.0) * ds[i])
-    for i in range(S - 1, 0, -1):     # backward
-        lo, hi = a_bounds(u[i], i)
-        u[i - 1] = min(u[i - 1], u[i] - 2 * min(lo, 0.0) * ds[i - 1])
+        u[i + 1] = max(min(K[i + 1], u[i] + 2 * hi * ds[i]), 0.0)
     v = np.sqrt(np.maximum(np.array(u), 0.0))
     vm = (v[:-1] + v[1:]) / 2
     t = float((ds[:-1] / np.maximum(vm, 1e-9)).sum())
