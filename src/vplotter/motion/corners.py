@@ -30,6 +30,7 @@ class Corners:
     vc: np.ndarray         # (n-1,) the slower of the two pieces' speed caps
     corner: np.ndarray     # (n+1, M) the budget each vertex keeps in the first plan
     top: np.ndarray        # (n+1, M) the most it may keep in the later plans
+    sgn_v: np.ndarray      # (n+1, M) the way each corner changes each cord's speed (+1, -1, 0)
 
     def takes(self, v: np.ndarray) -> np.ndarray:
         """What each corner takes passed at speeds v (n-1, 1)."""
@@ -45,10 +46,11 @@ class Corners:
         return np.minimum(np.minimum(v_tau, v_ds), self.vc)
 
     def again(self, u: np.ndarray, d: np.ndarray, slope: np.ndarray, bent: np.ndarray,
-              acc: np.ndarray) -> np.ndarray:
+              acc: np.ndarray, ksgn: np.ndarray) -> np.ndarray:
         """The budgets of a later plan after the plan of squared vertex speeds u: each corner
         keeps what it takes at RETRY_GAIN x those speeds (within `top`), but no more than the
-        ramps next to it leave at that plan, and at least what it takes at that plan."""
+        ramps next to it leave at that plan (a ramp that changes a cord's speed the other way
+        than the corner leaves it more), and at least what it takes at that plan."""
         n = len(d)
         v = np.sqrt(u[1:n])[:, None]
         now = self.takes(v)
@@ -56,8 +58,12 @@ class Corners:
         top = self.top
         again = top.copy()
         again[1:n] = np.minimum(top[1:n], self.takes(v))
-        need = np.abs(np.diff(u))[:, None] / (2.0 * d[:, None]) * slope + bent
-        room = acc - np.maximum(need[1:], need[:-1])
+        cord = (np.diff(u) / (2.0 * d))[:, None] * slope        # (n, M) the ramps' |a| q'
+        sgn = self.sgn_v[1:n]
+        signed = np.where(ksgn == 0, np.abs(cord), cord * ksgn)
+        room = acc - np.maximum(sgn * signed[:-1] + bent[:-1], sgn * signed[1:] + bent[1:])
+        room = np.where(sgn == 0, acc - np.maximum(np.abs(cord[:-1]) + bent[:-1],
+                                                   np.abs(cord[1:]) + bent[1:]), room)
         again[1:n] = np.minimum(again[1:n], np.maximum(room, np.minimum(now, again[1:n])))
         return again
 
@@ -70,7 +76,9 @@ def corners(k0, k1, kmax, d, vcap, bent, acc, stop) -> Corners:
     jump = np.abs(k0[1:] - k1[:-1])                       # (n-1, M)
     ds = np.minimum(d[1:], d[:-1])[:, None]
     vc = np.minimum(vcap[1:], vcap[:-1])
-    c = Corners(jump, ds, vc, np.zeros((n + 1, len(acc))), np.zeros((n + 1, len(acc))))
+    c = Corners(jump, ds, vc, np.zeros((n + 1, len(acc))), np.zeros((n + 1, len(acc))),
+                np.zeros((n + 1, len(acc))))
+    c.sgn_v[1:n] = np.sign(k0[1:] - k1[:-1])
     # what the corner takes passed at the highest speed its pieces allow
     use = c.takes(vc[:, None])
     # A corner on a curve (the next one follows within TAU) may take much of the

@@ -11,6 +11,10 @@ acceleration (a trapezoid in path distance), such that for each motor
   Each piece is bounded with its own bend (largest of its ends and middle) at its speed cap
   (at most BEND_SHARE of the budget, which lowers the cap on a tightly bending piece), and
   with what the corners at its two ends take; its ramps get the rest: no fixed reserve.
+  With signs: a corner changes each cord's speed one way (its slope change), a ramp the way
+  of the slope speeding up and the other way slowing down, so a ramp that works against a
+  corner has that corner's part of the budget too (`profile._ramp_limits`: each piece has a
+  limit speeding up and one slowing down, the passes use each its own).
 
 Junction rule (our "deviation" rule, in cord space): at a vertex the cord speeds change at
 once by v x |slope change|. A change that lands inside one measurement window TAU counts as an

@@ -36,6 +36,7 @@ class Window:
 
     d: np.ndarray          # (N,) lengths mm
     kmax: np.ndarray       # (N, M) the larger |slope| of each cord at the piece's two ends
+    ksgn: np.ndarray       # (N, M) the sign of each cord's slope along the piece (0: unknown)
     vcap: np.ndarray       # (N,) the speed cap: the G-code's, the step rate's, the bending's
     bent: np.ndarray       # (N, M) what the bending takes at the cap
     acc: np.ndarray        # (M,) the acceleration budget of each cord
@@ -75,7 +76,7 @@ def window(kin, v_cord, a_cord, verts, cap, stop, u_entry, turns) -> Window:
     zero[1:][stop] = True
     zero[n] = True
     zero[turns] = True                                        # the motors turn at rest
-    return Window(d, kmax, vcap, bent, acc, u_lim, zero, c)
+    return Window(d, kmax, np.sign(k0 + k1), vcap, bent, acc, u_lim, zero, c)
 
 
 def profile(kin, v_cord, a_cord, verts, cap, line, draw, stop, u_entry, events, q0):
@@ -110,17 +111,44 @@ def _planned(w: Window, reserve: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     if c is not None:
         lim[1:n] = c.speed(reserve[1:n]) ** 2
     lim[w.zero] = 0.0
-    a = least((w.acc - np.maximum(reserve[:-1], reserve[1:]) - w.bent)
-              / np.maximum(w.kmax, MIN_SLOPE))
-    u = _passes(lim, 2.0 * a * d)
+    up, dn = _ramp_limits(w, reserve)
+    u = _passes(lim, 2.0 * up * d, 2.0 * dn * d)
     if c is not None:
         v = np.sqrt(u[1:n])[:, None]
         used = reserve.copy()
         used[1:n] = np.minimum(reserve[1:n], c.takes(v))
-        a = least((w.acc - np.maximum(used[:-1], used[1:]) - w.bent)
-                  / np.maximum(w.kmax, MIN_SLOPE))
-        u = _passes(np.minimum(lim, u), 2.0 * a * d)
-    return u, a
+        up, dn = _ramp_limits(w, used)
+        u = _passes(np.minimum(lim, u), 2.0 * up * d, 2.0 * dn * d)
+    return u, _ramp(u, up, dn, d)
+
+
+def _ramp_limits(w: Window, used: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The largest path acceleration of each piece speeding up and slowing down, with the
+    corners at its ends keeping `used` (N+1, M) of the budget. A corner changes a cord's
+    speed one way (the sign of its slope change): the ramp that changes it the other way
+    has that part of the budget too. (Each cord's slope keeps its sign along a piece.)"""
+    if w.corners is None:
+        pos = neg = np.zeros_like(used)
+    else:
+        sgn = w.corners.sgn_v
+        pos, neg = np.maximum(used * sgn, 0.0), np.maximum(-used * sgn, 0.0)
+    room_pos = w.acc - w.bent - np.maximum(pos[:-1], pos[1:])    # (N, M) cord speeding up
+    room_neg = w.acc - w.bent - np.maximum(neg[:-1], neg[1:])    # and slowing down
+    slope = np.maximum(w.kmax, MIN_SLOPE)
+    k = w.ksgn
+    either = np.minimum(room_pos, room_neg)
+    up = least(np.where(k > 0, room_pos, np.where(k < 0, room_neg, either)) / slope)
+    dn = least(np.where(k > 0, room_neg, np.where(k < 0, room_pos, either)) / slope)
+    return up, dn
+
+
+def _ramp(u, up, dn, d) -> np.ndarray:
+    """The one path acceleration of each trapezoid through squared vertex speeds u: the lesser
+    of its two limits, or where the speed change needs more, just that (a ramp without a
+    peak, within the limit of its direction)."""
+    a = np.minimum(up, dn)
+    du = np.abs(np.diff(u)) / (2.0 * d)
+    return np.where(du > a, du, a)
 
 
 def _retried(w: Window, u: np.ndarray, a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -139,7 +167,7 @@ def _retried(w: Window, u: np.ndarray, a: np.ndarray) -> tuple[np.ndarray, np.nd
     best = np.bincount(run, _times(u, a, w.d, w.vcap))
     slope = np.maximum(w.kmax, MIN_SLOPE)
     for _ in range(int(RETRY_ROUNDS)):
-        u2, a2 = _planned(w, w.corners.again(u, w.d, slope, w.bent, w.acc))
+        u2, a2 = _planned(w, w.corners.again(u, w.d, slope, w.bent, w.acc, w.ksgn))
         t2 = np.bincount(run, _times(u2, a2, w.d, w.vcap), minlength=len(best))
         won = t2 < best
         if not won.any():
@@ -163,10 +191,11 @@ def _times(u, a, d, vcap) -> np.ndarray:
     return ramps + d_cru / np.maximum(vp, 1e-300)
 
 
-def _passes(u_lim: np.ndarray, inc: np.ndarray) -> np.ndarray:
+def _passes(u_lim: np.ndarray, inc: np.ndarray, dec: np.ndarray) -> np.ndarray:
     """Largest squared vertex speeds within u_lim that the pieces can speed up and slow down
-    between (u[j+1] - u[j] <= inc[j] both ways): a backward and a forward pass."""
-    r = np.concatenate((np.cumsum(inc[::-1])[::-1], [0.0]))   # r[j] = sum inc[j:]
+    between (u[j+1] - u[j] <= inc[j], u[j] - u[j+1] <= dec[j]): a backward and a forward
+    pass."""
+    r = np.concatenate((np.cumsum(dec[::-1])[::-1], [0.0]))   # r[j] = sum dec[j:]
     u = r + np.minimum.accumulate((u_lim - r)[::-1])[::-1]
     f = np.concatenate(([0.0], np.cumsum(inc)))
     u = f + np.minimum.accumulate(u - f)
