@@ -21,6 +21,14 @@ CORNER_CEIL = 0.9      # a corner and the bending next to it take at most this t
 CORNER_TOP = 0.98      # and in later plans, on a curve, where the ramps next to it leave that
 
 
+def _fleast(a: np.ndarray) -> np.ndarray:
+    """Each row's least value, NaN left out (all NaN: NaN)."""
+    out = a[:, 0]
+    for j in range(1, a.shape[1]):
+        out = np.fmin(out, a[:, j])
+    return out
+
+
 @dataclass
 class Corners:
     """The n - 1 inner corners of a window of n pieces; arrays have one row per corner."""
@@ -40,10 +48,12 @@ class Corners:
         """The highest corner speeds within `budget` (n-1, M), for every motor:
         jump * v * max(1/TAU, v/ds) <= budget  <=>  both limits."""
         jump = self.jump
+        # (where there is no jump: inf, or NaN for a zero budget, which fmin leaves out as it
+        # would the inf it stands for)
         with np.errstate(divide="ignore", invalid="ignore"):
-            v_tau = least(np.where(jump > 0, budget * TAU_S / jump, np.inf))
-            v_ds = least(np.where(jump > 0, np.sqrt(budget * self.ds / jump), np.inf))
-        return np.minimum(np.minimum(v_tau, v_ds), self.vc)
+            v_tau = _fleast(budget * TAU_S / jump)
+            v_ds = _fleast(np.sqrt(budget * self.ds / jump))
+        return np.fmin(np.fmin(v_tau, v_ds), self.vc)
 
     def again(self, u: np.ndarray, d: np.ndarray, slope: np.ndarray, bent: np.ndarray,
               acc: np.ndarray, ksgn: np.ndarray) -> np.ndarray:

@@ -43,6 +43,10 @@ class Window:
     u_lim: np.ndarray      # (N+1,) squared vertex speed limits (the entry, then the caps)
     zero: np.ndarray       # (N+1,) the machine stands still there (stops, turns, the end)
     corners: Corners | None  # with more than one piece
+    room: np.ndarray       # (N, M) acc - bent: what the ramps and corners share
+    slope: np.ndarray      # (N, M) kmax, at least MIN_SLOPE
+    against: tuple | None  # (N, M) 0/1: the corner at the start / end of each piece changes
+    #                        the cord's speed the way the ramp up / down does (see _ramp_limits)
 
 
 def _slope_bend(kin, xy, e):
@@ -76,7 +80,21 @@ def window(kin, v_cord, a_cord, verts, cap, stop, u_entry, turns) -> Window:
     zero[1:][stop] = True
     zero[n] = True
     zero[turns] = True                                        # the motors turn at rest
-    return Window(d, kmax, np.sign(k0 + k1), vcap, bent, acc, u_lim, zero, c)
+    ksgn = np.sign(k0 + k1)
+    return Window(d, kmax, ksgn, vcap, bent, acc, u_lim, zero, c, acc - bent,
+                  np.maximum(kmax, MIN_SLOPE), None if c is None else _against(c.sgn_v, ksgn))
+
+
+def _against(sgn: np.ndarray, ksgn: np.ndarray) -> tuple:
+    """Where the corner at the start and at the end of each piece changes a cord's speed the
+    way the ramp up does, and the way the ramp down does (as 0/1; an unknown slope sign
+    counts as both ways)."""
+    unknown = ksgn == 0
+    out = []
+    for way in (ksgn, -ksgn):
+        for s in (sgn[:-1], sgn[1:]):
+            out.append(((s * way > 0) | (unknown & (s != 0))).astype(float))
+    return tuple(out)
 
 
 def profile(kin, v_cord, a_cord, verts, cap, line, draw, stop, u_entry, events, q0):
@@ -127,18 +145,13 @@ def _ramp_limits(w: Window, used: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     corners at its ends keeping `used` (N+1, M) of the budget. A corner changes a cord's
     speed one way (the sign of its slope change): the ramp that changes it the other way
     has that part of the budget too. (Each cord's slope keeps its sign along a piece.)"""
-    if w.corners is None:
-        pos = neg = np.zeros_like(used)
-    else:
-        sgn = w.corners.sgn_v
-        pos, neg = np.maximum(used * sgn, 0.0), np.maximum(-used * sgn, 0.0)
-    room_pos = w.acc - w.bent - np.maximum(pos[:-1], pos[1:])    # (N, M) cord speeding up
-    room_neg = w.acc - w.bent - np.maximum(neg[:-1], neg[1:])    # and slowing down
-    slope = np.maximum(w.kmax, MIN_SLOPE)
-    k = w.ksgn
-    either = np.minimum(room_pos, room_neg)
-    up = least(np.where(k > 0, room_pos, np.where(k < 0, room_neg, either)) / slope)
-    dn = least(np.where(k > 0, room_neg, np.where(k < 0, room_pos, either)) / slope)
+    if w.against is None:
+        up = least(w.room / w.slope)
+        return up, up
+    up0, up1, dn0, dn1 = w.against
+    u0, u1 = used[:-1], used[1:]
+    up = least((w.room - np.maximum(u0 * up0, u1 * up1)) / w.slope)
+    dn = least((w.room - np.maximum(u0 * dn0, u1 * dn1)) / w.slope)
     return up, dn
 
 
@@ -165,9 +178,8 @@ def _retried(w: Window, u: np.ndarray, a: np.ndarray) -> tuple[np.ndarray, np.nd
     run = np.concatenate(([0], np.cumsum(w.zero[1:n])))      # (N,) run of each piece
     at = np.concatenate((run, run[-1:]))                     # (N+1,) of each vertex's speed
     best = np.bincount(run, _times(u, a, w.d, w.vcap))
-    slope = np.maximum(w.kmax, MIN_SLOPE)
     for _ in range(int(RETRY_ROUNDS)):
-        u2, a2 = _planned(w, w.corners.again(u, w.d, slope, w.bent, w.acc, w.ksgn))
+        u2, a2 = _planned(w, w.corners.again(u, w.d, w.slope, w.bent, w.acc, w.ksgn))
         t2 = np.bincount(run, _times(u2, a2, w.d, w.vcap), minlength=len(best))
         won = t2 < best
         if not won.any():

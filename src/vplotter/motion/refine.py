@@ -106,8 +106,8 @@ def _sharp_cuts(acc, jump, k0, k1, d, cap, vcap, vr0, vr1, stop) -> tuple[list, 
     and where (lists of arrays)."""
     ds = np.minimum(d[1:], d[:-1])[:, None]
     with np.errstate(divide="ignore", invalid="ignore"):
-        v_tau = least(np.where(jump > 0, CORNER_SHARE * acc * TAU_S / jump, np.inf))
-        v_ds = least(np.where(jump > 0, np.sqrt(CORNER_SHARE * acc * ds / jump), np.inf))
+        v_tau = least(CORNER_SHARE * acc * TAU_S / jump)      # (inf where no jump)
+        v_ds = least(np.sqrt(CORNER_SHARE * acc * ds / jump))
     v_hi = np.minimum(np.minimum(v_tau, v_ds), np.minimum(vcap[1:], vcap[:-1]))
     sharp = (v_hi * TAU_S < ds[:, 0]) & ~stop[:-1] & (most(jump) > 1e-6)
     # How far the pen may go within t of the corner, whatever the parts' own limits
@@ -153,15 +153,18 @@ def sharp_shares(jump, acc, k_in, k_out, d_in, d_out, cap_in, cap_out, vc, ds, f
     cap, and the speed of the corner at its other end at the most that may take)."""
     c = SHARP_TRY[:, None]                                     # (S, 1)
     with np.errstate(divide="ignore", invalid="ignore"):
-        per = least(np.where(jump > 0, acc * TAU_S / jump, np.inf))
-        per_ds = least(np.where(jump > 0, np.sqrt(acc * ds[:, None] / jump), np.inf))
+        per = least(acc * TAU_S / jump)                       # (inf where no jump)
+        per_ds = least(np.sqrt(acc * ds[:, None] / jump))
         v_c = np.minimum(np.minimum(c * per, np.sqrt(c) * per_ds), vc)       # (S, corners)
         used = np.minimum(np.maximum(v_c / per, (v_c / per_ds) ** 2), c)     # what it takes
+    free = 1.0 - used
+    vc2 = v_c * v_c
     t = 0.0
     for L, k, cap in ((d_in, k_in, np.minimum(cap_in, far_in)),
                       (d_out, k_out, np.minimum(cap_out, far_out))):
-        a = (1.0 - used) * least(acc / np.maximum(k, MIN_SLOPE))
-        v_top = np.maximum(np.minimum(np.sqrt(v_c * v_c + 2.0 * a * L), cap), v_c)
-        cruise = np.maximum(L - (v_top ** 2 - v_c ** 2) / (2.0 * a), 0.0)
+        a = free * least(acc / np.maximum(k, MIN_SLOPE))
+        a2 = 2.0 * a
+        v_top = np.maximum(np.minimum(np.sqrt(vc2 + a2 * L), cap), v_c)
+        cruise = np.maximum(L - (v_top * v_top - vc2) / a2, 0.0)
         t = t + ((v_top - v_c) / a + cruise / np.maximum(v_top, 1e-300))
     return SHARP_TRY[np.argmin(t, axis=0)]
