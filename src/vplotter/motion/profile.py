@@ -31,28 +31,29 @@ def motor_path(kin, verts: np.ndarray, q0) -> tuple[np.ndarray, np.ndarray]:
 
 @dataclass
 class Window:
-    """The pieces of a window as the profile sees them; arrays have one row per piece (N) or
-    per vertex (N + 1), M motors."""
+    """The pieces of a window as the profile sees them; arrays have one entry per piece (N) or
+    per vertex (N + 1), per-motor arrays one row per motor (M, ...: see `refine.least`)."""
 
     d: np.ndarray          # (N,) lengths mm
-    kmax: np.ndarray       # (N, M) the larger |slope| of each cord at the piece's two ends
-    ksgn: np.ndarray       # (N, M) the sign of each cord's slope along the piece (0: unknown)
+    kmax: np.ndarray       # (M, N) the larger |slope| of each cord at the piece's two ends
+    ksgn: np.ndarray       # (M, N) the sign of each cord's slope along the piece (0: unknown)
     vcap: np.ndarray       # (N,) the speed cap: the G-code's, the step rate's, the bending's
-    bent: np.ndarray       # (N, M) what the bending takes at the cap
+    bent: np.ndarray       # (M, N) what the bending takes at the cap
     acc: np.ndarray        # (M,) the acceleration budget of each cord
     u_lim: np.ndarray      # (N+1,) squared vertex speed limits (the entry, then the caps)
     zero: np.ndarray       # (N+1,) the machine stands still there (stops, turns, the end)
     corners: Corners | None  # with more than one piece
-    room: np.ndarray       # (N, M) acc - bent: what the ramps and corners share
-    slope: np.ndarray      # (N, M) kmax, at least MIN_SLOPE
-    against: tuple | None  # (N, M) 0/1: the corner at the start / end of each piece changes
+    room: np.ndarray       # (M, N) acc - bent: what the ramps and corners share
+    slope: np.ndarray      # (M, N) kmax, at least MIN_SLOPE
+    against: tuple | None  # (M, N) 0/1: the corner at the start / end of each piece changes
     #                        the cord's speed the way the ramp up / down does (see _ramp_limits)
 
 
 def _slope_bend(kin, xy, e):
-    """kin.slope(xy, e) and kin.bend(xy, e), at once where the kind can."""
+    """kin.slope(xy, e) and kin.bend(xy, e), at once where the kind can, as (M, N)."""
     both = getattr(kin, "slope_bend", None)
-    return both(xy, e) if both is not None else (kin.slope(xy, e), kin.bend(xy, e))
+    k, b = both(xy, e) if both is not None else (kin.slope(xy, e), kin.bend(xy, e))
+    return k.T.copy(), b.T.copy()
 
 
 def window(kin, v_cord, a_cord, verts, cap, stop, u_entry, turns) -> Window:
@@ -66,13 +67,13 @@ def window(kin, v_cord, a_cord, verts, cap, stop, u_entry, turns) -> Window:
     # the bend is largest at an end or (for other machine kinds) inside: ends and middle
     mid = 0.5 * (verts[:-1] + verts[1:])
     bend = np.maximum(np.abs(b0), np.abs(b1))
-    bend = np.maximum(bend, np.abs(kin.bend(mid, e)))
+    bend = np.maximum(bend, np.abs(kin.bend(mid, e).T))
     acc = a_cord                                              # (M,)
-    v_rate = least(v_cord / np.maximum(kmax, 1e-9))
-    v_bend = least(np.sqrt(BEND_SHARE * acc / np.maximum(bend, 1e-12)))
+    v_rate = least(v_cord[:, None] / np.maximum(kmax, 1e-9))
+    v_bend = least(np.sqrt((BEND_SHARE * acc)[:, None] / np.maximum(bend, 1e-12)))
     vcap = np.minimum(np.minimum(cap, v_rate), v_bend)
     n = len(d)
-    bent = bend * (vcap ** 2)[:, None]
+    bent = bend * vcap ** 2
     c = corners(k0, k1, kmax, d, vcap, bent, acc, stop) if n > 1 else None
     u_lim = np.empty(n + 1)
     u_lim[0] = min(u_entry, vcap[0] ** 2)
@@ -81,7 +82,7 @@ def window(kin, v_cord, a_cord, verts, cap, stop, u_entry, turns) -> Window:
     zero[n] = True
     zero[turns] = True                                        # the motors turn at rest
     ksgn = np.sign(k0 + k1)
-    return Window(d, kmax, ksgn, vcap, bent, acc, u_lim, zero, c, acc - bent,
+    return Window(d, kmax, ksgn, vcap, bent, acc, u_lim, zero, c, acc[:, None] - bent,
                   np.maximum(kmax, MIN_SLOPE), None if c is None else _against(c.sgn_v, ksgn))
 
 
@@ -92,7 +93,7 @@ def _against(sgn: np.ndarray, ksgn: np.ndarray) -> tuple:
     unknown = ksgn == 0
     out = []
     for way in (ksgn, -ksgn):
-        for s in (sgn[:-1], sgn[1:]):
+        for s in (sgn[:, :-1], sgn[:, 1:]):
             out.append(((s * way > 0) | (unknown & (s != 0))).astype(float))
     return tuple(out)
 
@@ -105,7 +106,7 @@ def profile(kin, v_cord, a_cord, verts, cap, line, draw, stop, u_entry, events, 
     turns = np.flatnonzero(np.any(q_in != q_out, axis=1))
     w = window(kin, v_cord, a_cord, verts, cap, stop, u_entry, turns)
     if w.corners is None:
-        u, a = _planned(w, np.zeros((len(w.d) + 1, len(w.acc))))
+        u, a = _planned(w, np.zeros((len(w.acc), len(w.d) + 1)))
     else:
         u, a = _retried(w, *_planned(w, w.corners.corner))
     d, vcap = w.d, w.vcap
@@ -127,14 +128,14 @@ def _planned(w: Window, reserve: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     n, c, d = len(w.d), w.corners, w.d
     lim = w.u_lim.copy()
     if c is not None:
-        lim[1:n] = c.speed(reserve[1:n]) ** 2
+        lim[1:n] = c.speed(reserve[:, 1:n]) ** 2
     lim[w.zero] = 0.0
     up, dn = _ramp_limits(w, reserve)
     u = _passes(lim, 2.0 * up * d, 2.0 * dn * d)
     if c is not None:
-        v = np.sqrt(u[1:n])[:, None]
+        v = np.sqrt(u[1:n])
         used = reserve.copy()
-        used[1:n] = np.minimum(reserve[1:n], c.takes(v))
+        used[:, 1:n] = np.minimum(reserve[:, 1:n], c.takes(v))
         up, dn = _ramp_limits(w, used)
         u = _passes(np.minimum(lim, u), 2.0 * up * d, 2.0 * dn * d)
     return u, _ramp(u, up, dn, d)
@@ -142,14 +143,14 @@ def _planned(w: Window, reserve: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _ramp_limits(w: Window, used: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The largest path acceleration of each piece speeding up and slowing down, with the
-    corners at its ends keeping `used` (N+1, M) of the budget. A corner changes a cord's
+    corners at its ends keeping `used` (M, N+1) of the budget. A corner changes a cord's
     speed one way (the sign of its slope change): the ramp that changes it the other way
     has that part of the budget too. (Each cord's slope keeps its sign along a piece.)"""
     if w.against is None:
         up = least(w.room / w.slope)
         return up, up
     up0, up1, dn0, dn1 = w.against
-    u0, u1 = used[:-1], used[1:]
+    u0, u1 = used[:, :-1], used[:, 1:]
     up = least((w.room - np.maximum(u0 * up0, u1 * up1)) / w.slope)
     dn = least((w.room - np.maximum(u0 * dn0, u1 * dn1)) / w.slope)
     return up, dn
