@@ -9,6 +9,8 @@ from typing import Iterator
 
 import numpy as np
 
+from vplotter.motion.refine import scaled
+
 
 @dataclass
 class Block:
@@ -30,7 +32,7 @@ class Block:
     @property
     def e(self) -> np.ndarray:
         diff = np.diff(self.verts, axis=0)
-        return diff / self.d[:, None]
+        return scaled(diff, self.d, divide=True)
 
     @property
     def d_acc(self) -> np.ndarray:

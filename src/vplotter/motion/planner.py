@@ -63,7 +63,7 @@ from vplotter.motion.corners import CORNER_CEIL, CORNER_TOP, RETRY_GAIN  # noqa:
 from vplotter.motion.profile import BEND_SHARE, RETRY_MIN, RETRY_ROUNDS  # noqa: F401
 from vplotter.motion.profile import motor_path, profile  # noqa: F401
 from vplotter.motion.refine import CORNER_SHARE, MIN_SLOPE, SHARP_TRY, TAU_S  # noqa: F401
-from vplotter.motion.refine import refine, sharp_shares  # noqa: F401
+from vplotter.motion.refine import refine, scaled, sharp_shares  # noqa: F401
 
 RATE_MARGIN = 0.998    # of max_step_rate: step times are rounded to microseconds
 ACCEL_MARGIN = 0.96    # of max_accel
@@ -219,7 +219,7 @@ class Planner:
         origin = np.arange(len(d))
         if len(d) == 0:
             return verts, cap, line, draw, stop, origin
-        e = diff / d[:, None]
+        e = scaled(diff, d, divide=True)
         ext = self.kin.extrema(verts[:-1], e, d)                  # (N, M) or NaN
         if np.isnan(ext).all():
             return verts, cap, line, draw, stop, origin           # (most windows)
@@ -235,7 +235,7 @@ class Planner:
         good = (s - prev > 1e-9) | (s == d[piece])
         good &= ~((s != d[piece]) & (d[piece] - s <= 1e-9))
         piece, s = piece[good], s[good]
-        new = verts[piece] + e[piece] * s[:, None]
+        new = verts[piece] + scaled(e[piece], s)
         end = s == d[piece]
         new[end] = verts[1:][piece[end]]
         verts = np.vstack((verts[:1], new))

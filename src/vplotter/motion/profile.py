@@ -12,7 +12,7 @@ import numpy as np
 
 from vplotter.motion.blocks import Block
 from vplotter.motion.corners import Corners, corners
-from vplotter.motion.refine import MIN_SLOPE, least
+from vplotter.motion.refine import MIN_SLOPE, least, scaled
 
 BEND_SHARE = 0.4       # most of it the bending along a piece may take at the speed cap
 RETRY_ROUNDS = 3       # plans after the first (the quickest is kept)
@@ -60,7 +60,7 @@ def window(kin, v_cord, a_cord, verts, cap, stop, u_entry, turns) -> Window:
     """The speed caps, bends and corners of the pieces through verts."""
     diff = np.diff(verts, axis=0)
     d = np.hypot(diff[:, 0], diff[:, 1])
-    e = diff / d[:, None]
+    e = scaled(diff, d, divide=True)
     k0, b0 = _slope_bend(kin, verts[:-1], e)
     k1, b1 = _slope_bend(kin, verts[1:], e)
     kmax = np.maximum(np.abs(k0), np.abs(k1))
