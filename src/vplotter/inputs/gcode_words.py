@@ -159,12 +159,10 @@ def read_line(raw: str, line: int, name: str) -> LineWords | None:
     text = raw.rstrip("\r\n")
     m = _MOVE_LINE.fullmatch(text) if len(text) < 200 else None    # (long: numbers too large)
     if m is not None:
-        vals: dict[str, tuple[float, int]] = {}
-        for group, letter in _MOVE_LETTERS:
-            value = m[group]
-            if value is not None:
-                vals[letter] = (float(value), m.start(group))   # col: 1-based, of the letter
-        return LineWords(raw, line, 1, vals, [(float(m[1]), 1)], [])
+        g, at = m.groups(), m.regs       # col: 1-based, of the letter (where its number starts)
+        vals = {letter: (float(g[i - 1]), at[i][0]) for i, letter in _MOVE_LETTERS
+                if g[i - 1] is not None}
+        return LineWords(raw, line, 1, vals, [(float(g[0]), 1)], [])
     if _PLAIN_LINE.fullmatch(text):
         g_codes: list[tuple[float, int]] = []
         m_codes: list[tuple[float, int]] = []
