@@ -174,8 +174,8 @@ class TwoCord:
         else:
             p0 = np.asarray(p0, dtype=float)
             a = self.anchors
-            s = -((p0[:, 0, None] - a[None, :, 0]) * e[:, 0, None]
-                  + (p0[:, 1, None] - a[None, :, 1]) * e[:, 1, None])
+            s = np.stack([-((p0[:, 0] - a[m, 0]) * e[:, 0] + (p0[:, 1] - a[m, 1]) * e[:, 1])
+                          for m in (0, 1)], axis=-1)           # (motor by motor: see _along)
         inside = (s > 1e-9) & (s < d[:, None] - 1e-9)
         return np.where(inside, s, np.nan)
 

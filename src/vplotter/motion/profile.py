@@ -103,7 +103,10 @@ def profile(kin, v_cord, a_cord, verts, cap, line, draw, stop, u_entry, events, 
     motors at q0; and the squared vertex speeds, the motors before each vertex and the
     vertices where they turn in place."""
     q_in, q_out = motor_path(kin, verts, q0)
-    turns = np.flatnonzero(np.any(q_in != q_out, axis=1))
+    if q_in is q_out:                       # (no place to turn in place)
+        turns = np.zeros(0, dtype=np.intp)
+    else:
+        turns = np.flatnonzero(np.any(q_in != q_out, axis=1))
     w = window(kin, v_cord, a_cord, verts, cap, stop, u_entry, turns)
     if w.corners is None:
         u, a = _planned(w, np.zeros((len(w.acc), len(w.d) + 1)))
