@@ -287,7 +287,9 @@ class Batcher:
         if self.batch:
             what, cap, line, col, draw = zip(*self.batch)
             pts, n = self._points(what)
-            cap, line, col, draw = (np.array(v) for v in (cap, line, col, draw))
+            k = len(cap)
+            cap, line, col, draw = (np.fromiter(v, t, k) for v, t in
+                                    ((cap, float), (line, np.int64), (col, np.int64), (draw, bool)))
             ends = np.cumsum(n)
             mpts = self._checked(pts, ends, line, col)
             planner = self.planner
