@@ -91,10 +91,12 @@ class Turn:
     line: int
 
 
-def _slice(b: Block, i: int, j: int) -> Block:
+def _slice(b: Block, i: int, j: int, events: list | None = None) -> Block:
+    """Pieces i to j of b (events: the events of its stops, if the caller knows them)."""
+    if events is None:
+        events = b.events[int(b.stop[:i].sum()):int(b.stop[:j].sum())]
     return Block(b.verts[i:j + 1], b.cords[i:j + 1], b.d[i:j], b.v0[i:j], b.vp[i:j], b.v1[i:j],
-                 b.a[i:j], b.line[i:j], b.drawing[i:j], b.cap[i:j], b.stop[i:j],
-                 b.events[int(b.stop[:i].sum()):int(b.stop[:j].sum())])
+                 b.a[i:j], b.line[i:j], b.drawing[i:j], b.cap[i:j], b.stop[i:j], events)
 
 
 def _split(b: Block, q_in: np.ndarray, turns: np.ndarray, n: int) -> Iterator[Block | Turn]:

@@ -353,11 +353,11 @@ def split(planned: Iterable[Block | Turn | Step]) -> Iterator[Step]:
         if isinstance(b, Block):
             i = 0
             for j, events in zip(np.flatnonzero(b.stop).tolist(), b.events):
-                yield Motion(_slice(b, i, j + 1))
+                yield Motion(_slice(b, i, j + 1, [events]))   # one stop: at its end
                 yield from events
                 i = j + 1
             if i < len(b.d):
-                yield Motion(_slice(b, i, len(b.d)) if i else b)
+                yield Motion(_slice(b, i, len(b.d), []) if i else b)
         elif isinstance(b, Turn):
             yield InPlace(b)
         else:

@@ -91,11 +91,13 @@ def _against(sgn: np.ndarray, ksgn: np.ndarray) -> tuple:
     way the ramp up does, and the way the ramp down does (as 0/1; an unknown slope sign
     counts as both ways)."""
     unknown = ksgn == 0
-    out = []
-    for way in (ksgn, -ksgn):
-        for s in (sgn[:, :-1], sgn[:, 1:]):
-            out.append(((s * way > 0) | (unknown & (s != 0))).astype(float))
-    return tuple(out)
+    up, down = [], []
+    for s in (sgn[:, :-1], sgn[:, 1:]):
+        same = s * ksgn
+        either = unknown & (s != 0)
+        up.append(((same > 0) | either).astype(float))
+        down.append(((same < 0) | either).astype(float))
+    return (*up, *down)
 
 
 def profile(kin, v_cord, a_cord, verts, cap, line, draw, stop, u_entry, events, q0):
