@@ -352,6 +352,8 @@ def split(planned: Iterable[Block | Turn | Step]) -> Iterator[Step]:
     for b in planned:
         if isinstance(b, Block):
             i = 0
+            if b.events:
+                b.durations        # once for the block: its Motions take their part of it
             for j, events in zip(np.flatnonzero(b.stop).tolist(), b.events):
                 yield Motion(_slice(b, i, j + 1, [events]))   # one stop: at its end
                 yield from events
