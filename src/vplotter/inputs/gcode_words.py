@@ -160,8 +160,10 @@ def read_line(raw: str, line: int, name: str) -> LineWords | None:
     m = _MOVE_LINE.fullmatch(text) if len(text) < 200 else None    # (long: numbers too large)
     if m is not None:
         g, at = m.groups(), m.regs       # col: 1-based, of the letter (where its number starts)
-        vals = {letter: (float(g[i - 1]), at[i][0]) for i, letter in _MOVE_LETTERS
-                if g[i - 1] is not None}
+        vals = {}
+        for i, letter in _MOVE_LETTERS:
+            if g[i - 1] is not None:
+                vals[letter] = (float(g[i - 1]), at[i][0])
         return LineWords(raw, line, 1, vals, [(float(g[0]), 1)], [])
     if _PLAIN_LINE.fullmatch(text):
         g_codes: list[tuple[float, int]] = []
