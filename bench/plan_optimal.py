@@ -34,7 +34,7 @@ MACHINES = {"seed": os.path.join(ROOT, "config.toml"),
 SMALL = ["tiny_shapes", "far_arcs", "micro_arcs", "gcodetools_far", "zigzag", "long_travel",
          "mixed", "corners"]
 LARGE = {"tiny_shapes": 20, "far_arcs": 20, "micro_arcs": 20, "gcodetools_far": 60,
-         "zigzag": 20, "long_travel": 20, "mixed": 20}
+         "zigzag": 20, "long_travel": 20, "mixed": 20, "gcodetools_small": 20}
 
 
 def start_of(cfg):

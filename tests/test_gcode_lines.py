@@ -39,7 +39,9 @@ def test_plain_and_odd_lines():
     for raw in ["G01 X51.006030 Y3.217270 Z-1.000000", "g1x1y2", "N10 G1 X1 (a;b) Y2 ; end",
                 "G1 X1 X2", "G1 N2", "N1 N2", "(only a comment)", "", "  \t", "G1 X1.5.3",
                 "M3 S1000", "G1 X+.5 Y-1.", "G1 X- 5", "G1 X1 *99", "%", "T1 M6 (pen: red)",
-                "G2 X1 Y1 I0.5 J0.5\r\n", "G1 X" + "9" * 400, "M6 (pen: )"]:
+                "G2 X1 Y1 I0.5 J0.5\r\n", "G1 X" + "9" * 400, "M6 (pen: )",
+                "G02 X1.5 Y-2 Z-1 I.5 J-0.25 F400.0", "G01 Y1 X2", "G01 X1 Y2 Z3 F-1",
+                "G03 X1 Y2 R3", "G00 Z5.000000", "G1 X1 Y2 "]:
         check(raw)
 
 
@@ -47,3 +49,18 @@ def test_plain_and_odd_lines():
 @given(st.lists(st.sampled_from(PIECES), max_size=12))
 def test_same_as_the_loop(pieces):
     check("".join(pieces))
+
+
+NUMBER = st.sampled_from(["0", "1", "01", "1.5", ".5", "1.", "-1.000000", "+2", "-.25",
+                          "51.006030", "- 1", "1e3", "1.2.3", ""])
+
+
+@settings(max_examples=400, deadline=None)
+@given(st.sampled_from(["G", "G0", "G00", "G01", "G02", "G03", "G1", "G17", "G-1", "G 1", "g1"]),
+       st.lists(st.tuples(st.sampled_from("XYZIJFRPxX"), NUMBER, st.sampled_from([" ", "", "  "])),
+                max_size=7),
+       st.sampled_from(["", " ", "\r\n", "\n", "(c)", " ; x"]))
+def test_moves_as_cam_programs_write_them(g, words, end):
+    """A G code and X Y Z I J F words one space apart, read by one match: the same as the loop
+    (and lines nearly like them, which it leaves to the loop)."""
+    check(g + "".join(f"{sep}{letter}{value}" for letter, value, sep in words) + end)

@@ -3,9 +3,10 @@
 The path is the planner's own pieces (arcs already cut within tolerance), sampled every
 DS_MM. At every sample the squared pen speed u = v^2 is bounded by the feed cap and each
 motor's step rate (|q'| v <= rate), and the path acceleration a = u'/2 by each motor's
-acceleration limit, exactly: -A <= q'' u + q' a <= A (q' = slope, q'' = bend). A forward
-pass and a backward pass on u give the classic time-optimal parameterisation (as toppra
-computes it). Corners between pieces are passed on a blend that keeps the pen within
+acceleration limit, exactly: -A <= q'' u + q' a <= A (q' = slope, q'' = bend), and u at most
+where a = 0 keeps every motor within it (|q''| u <= A: above that the pen could not stay on
+the curve, only pass it speeding up or braking). A forward pass and a backward pass on u give
+the classic time-optimal parameterisation (as toppra computes it). Corners between pieces are passed on a blend that keeps the pen within
 tolerance_mm: a circle of radius tol / (1 / cos(turn / 2) - 1), whose centripetal
 acceleration is bounded in cord space like any other. Pen changes, dwells and the end are
 full stops; pen settle times and the coil hold before moving are added as the schedule has
@@ -125,7 +126,10 @@ def run_time(kin, run, rate_u, acc_u, tol, profile=False):
             ucorner = (acc_u * r[:, None] / np.maximum(np.abs(grad), 1e-12)).min(axis=1)
         ucorner = np.where(turn > math.pi * 0.999, 0.0, ucorner)
         u_max[idx] = np.minimum(u_max[idx], ucorner)
-    u_max = np.minimum(u_max, _curve_limit(k, b, acc_u, u_max))
+    # at most where the pen can go round with a = 0: above that a motor's bend x v^2 alone is
+    # over its limit, and the pen could not stay there (the passes below take a = 0 where the
+    # limits allow only a > 0 or only a < 0)
+    u_max = np.minimum(u_max, (acc_u / np.maximum(np.abs(b), 1e-12)).min(axis=1))
     u_max[0] = u_max[-1] = 0.0
     S = len(u_max)
     kk, bb, u_lim = k.tolist(), b.tolist(), u_max.tolist()
@@ -157,35 +161,6 @@ def run_time(kin, run, rate_u, acc_u, tol, profile=False):
     if profile:
         return t, np.concatenate(([0.0], np.cumsum(ds[:-1]))), v
     return t
-
-
-def _feasible(u, k, b, acc_u):
-    """Is there one path acceleration a with -A <= b u + k a <= A for every motor?"""
-    lo = np.full(len(u), -np.inf)
-    hi = np.full(len(u), np.inf)
-    for m in range(k.shape[1]):
-        km, bm, am = k[:, m], b[:, m], acc_u[m]
-        small = np.abs(km) < 1e-12
-        ks = np.where(small, 1.0, km)
-        x1, x2 = (-am - bm * u) / ks, (am - bm * u) / ks
-        ok_small = np.abs(bm * u) <= am
-        lo = np.maximum(lo, np.where(small, np.where(ok_small, -np.inf, np.inf), np.minimum(x1, x2)))
-        hi = np.minimum(hi, np.where(small, np.where(ok_small, np.inf, -np.inf), np.maximum(x1, x2)))
-    return lo <= hi
-
-
-def _curve_limit(k, b, acc_u, u_hi):
-    """Largest u <= u_hi at which the path can be followed at all (bisection per sample)."""
-    out = u_hi.copy()
-    bad = ~_feasible(u_hi, k, b, acc_u)
-    lo, hi = np.zeros(int(bad.sum())), u_hi[bad]
-    kb, bb = k[bad], b[bad]
-    for _ in range(50):
-        mid = 0.5 * (lo + hi)
-        ok = _feasible(mid, kb, bb, acc_u)
-        lo, hi = np.where(ok, mid, lo), np.where(ok, hi, mid)
-    out[bad] = lo
-    return out
 
 
 def limits(cfg, derated=True):

@@ -212,7 +212,10 @@ def _parts(block: Block, spu: np.ndarray) -> Iterator[Block]:
 
 def _bounds(block: Block, spu: np.ndarray) -> list[tuple[int, int]]:
     """The parts of `_parts` as (first piece, end) pairs."""
-    steps = (np.abs(np.diff(block.cords, axis=0)) * spu).sum(axis=1)
+    cords = block.cords
+    steps = np.abs(np.diff(cords[:, 0])) * spu[0]      # motor by motor: see refine.least
+    for m in range(1, cords.shape[1]):
+        steps = steps + np.abs(np.diff(cords[:, m])) * spu[m]
     total = float(steps.sum())
     if total <= STEPS_PER_PART:
         return [(0, len(steps))]

@@ -111,14 +111,15 @@ class Parser:
     def _err(self, line: int, col: int, msg: str) -> InputError:
         return InputError(f"{self.name}:{line}:{col}: error: {msg}")
 
-    def block(self, raw: str, line: int) -> Iterator[Record]:
+    def block(self, raw: str, line: int) -> list[Record]:
+        """The records of one line, in order (a list: most lines give one or none)."""
         if self.ended:  # whatever follows M2/M30 is not even tokenized: it is ignored
             if not self.after_end_line and not _blank(raw.replace("%", "")):
                 self.after_end_line = line
-            return
+            return _NONE
         b = read_line(raw, line, self.name)
         if b is None:
-            return
+            return _NONE
         if b.g_codes:
             self._g_codes(b)
         if b.vals:
@@ -127,24 +128,31 @@ class Parser:
             self._m_codes(b)
         self._check_words(b)
         # the records, in order: tool change, pen, dwell, move, pause
+        if (b.change is None and b.pen_change is None and not b.dwell_col and b.stop is None
+                and not b.end_col):
+            if b.has_xy or (b.has_arc_words and self.motion in (2.0, 3.0)):
+                return [self._move(b.vals, line, b.motion_col)]     # (the common line)
+            return _NONE
+        out: list[Record] = []
         if b.change is not None:
-            yield from self._change(line, *b.change)
+            out.extend(self._change(line, *b.change))
         if b.pen_change is not None and b.pen_change != self.pen_down:
             self.pen_down = b.pen_change
-            yield Pen(line, b.pen_col, b.pen_change)
+            out.append(Pen(line, b.pen_col, b.pen_change))
         if b.dwell_col:
-            yield Dwell(line, b.dwell_col, b.vals["P"][0])
+            out.append(Dwell(line, b.dwell_col, b.vals["P"][0]))
         if b.has_xy or (b.has_arc_words and self.motion in (2.0, 3.0)):
-            yield self._move(b.vals, line, b.motion_col)
+            out.append(self._move(b.vals, line, b.motion_col))
         if b.stop is not None:
             code, col = _fmt_code("M", b.stop[0]), b.stop[1]
             pen = comment_pen(raw, f"{self.name}:{line}")
             if pen is not None:
-                yield from self._change(line, pen, col, code)
+                out.extend(self._change(line, pen, col, code))
             else:
-                yield from self._pause(line, col, comment_text(raw) or f"{code}: program pause")
+                out.extend(self._pause(line, col, comment_text(raw) or f"{code}: program pause"))
         if b.end_col:
             self.ended = True
+        return out
 
     def _g_codes(self, b: LineWords) -> None:
         """The G codes: the motion and dwell of the line; units and distance modes change the
@@ -393,6 +401,9 @@ class Parser:
                       f"plotter: {codes}")
 
 
+_NONE: list = []      # no records (never appended to)
+
+
 def _stderr(msg: str) -> None:
     import sys
 
@@ -409,8 +420,11 @@ def parse_lines(lines: Iterable[str], name: str = "<input>", pen_mode: str = "m"
     if tools is None and isinstance(lines, (list, tuple)):
         tools = scan(lines)
     p = Parser(name, pen_mode, strict, warn, dialect, tools)
+    block = p.block
     for number, raw in enumerate(lines, 1):
-        yield from p.block(raw, number)
+        recs = block(raw, number)
+        if recs:
+            yield from recs
     p.finish()
 
 

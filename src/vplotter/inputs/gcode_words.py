@@ -21,6 +21,12 @@ _COMMENT = re.compile(r"\([^)]*\)|;.*")
 _WORD = r"[ \t]*+([GMXYZIJRFPNSTgmxyzijrfpnst])[ \t]*+([+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+))"
 _PLAIN_LINE = re.compile(rf"(?:{_WORD}|[ \t]*+\([^)]*\))*[ \t]*+(?:;.*)?", re.S)
 _PLAIN_WORD = re.compile(rf"{_WORD}|\([^)]*\)|;.*", re.S)
+# The commonest line of all, a move as CAM programs write it (`G01 X1.5 Y-2 Z-1`): a G code
+# and then some of X Y Z I J F in this order, one space apart, nothing else; read by one match.
+_NUM = r"([+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+))"
+_MOVE_LINE = re.compile(rf"G{_NUM}(?: X{_NUM})?(?: Y{_NUM})?(?: Z{_NUM})?(?: I{_NUM})?"
+                        rf"(?: J{_NUM})?(?: F{_NUM})?")
+_MOVE_LETTERS = ((2, "X"), (3, "Y"), (4, "Z"), (5, "I"), (6, "J"), (7, "F"))
 
 
 def _blank(text: str) -> bool:
@@ -151,6 +157,14 @@ def read_line(raw: str, line: int, name: str) -> LineWords | None:
     """`sort_words(tokenize(raw))`, or None for a line without words; a plain line (the
     common case) is read without the loop over its characters, to the same result."""
     text = raw.rstrip("\r\n")
+    m = _MOVE_LINE.fullmatch(text) if len(text) < 200 else None    # (long: numbers too large)
+    if m is not None:
+        g, at = m.groups(), m.regs       # col: 1-based, of the letter (where its number starts)
+        vals = {}
+        for i, letter in _MOVE_LETTERS:
+            if g[i - 1] is not None:
+                vals[letter] = (float(g[i - 1]), at[i][0])
+        return LineWords(raw, line, 1, vals, [(float(g[0]), 1)], [])
     if _PLAIN_LINE.fullmatch(text):
         g_codes: list[tuple[float, int]] = []
         m_codes: list[tuple[float, int]] = []

@@ -177,10 +177,14 @@ class TwoCord:
         xy = np.asarray(xy, dtype=float)
         e = np.asarray(e, dtype=float)
         a = self.anchors
-        x = xy[:, 0, None] - a[None, :, 0]                      # (N, 2 motors)
-        y = xy[:, 1, None] - a[None, :, 1]
-        g = np.sqrt(x * x + y * y)
-        return (x * e[:, 0, None] + y * e[:, 1, None]) / g, g
+        ks, gs = [], []
+        for m in (0, 1):       # motor by motor: (N, 2) against (2,) is numpy's slow loop
+            x = xy[:, 0] - a[m, 0]
+            y = xy[:, 1] - a[m, 1]
+            g = np.sqrt(x * x + y * y)
+            ks.append((x * e[:, 0] + y * e[:, 1]) / g)
+            gs.append(g)
+        return np.stack(ks, axis=-1), np.stack(gs, axis=-1)
 
     def slope(self, xy: np.ndarray, e: np.ndarray) -> np.ndarray:
         if not self.plain:
@@ -208,8 +212,8 @@ class TwoCord:
         else:
             p0 = np.asarray(p0, dtype=float)
             a = self.anchors
-            s = -((p0[:, 0, None] - a[None, :, 0]) * e[:, 0, None]
-                  + (p0[:, 1, None] - a[None, :, 1]) * e[:, 1, None])
+            s = np.stack([-((p0[:, 0] - a[m, 0]) * e[:, 0] + (p0[:, 1] - a[m, 1]) * e[:, 1])
+                          for m in (0, 1)], axis=-1)           # (motor by motor: see _along)
         inside = (s > 1e-9) & (s < d[:, None] - 1e-9)
         return np.where(inside, s, np.nan)
 

@@ -4,10 +4,12 @@ the motors move with the pen standing still; and the cutting of a planned window
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Iterator
 
 import numpy as np
+
+from vplotter.motion.refine import scaled
 
 
 @dataclass
@@ -26,11 +28,12 @@ class Block:
     cap: np.ndarray        # (N,) pen speed cap from the G-code and config (mm/s)
     stop: np.ndarray       # (N,) the machine stops at the end of this piece (pen, dwell)
     events: list           # what happens at each stop, in order (one list per True in stop)
+    dur: np.ndarray | None = field(default=None, repr=False, compare=False)   # `durations`
 
     @property
     def e(self) -> np.ndarray:
         diff = np.diff(self.verts, axis=0)
-        return diff / self.d[:, None]
+        return scaled(diff, self.d, divide=True)
 
     @property
     def d_acc(self) -> np.ndarray:
@@ -49,8 +52,11 @@ class Block:
 
     @property
     def durations(self) -> np.ndarray:
-        t_acc, t_cru, t_dec = self.phase_times()
-        return t_acc + t_cru + t_dec
+        """Each piece's time (found once: a block is not changed once planned)."""
+        if self.dur is None:
+            t_acc, t_cru, t_dec = self.phase_times()
+            self.dur = t_acc + t_cru + t_dec
+        return self.dur
 
     def phase_table(self, t_start: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
         """Per piece and phase (row 3 * piece + phase: accelerate, cruise, decelerate): the
@@ -89,10 +95,13 @@ class Turn:
     line: int
 
 
-def _slice(b: Block, i: int, j: int) -> Block:
+def _slice(b: Block, i: int, j: int, events: list | None = None) -> Block:
+    """Pieces i to j of b (events: the events of its stops, if the caller knows them)."""
+    if events is None:
+        events = b.events[int(b.stop[:i].sum()):int(b.stop[:j].sum())]
     return Block(b.verts[i:j + 1], b.cords[i:j + 1], b.d[i:j], b.v0[i:j], b.vp[i:j], b.v1[i:j],
-                 b.a[i:j], b.line[i:j], b.drawing[i:j], b.cap[i:j], b.stop[i:j],
-                 b.events[int(b.stop[:i].sum()):int(b.stop[:j].sum())])
+                 b.a[i:j], b.line[i:j], b.drawing[i:j], b.cap[i:j], b.stop[i:j], events,
+                 None if b.dur is None else b.dur[i:j])
 
 
 def _split(b: Block, q_in: np.ndarray, turns: np.ndarray, n: int) -> Iterator[Block | Turn]:

@@ -21,44 +21,64 @@ CORNER_CEIL = 0.9      # a corner and the bending next to it take at most this t
 CORNER_TOP = 0.98      # and in later plans, on a curve, where the ramps next to it leave that
 
 
+def _fleast(a: np.ndarray) -> np.ndarray:
+    """The least value over the motors (M, N), NaN left out (all NaN: NaN)."""
+    out = a[0]
+    for j in range(1, a.shape[0]):
+        out = np.fmin(out, a[j])
+    return out
+
+
 @dataclass
 class Corners:
-    """The n - 1 inner corners of a window of n pieces; arrays have one row per corner."""
+    """The n - 1 inner corners of a window of n pieces; per-motor arrays have one row per
+    motor (M, ...: see `refine.least`)."""
 
-    jump: np.ndarray       # (n-1, M) |slope change| of each motor's cord
-    ds: np.ndarray         # (n-1, 1) the shorter of the two pieces
+    jump: np.ndarray       # (M, n-1) |slope change| of each motor's cord
+    ds: np.ndarray         # (n-1,) the shorter of the two pieces
     vc: np.ndarray         # (n-1,) the slower of the two pieces' speed caps
-    corner: np.ndarray     # (n+1, M) the budget each vertex keeps in the first plan
-    top: np.ndarray        # (n+1, M) the most it may keep in the later plans
+    corner: np.ndarray     # (M, n+1) the budget each vertex keeps in the first plan
+    top: np.ndarray        # (M, n+1) the most it may keep in the later plans
+    sgn_v: np.ndarray      # (M, n+1) the way each corner changes each cord's speed (+1, -1, 0)
 
     def takes(self, v: np.ndarray) -> np.ndarray:
-        """What each corner takes passed at speeds v (n-1, 1)."""
+        """What each corner takes passed at speeds v (n-1,)."""
         return self.jump * v * np.maximum(1.0 / TAU_S, v / self.ds)
 
     def speed(self, budget: np.ndarray) -> np.ndarray:
-        """The highest corner speeds within `budget` (n-1, M), for every motor:
+        """The highest corner speeds within `budget` (M, n-1) or (M, 1), for every motor:
         jump * v * max(1/TAU, v/ds) <= budget  <=>  both limits."""
         jump = self.jump
+        # (where there is no jump: inf, or NaN for a zero budget, which fmin leaves out as it
+        # would the inf it stands for)
         with np.errstate(divide="ignore", invalid="ignore"):
-            v_tau = least(np.where(jump > 0, budget * TAU_S / jump, np.inf))
-            v_ds = least(np.where(jump > 0, np.sqrt(budget * self.ds / jump), np.inf))
-        return np.minimum(np.minimum(v_tau, v_ds), self.vc)
+            v_tau = _fleast(budget * TAU_S / jump)
+            v_ds = _fleast(np.sqrt(budget * self.ds / jump))
+        return np.fmin(np.fmin(v_tau, v_ds), self.vc)
 
     def again(self, u: np.ndarray, d: np.ndarray, slope: np.ndarray, bent: np.ndarray,
-              acc: np.ndarray) -> np.ndarray:
+              acc: np.ndarray, ksgn: np.ndarray) -> np.ndarray:
         """The budgets of a later plan after the plan of squared vertex speeds u: each corner
         keeps what it takes at RETRY_GAIN x those speeds (within `top`), but no more than the
-        ramps next to it leave at that plan, and at least what it takes at that plan."""
+        ramps next to it leave at that plan (a ramp that changes a cord's speed the other way
+        than the corner leaves it more), and at least what it takes at that plan."""
         n = len(d)
-        v = np.sqrt(u[1:n])[:, None]
+        v = np.sqrt(u[1:n])
         now = self.takes(v)
-        v = np.minimum(v * RETRY_GAIN, self.vc[:, None])
+        v = np.minimum(v * RETRY_GAIN, self.vc)
         top = self.top
         again = top.copy()
-        again[1:n] = np.minimum(top[1:n], self.takes(v))
-        need = np.abs(np.diff(u))[:, None] / (2.0 * d[:, None]) * slope + bent
-        room = acc - np.maximum(need[1:], need[:-1])
-        again[1:n] = np.minimum(again[1:n], np.maximum(room, np.minimum(now, again[1:n])))
+        again[:, 1:n] = np.minimum(top[:, 1:n], self.takes(v))
+        cord = (np.diff(u) / (2.0 * d)) * slope                 # (M, n) the ramps' |a| q'
+        sgn = self.sgn_v[:, 1:n]
+        signed = np.where(ksgn == 0, np.abs(cord), cord * ksgn)
+        acc = acc[:, None]
+        room = acc - np.maximum(sgn * signed[:, :-1] + bent[:, :-1],
+                                sgn * signed[:, 1:] + bent[:, 1:])
+        room = np.where(sgn == 0, acc - np.maximum(np.abs(cord[:, :-1]) + bent[:, :-1],
+                                                   np.abs(cord[:, 1:]) + bent[:, 1:]), room)
+        again[:, 1:n] = np.minimum(again[:, 1:n],
+                                   np.maximum(room, np.minimum(now, again[:, 1:n])))
         return again
 
 
@@ -67,33 +87,39 @@ def corners(k0, k1, kmax, d, vcap, bent, acc, stop) -> Corners:
     the larger, d the lengths, vcap the speed caps, bent what bending takes at the cap, acc
     the budget (M,), stop the pieces after which the machine stands still."""
     n = len(d)
-    jump = np.abs(k0[1:] - k1[:-1])                       # (n-1, M)
-    ds = np.minimum(d[1:], d[:-1])[:, None]
+    change = k0[:, 1:] - k1[:, :-1]
+    jump = np.abs(change)                                  # (M, n-1)
+    ds = np.minimum(d[1:], d[:-1])
     vc = np.minimum(vcap[1:], vcap[:-1])
-    c = Corners(jump, ds, vc, np.zeros((n + 1, len(acc))), np.zeros((n + 1, len(acc))))
+    m = len(acc)
+    c = Corners(jump, ds, vc, np.zeros((m, n + 1)), np.zeros((m, n + 1)), np.zeros((m, n + 1)))
+    c.sgn_v[:, 1:n] = np.sign(change)
+    acc = acc[:, None]
     # what the corner takes passed at the highest speed its pieces allow
-    use = c.takes(vc[:, None])
+    use = c.takes(vc)
     # A corner on a curve (the next one follows within TAU) may take much of the
     # budget: the pen goes round at that speed without speeding up or slowing down.
     # A lone sharp corner is passed slowly anyway; the pieces around it get more.
     v_hi = c.speed(CORNER_SHARE * acc)
-    curve = v_hi * TAU_S >= ds[:, 0]
-    share = _shares(c, curve, v_hi, acc, kmax, d, vcap)[:, None] * acc
+    curve = v_hi * TAU_S >= ds
+    share = _shares(c, curve, v_hi, acc, kmax, d, vcap) * acc
     # and never so much that the bending leaves the ramps nothing
-    bent_end = np.maximum(bent[1:], bent[:-1])
+    bent_end = np.maximum(bent[:, 1:], bent[:, :-1])
     ceil = np.maximum(CORNER_CEIL * acc - bent_end, 0.0)
-    c.corner[1:n] = np.minimum(np.minimum(use, share), ceil)
-    c.corner[1:n][stop[:-1]] = 0.0                         # passed standing still
+    corner = np.minimum(np.minimum(use, share), ceil)
+    corner[:, stop[:-1]] = 0.0                             # passed standing still
+    c.corner[:, 1:n] = corner
     # the most a corner may keep in the later plans
     on_curve = np.maximum(CORNER_TOP * acc - bent_end, 0.0)
-    c.top[1:n] = np.minimum(use, np.where(curve[:, None], on_curve, np.minimum(share, ceil)))
-    c.top[1:n][stop[:-1]] = 0.0
+    top = np.minimum(use, np.where(curve, on_curve, np.minimum(share, ceil)))
+    top[:, stop[:-1]] = 0.0
+    c.top[:, 1:n] = top
     return c
 
 
 def _shares(c: Corners, curve, v_hi, acc, kmax, d, vcap) -> np.ndarray:
     """Each corner's share of the budget: CORNER_SHARE on a curve; at a sharp corner the
-    share that passes it and the pieces next to it quickest."""
+    share that passes it and the pieces next to it quickest. acc: (M, 1)."""
     share = np.full(len(curve), CORNER_SHARE)
     # (where even the least share passes it at full speed, the least is quickest)
     low = c.speed(SHARP_TRY[0] * acc) >= c.vc
@@ -101,7 +127,7 @@ def _shares(c: Corners, curve, v_hi, acc, kmax, d, vcap) -> np.ndarray:
     sharp = np.flatnonzero(~curve & ~low)
     if len(sharp):
         far = np.concatenate(([np.inf], v_hi, [np.inf]))
-        share[sharp] = sharp_shares(c.jump[sharp], acc, kmax[sharp], kmax[sharp + 1],
+        share[sharp] = sharp_shares(c.jump[:, sharp], acc, kmax[:, sharp], kmax[:, sharp + 1],
                                      d[sharp], d[sharp + 1], vcap[sharp], vcap[sharp + 1],
-                                     c.vc[sharp], c.ds[sharp, 0], far[sharp], far[sharp + 2])
+                                     c.vc[sharp], c.ds[sharp], far[sharp], far[sharp + 2])
     return share

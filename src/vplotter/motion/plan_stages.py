@@ -287,7 +287,9 @@ class Batcher:
         if self.batch:
             what, cap, line, col, draw = zip(*self.batch)
             pts, n = self._points(what)
-            cap, line, col, draw = (np.array(v) for v in (cap, line, col, draw))
+            k = len(cap)
+            cap, line, col, draw = (np.fromiter(v, t, k) for v, t in
+                                    ((cap, float), (line, np.int64), (col, np.int64), (draw, bool)))
             ends = np.cumsum(n)
             mpts = self._checked(pts, ends, line, col)
             planner = self.planner
@@ -350,12 +352,14 @@ def split(planned: Iterable[Block | Turn | Step]) -> Iterator[Step]:
     for b in planned:
         if isinstance(b, Block):
             i = 0
+            if b.events:
+                b.durations        # once for the block: its Motions take their part of it
             for j, events in zip(np.flatnonzero(b.stop).tolist(), b.events):
-                yield Motion(_slice(b, i, j + 1))
+                yield Motion(_slice(b, i, j + 1, [events]))   # one stop: at its end
                 yield from events
                 i = j + 1
             if i < len(b.d):
-                yield Motion(_slice(b, i, len(b.d)) if i else b)
+                yield Motion(_slice(b, i, len(b.d), []) if i else b)
         elif isinstance(b, Turn):
             yield InPlace(b)
         else:

@@ -11,6 +11,10 @@ acceleration (a trapezoid in path distance), such that for each motor
   Each piece is bounded with its own bend (largest of its ends and middle) at its speed cap
   (at most BEND_SHARE of the budget, which lowers the cap on a tightly bending piece), and
   with what the corners at its two ends take; its ramps get the rest: no fixed reserve.
+  With signs: a corner changes each cord's speed one way (its slope change), a ramp the way
+  of the slope speeding up and the other way slowing down, so a ramp that works against a
+  corner has that corner's part of the budget too (`profile._ramp_limits`: each piece has a
+  limit speeding up and one slowing down, the passes use each its own).
 
 Junction rule (our "deviation" rule, in cord space): at a vertex the cord speeds change at
 once by v x |slope change|. A change that lands inside one measurement window TAU counts as an
@@ -59,7 +63,7 @@ from vplotter.motion.corners import CORNER_CEIL, CORNER_TOP, RETRY_GAIN  # noqa:
 from vplotter.motion.profile import BEND_SHARE, RETRY_MIN, RETRY_ROUNDS  # noqa: F401
 from vplotter.motion.profile import motor_path, profile  # noqa: F401
 from vplotter.motion.refine import CORNER_SHARE, MIN_SLOPE, SHARP_TRY, TAU_S  # noqa: F401
-from vplotter.motion.refine import refine, sharp_shares  # noqa: F401
+from vplotter.motion.refine import refine, scaled, sharp_shares  # noqa: F401
 
 RATE_MARGIN = 0.998    # of max_step_rate: step times are rounded to microseconds
 ACCEL_MARGIN = 0.96    # of max_accel
@@ -215,7 +219,7 @@ class Planner:
         origin = np.arange(len(d))
         if len(d) == 0:
             return verts, cap, line, draw, stop, origin
-        e = diff / d[:, None]
+        e = scaled(diff, d, divide=True)
         ext = self.kin.extrema(verts[:-1], e, d)                  # (N, M) or NaN
         if np.isnan(ext).all():
             return verts, cap, line, draw, stop, origin           # (most windows)
@@ -231,7 +235,7 @@ class Planner:
         good = (s - prev > 1e-9) | (s == d[piece])
         good &= ~((s != d[piece]) & (d[piece] - s <= 1e-9))
         piece, s = piece[good], s[good]
-        new = verts[piece] + e[piece] * s[:, None]
+        new = verts[piece] + scaled(e[piece], s)
         end = s == d[piece]
         new[end] = verts[1:][piece[end]]
         verts = np.vstack((verts[:1], new))

@@ -19,20 +19,34 @@ SHARP_TRY = np.array([0.02, 0.05, 0.1, 0.15, 0.25, 0.35])   # shares a sharp cor
 
 
 def least(a: np.ndarray) -> np.ndarray:
-    """Each row's least value of an (N, M) array, as a.min(axis=1) (NaN wins), without numpy's
-    slow reduction along a short axis (M is the number of motors)."""
-    out = a[:, 0]
-    for j in range(1, a.shape[1]):
-        out = np.minimum(out, a[:, j])
-    return out if a.shape[1] > 1 else out.copy()
+    """The least value over the motors of an (M, N) array, as a.min(axis=0) (NaN wins),
+    without numpy's slow reduction along a short axis.
+
+    The planner keeps its per-motor arrays as (M, N), one row per motor: an operation with a
+    per-motor value (M, 1) or a per-piece one (N,) then runs along rows of N, where on
+    (N, M) numpy would loop over rows of M in buffers (about ten times slower)."""
+    out = a[0]
+    for j in range(1, a.shape[0]):
+        out = np.minimum(out, a[j])
+    return out if a.shape[0] > 1 else out.copy()
+
+
+def scaled(a: np.ndarray, f: np.ndarray, divide: bool = False) -> np.ndarray:
+    """a (N, K) times (or divided by) f (N,) row by row, column by column (see `least`: as
+    a * f[:, None], without the buffered loop over rows of K)."""
+    out = np.empty(a.shape)
+    op = np.divide if divide else np.multiply
+    for j in range(a.shape[1]):
+        op(a[:, j], f, out=out[:, j])
+    return out
 
 
 def most(a: np.ndarray) -> np.ndarray:
-    """Each row's largest value, as a.max(axis=1) (see `least`)."""
-    out = a[:, 0]
-    for j in range(1, a.shape[1]):
-        out = np.maximum(out, a[:, j])
-    return out if a.shape[1] > 1 else out.copy()
+    """The largest value over the motors, as a.max(axis=0) (see `least`)."""
+    out = a[0]
+    for j in range(1, a.shape[0]):
+        out = np.maximum(out, a[j])
+    return out if a.shape[0] > 1 else out.copy()
 
 
 def refine(kin, v_cord, a_cord, verts, cap, line, draw, stop, origin):
@@ -53,17 +67,18 @@ def refine(kin, v_cord, a_cord, verts, cap, line, draw, stop, origin):
         return verts, cap, line, draw, stop, origin
     diff = np.diff(verts, axis=0)
     d = np.hypot(diff[:, 0], diff[:, 1])
-    e = diff / d[:, None]
-    k0s, k1s = kin.slope(verts[:-1], e), kin.slope(verts[1:], e)
+    e = scaled(diff, d, divide=True)
+    k0s, k1s = kin.slope(verts[:-1], e).T.copy(), kin.slope(verts[1:], e).T.copy()   # (M, N)
     k0, k1 = np.abs(k0s), np.abs(k1s)
+    v_col = v_cord[:, None]
     with np.errstate(divide="ignore"):
-        vr0 = least(v_cord / np.maximum(k0, 1e-9))
-        vr1 = least(v_cord / np.maximum(k1, 1e-9))
+        vr0 = least(v_col / np.maximum(k0, 1e-9))
+        vr1 = least(v_col / np.maximum(k1, 1e-9))
     vcap = np.minimum(cap, np.minimum(vr0, vr1))
-    piece_parts, s_parts = _rate_cuts(v_cord, k0, k1, d, cap)
+    piece_parts, s_parts = _rate_cuts(v_col, k0, k1, d, cap)
     if n > 1:
-        jump = np.abs(k0s[1:] - k1s[:-1])
-        piece, s = _sharp_cuts(a_cord, jump, k0, k1, d, cap, vcap, vr0, vr1, stop)
+        jump = np.abs(k0s[:, 1:] - k1s[:, :-1])
+        piece, s = _sharp_cuts(a_cord[:, None], jump, k0, k1, d, cap, vcap, vr0, vr1, stop)
         piece_parts += piece
         s_parts += s
     if not piece_parts:
@@ -71,7 +86,7 @@ def refine(kin, v_cord, a_cord, verts, cap, line, draw, stop, origin):
     piece, s, end = _kept_cuts(piece_parts, s_parts, d)
     if len(piece) == n:
         return verts, cap, line, draw, stop, origin
-    new = verts[piece] + e[piece] * s[:, None]
+    new = verts[piece] + scaled(e[piece], s)
     new[end] = verts[1:][piece[end]]
     verts = np.vstack((verts[:1], new))
     return verts, cap[piece], line[piece], draw[piece], stop[piece] & end, origin[piece]
@@ -86,8 +101,8 @@ def _rate_cuts(v_cord, k0, k1, d, cap) -> tuple[list, list]:
         m0 = v_cord / np.maximum(k0, 1e-9)
         m1 = v_cord / np.maximum(k1, 1e-9)
     lo = np.minimum(m0, m1)
-    hi = np.minimum(np.maximum(m0, m1), cap[:, None])
-    ratio = most(np.where(lo < cap[:, None], np.maximum(hi / lo, 1.0), 1.0))
+    hi = np.minimum(np.maximum(m0, m1), cap)
+    ratio = most(np.where(lo < cap, np.maximum(hi / lo, 1.0), 1.0))
     parts = np.where(ratio > 1.0 + RATE_STEP, np.ceil(np.log(ratio) / np.log1p(RATE_STEP)), 1.0)
     parts = np.minimum(parts, np.maximum(np.floor(d / RATE_PART_MM), 1.0)).astype(np.int64)
     parts = np.minimum(parts, MAX_PARTS)
@@ -104,12 +119,12 @@ def _sharp_cuts(acc, jump, k0, k1, d, cap, vcap, vr0, vr1, stop) -> tuple[list, 
     """Next to each sharp corner (the speed there at most v_hi, the corner taking
     CORNER_SHARE), the part the pen covers within NEAR_TAU x TAU_S of it: the pieces cut
     and where (lists of arrays)."""
-    ds = np.minimum(d[1:], d[:-1])[:, None]
+    ds = np.minimum(d[1:], d[:-1])
     with np.errstate(divide="ignore", invalid="ignore"):
-        v_tau = least(np.where(jump > 0, CORNER_SHARE * acc * TAU_S / jump, np.inf))
-        v_ds = least(np.where(jump > 0, np.sqrt(CORNER_SHARE * acc * ds / jump), np.inf))
+        v_tau = least(CORNER_SHARE * acc * TAU_S / jump)      # (inf where no jump)
+        v_ds = least(np.sqrt(CORNER_SHARE * acc * ds / jump))
     v_hi = np.minimum(np.minimum(v_tau, v_ds), np.minimum(vcap[1:], vcap[:-1]))
-    sharp = (v_hi * TAU_S < ds[:, 0]) & ~stop[:-1] & (most(jump) > 1e-6)
+    sharp = (v_hi * TAU_S < ds) & ~stop[:-1] & (most(jump) > 1e-6)
     # How far the pen may go within t of the corner, whatever the parts' own limits
     # come out as. The corner is an end of both parts next to it, so: the corner is
     # passed at most at v_tau (the jump alone over TAU at CORNER_SHARE); on each part
@@ -119,8 +134,8 @@ def _sharp_cuts(acc, jump, k0, k1, d, cap, vcap, vr0, vr1, stop) -> tuple[list, 
     # there too.
     t = NEAR_TAU * TAU_S
     v_c = np.minimum(v_tau, np.maximum(cap[1:], cap[:-1]))
-    a_in = least(acc / np.maximum(k1[:-1], MIN_SLOPE))
-    a_out = least(acc / np.maximum(k0[1:], MIN_SLOPE))
+    a_in = least(acc / np.maximum(k1[:, :-1], MIN_SLOPE))
+    a_out = least(acc / np.maximum(k0[:, 1:], MIN_SLOPE))
     reach_in = np.minimum(v_c * t + 0.5 * a_in * t * t, np.minimum(cap[:-1], vr1[:-1]) * t)
     reach_out = np.minimum(v_c * t + 0.5 * a_out * t * t, np.minimum(cap[1:], vr0[1:]) * t)
     end_cut = sharp & (reach_in < 0.5 * d[:-1])
@@ -150,18 +165,22 @@ def sharp_shares(jump, acc, k_in, k_out, d_in, d_out, cap_in, cap_out, vc, ds, f
     lower share lowers the corner speed and leaves the pieces on either side more to brake
     and speed up with. Estimated as the time of the two pieces next to it, each ramping from
     the corner speed with what the corner leaves towards the highest speed it may reach (its
-    cap, and the speed of the corner at its other end at the most that may take)."""
+    cap, and the speed of the corner at its other end at the most that may take). jump,
+    k_in, k_out: (M, corners); acc: (M, 1)."""
     c = SHARP_TRY[:, None]                                     # (S, 1)
     with np.errstate(divide="ignore", invalid="ignore"):
-        per = least(np.where(jump > 0, acc * TAU_S / jump, np.inf))
-        per_ds = least(np.where(jump > 0, np.sqrt(acc * ds[:, None] / jump), np.inf))
+        per = least(acc * TAU_S / jump)                       # (inf where no jump)
+        per_ds = least(np.sqrt(acc * ds / jump))
         v_c = np.minimum(np.minimum(c * per, np.sqrt(c) * per_ds), vc)       # (S, corners)
         used = np.minimum(np.maximum(v_c / per, (v_c / per_ds) ** 2), c)     # what it takes
+    free = 1.0 - used
+    vc2 = v_c * v_c
     t = 0.0
     for L, k, cap in ((d_in, k_in, np.minimum(cap_in, far_in)),
                       (d_out, k_out, np.minimum(cap_out, far_out))):
-        a = (1.0 - used) * least(acc / np.maximum(k, MIN_SLOPE))
-        v_top = np.maximum(np.minimum(np.sqrt(v_c * v_c + 2.0 * a * L), cap), v_c)
-        cruise = np.maximum(L - (v_top ** 2 - v_c ** 2) / (2.0 * a), 0.0)
+        a = free * least(acc / np.maximum(k, MIN_SLOPE))
+        a2 = 2.0 * a
+        v_top = np.maximum(np.minimum(np.sqrt(vc2 + a2 * L), cap), v_c)
+        cruise = np.maximum(L - (v_top * v_top - vc2) / a2, 0.0)
         t = t + ((v_top - v_c) / a + cruise / np.maximum(v_top, 1e-300))
     return SHARP_TRY[np.argmin(t, axis=0)]

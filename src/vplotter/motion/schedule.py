@@ -201,7 +201,10 @@ class Scheduler:
 
     def targets(self, block: Block) -> np.ndarray:
         """Absolute step count of each motor at each vertex (rounded, never accumulated)."""
-        n = np.rint((block.cords - self.ref) * self.spu).astype(np.int64)
+        cords = block.cords
+        n = np.empty(cords.shape, dtype=np.int64)
+        for m in range(cords.shape[1]):    # motor by motor: see refine.least
+            n[:, m] = np.rint((cords[:, m] - self.ref[m]) * self.spu[m])
         n[0] = self.counts
         return n
 
@@ -270,7 +273,8 @@ class Scheduler:
             start = np.rint((block.cords[0] - self.ref) * self.spu).astype(np.int64)
             self._take_up(rows, start, False)
         targets = self.targets(block)
-        self.steps_total += np.abs(np.diff(targets, axis=0)).sum(axis=0)
+        self.steps_total += [int(np.abs(np.diff(targets[:, m])).sum())
+                             for m in range(targets.shape[1])]
         dur = block.durations
         for i, j in parts:   # a part's durations are dur[i:j], its targets targets[i:j + 1]
             self.t_us_floor = self.t_us

@@ -10,6 +10,8 @@ linear in the swept angle) that ends exactly at the programmed end point.
 from __future__ import annotations
 
 import math
+from itertools import chain
+from operator import attrgetter
 
 import numpy as np
 
@@ -22,6 +24,7 @@ CHORD_SHARE = 0.75
 
 TWO_PI = 2.0 * math.pi
 _EMPTY = np.empty((0, 2))
+_ENDS = attrgetter("x0", "y0", "x1", "y1", "cx", "cy", "arc")
 
 
 def arc_sweep(move: Move) -> float:
@@ -104,7 +107,7 @@ def points_many(moves: list[Move], tol_mm: float, max_angle=None) -> tuple[np.nd
     n_moves = len(moves)
     if not n_moves:
         return _EMPTY, np.zeros(0, dtype=np.int64)
-    m = np.array([(mv.x0, mv.y0, mv.x1, mv.y1, mv.cx, mv.cy, mv.arc) for mv in moves], dtype=float)
+    m = np.fromiter(chain.from_iterable(map(_ENDS, moves)), float, 7 * n_moves).reshape(-1, 7)
     x0, y0, x1, y1, cx, cy, arc = m.T
     is_arc = arc != 0
     count = np.where((x1 != x0) | (y1 != y0), 1, 0)
