@@ -64,7 +64,8 @@ def one(wall: dict, seed: int, typo: int | None, fits=((),)):
             os.environ["XDG_STATE_HOME"] = str(tmp / f"state{i}")
             (tmp / f"w{i}").mkdir()
             w = tf.new_wall(tmp / f"w{i}", pat)
-            before = tf.draw_and_check(w, "before") if i == 0 else None
+            if i == 0:
+                before = tf.draw_and_check(w, "before")
             tf.measure(w["csv"], w["dots"], seed=seed, typo=typo)
             rc = tf.run(w["cfg"], "calibrate", "fit", w["csv"], *extra)
             afters.append(tf.draw_and_check(w, "after") if rc == 0 else float("nan"))
