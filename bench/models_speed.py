@@ -62,7 +62,7 @@ def main() -> None:
             best = cpu if best is None else min(best, cpu)
         steps = int(summary.steps.sum())
         cpu_of[name] = best
-        slower = (f"+{(best / cpu_of[without[name]] - 1) * 100:.0f} % on \"{without[name]}\""
+        slower = (f"{(best / cpu_of[without[name]] - 1) * 100:+.0f} % on \"{without[name]}\""
                   if name in without else "")
         print(f"| {name} | {steps:,} | {best:.3f} s | {steps / best / 1e6:.1f} M | "
               f"{summary.time_s:.1f} s | {slower} |")
