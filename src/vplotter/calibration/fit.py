@@ -70,7 +70,7 @@ class Machine:
 
 def names(fit_spacing: bool, fit_mass: bool = False) -> tuple[str, ...]:
     """The parameters a fit adjusts (fields of Machine); `fit_mass`: the gondola's centre of
-    mass too (mass_below_pen_mm; a Machine without one starts from a level-ish gondola)."""
+    mass too (mass_below_pen_mm; fit() starts a Machine without one at MASS_START_MM)."""
     first = "cord_spacing_mm" if fit_spacing else "anchor_distance_mm"
     return (first, "ref_left_mm", "ref_right_mm", "left_circumference_mm",
             "right_circumference_mm", "stretch") + (("mass_below_pen_mm",) if fit_mass else ())
