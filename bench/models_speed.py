@@ -2,7 +2,10 @@
 segment, plan, step schedule, coil words; no trace writing).
 
 The plain machine and the gondola model solve each step in closed form; stretch solves it
-by bracketed Newton steps. Run: python -m bench.models_speed
+by bracketed Newton steps; the tilting gondola ([gondola] mass_below_pen_mm) solves its balance
+once per sub-piece of 3 mm and each step in closed form on an osculating level model
+(kinematics/tilt_steps.py). Each tilt row is printed beside the same model without tilt, and
+the last column says how much slower tilt makes it. Run: python -m bench.models_speed
 """
 
 from __future__ import annotations
@@ -32,15 +35,24 @@ def main() -> None:
             base, gondola=config.Gondola(40.0, 15.0), cords=config.Cords(0.004),
             motors=dataclasses.replace(base.motors, left_spool_circumference_mm=25.3,
                                        right_spool_circumference_mm=24.7)),
+        "gondola, tilting (mass 30 mm below the pen)": dataclasses.replace(
+            base, gondola=config.Gondola(40.0, 15.0, 30.0)),
+        "all of them, tilting": dataclasses.replace(
+            base, gondola=config.Gondola(40.0, 15.0, 30.0), cords=config.Cords(0.004),
+            motors=dataclasses.replace(base.motors, left_spool_circumference_mm=25.3,
+                                       right_spool_circumference_mm=24.7)),
     }
+    without = {"gondola, tilting (mass 30 mm below the pen)": "gondola 40 mm, pen 15 mm below",
+               "all of them, tilting": "all of them"}
     path = os.path.join(ROOT, "gcode_samples", "car.ngc")
-    print("| model | steps | planning CPU | steps / CPU s | plot time |")
-    print("| --- | --- | --- | --- | --- |")
+    print("| model | steps | planning CPU | steps / CPU s | plot time | tilt costs |")
+    print("| --- | --- | --- | --- | --- | --- |")
+    cpu_of = {}
     for name, cfg in models.items():
         kin = kinematics.from_config(cfg)
         cords = kin.inverse(kin.to_machine(np.zeros((1, 2))))[0]
         best = None
-        for _ in range(3):
+        for _ in range(5):
             summary = pipeline.Summary()
             t0 = time.process_time()
             for _rows in pipeline.stream(cfg, gcode.read(path, warn=lambda m: None), (0, 0),
@@ -49,8 +61,11 @@ def main() -> None:
             cpu = time.process_time() - t0
             best = cpu if best is None else min(best, cpu)
         steps = int(summary.steps.sum())
-        print(f"| {name} | {steps:,} | {best:.2f} s | {steps / best / 1e6:.1f} M | "
-              f"{summary.time_s:.1f} s |")
+        cpu_of[name] = best
+        slower = (f"{(best / cpu_of[without[name]] - 1) * 100:+.0f} % on \"{without[name]}\""
+                  if name in without else "")
+        print(f"| {name} | {steps:,} | {best:.3f} s | {steps / best / 1e6:.1f} M | "
+              f"{summary.time_s:.1f} s | {slower} |")
 
 
 if __name__ == "__main__":

@@ -68,19 +68,42 @@ def test_inverse_is_exact_against_the_lowest_centre_of_mass(name):
     assert worst < 1e-3
 
 
+def _balance(kin, p, phi):
+    """The cords' torque about the centre of mass (their tensions from the force balance),
+    the tensions and the cords' lengths."""
+    vl, vr, vg = _body(kin, phi)
+    ul, ur = -(p + vl), np.array([D, 0.0]) - (p + vr)          # cords towards the anchors
+    g = np.hypot(*ul), np.hypot(*ur)
+    ul, ur = ul / g[0], ur / g[1]
+    t = np.linalg.solve(np.column_stack((ul, ur)), [0.0, -1.0])  # they carry the weight
+    torque = sum((v - vg)[0] * ti * u[1] - (v - vg)[1] * ti * u[0]
+                 for v, ti, u in ((vl, t[0], ul), (vr, t[1], ur)))
+    return torque, t, g
+
+
+@pytest.mark.parametrize("name", sorted(MODELS))
+def test_inverse_against_a_root_per_point(name):
+    """The cords the inverse gives against SciPy's root of the torque, point by point."""
+    from scipy.optimize import brentq
+
+    kin = MODELS[name]
+    rng = np.random.default_rng(8)
+    m = kin.to_machine(np.column_stack((rng.uniform(-190, 190, 80), rng.uniform(-240, 290, 80))))
+    q = kin.inverse(m)
+    for p, cords in zip(m, q):
+        phi = brentq(lambda f, p=p: _balance(kin, p, f)[0], -1.0, 1.0, xtol=1e-15, rtol=1e-15)
+        _, t, g = _balance(kin, p, phi)
+        assert cords == pytest.approx(np.array(g) / (1.0 + kin.stretch * t), abs=1e-9)
+
+
 @settings(max_examples=100, deadline=None)
 @given(model, gx, gy)
 def test_the_torques_about_the_centre_of_mass_cancel(name, x, y):
     kin = MODELS[name]
     p = kin.to_machine(np.array([[x, y]]))[0]
     phi = float(kin.gondola.solve(p[:1], p[1:])[0][0])
-    vl, vr, vg = _body(kin, phi)
-    ul, ur = -(p + vl), np.array([D, 0.0]) - (p + vr)          # cords towards the anchors
-    ul, ur = ul / np.hypot(*ul), ur / np.hypot(*ur)
-    t = np.linalg.solve(np.column_stack((ul, ur)), [0.0, -1.0])  # they carry the weight
+    torque, t, _ = _balance(kin, p, phi)
     assert (t > 0).all()
-    torque = sum((v - vg)[0] * ti * u[1] - (v - vg)[1] * ti * u[0]
-                 for v, ti, u in ((vl, t[0], ul), (vr, t[1], ur)))
     assert abs(torque) < 1e-9 * (abs(kin.mass_below_pen_mm) + kin.spacing_mm)
     assert kin.tension(p[None])[0] == pytest.approx(t, rel=1e-9)
 

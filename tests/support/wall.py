@@ -47,17 +47,23 @@ TRUE_SPACING_MM = 40.0
 TRUE_PEN_BELOW_MM = 12.0
 TRUE_CIRC_MM = (25.0 * 1.015, 25.0 * 0.988)
 TRUE_STRETCH = 0.003
+TRUE_MASS_BELOW_MM = None         # the gondola's centre of mass below the pen (None: level)
+TILTED_MASS_BELOW_MM = 30.0       # the tilted wall's (draw_pattern(tmp, tilted=True))
 REF_OFF_MM = (5.0, -4.0)          # where the pen really was at `calibrate --at 0 0` (machine)
 
 
-def true_config() -> dict:
+def true_config(mass_below_mm: float | None = None) -> dict:
     # G-code X0 Y0 of this config is where the pen really was at the reference
+    gondola = {"cord_spacing_mm": TRUE_SPACING_MM, "pen_below_mm": TRUE_PEN_BELOW_MM}
+    mass = TRUE_MASS_BELOW_MM if mass_below_mm is None else mass_below_mm
+    if mass is not None:
+        gondola["mass_below_pen_mm"] = mass
     return tc.load_config({
         "machine": {"anchor_distance_mm": TRUE_ANCHOR_MM},
         "origin": {"x_mm": 211.25 + REF_OFF_MM[0], "y_mm": 430.0 + REF_OFF_MM[1]},
         "motors": {"left_spool_circumference_mm": TRUE_CIRC_MM[0],
                    "right_spool_circumference_mm": TRUE_CIRC_MM[1]},
-        "gondola": {"cord_spacing_mm": TRUE_SPACING_MM, "pen_below_mm": TRUE_PEN_BELOW_MM},
+        "gondola": gondola,
         "cords": {"stretch": TRUE_STRETCH},
     })
 
@@ -131,14 +137,16 @@ def rigid_error(dec, gfile) -> float:
     return float(max(there, back))
 
 
-def draw_pattern(tmp) -> dict:
+def draw_pattern(tmp, tilted: bool = False, gondola: str = "") -> dict:
     """`calibrate --at 0 0` and the pattern drawn on the fake machine, in folder `tmp`: the
-    files, the stored position, and the dots decoded through the true geometry."""
+    files, the stored position, and the dots decoded through the true geometry (`tilted`: a
+    gondola whose centre of mass is TILTED_MASS_BELOW_MM below the pen; `gondola`: keys of
+    a [gondola] section the person measured and added to config.toml)."""
     saved = os.environ.get("XDG_STATE_HOME")
     os.environ["XDG_STATE_HOME"] = str(tmp / "state")
     try:
         cfg_path = tmp / "config.toml"
-        cfg_path.write_text((REPO / "config.toml").read_text())
+        cfg_path.write_text(_config(gondola))
         csv_path = tmp / "pattern.csv"
         trace = tmp / "pattern_trace.csv"
         assert run(cfg_path, "calibrate", "--at", 0, 0) == 0
@@ -151,17 +159,22 @@ def draw_pattern(tmp) -> dict:
             del os.environ["XDG_STATE_HOME"]
         else:
             os.environ["XDG_STATE_HOME"] = saved
-    true_cfg = true_config()
+    true_cfg = true_config(TILTED_MASS_BELOW_MM if tilted else None)
     dec = tc.decode(tc.read_trace(trace), true_cfg, (0.0, 0.0))
     pts, idx = dots(dec)
     return {"csv": csv_path.read_text(), "state": stored, "dec": dec, "pts": pts, "idx": idx,
-            "start": true_start(true_cfg, counts), "true": true_cfg}
+            "start": true_start(true_cfg, counts), "true": true_cfg, "gondola": gondola}
+
+
+def _config(gondola: str) -> str:
+    return (REPO / "config.toml").read_text() + (f"\n[gondola]\n{gondola}" if gondola else "")
 
 
 def new_wall(tmp_path, drawn_pattern: dict) -> dict:
-    """A fresh copy of config.toml, pattern.csv and the stored position in `tmp_path`."""
+    """A fresh copy of config.toml (as the pattern was drawn with it), pattern.csv and the
+    stored position in `tmp_path`."""
     cfg_path = tmp_path / "config.toml"
-    cfg_path.write_text((REPO / "config.toml").read_text())
+    cfg_path.write_text(_config(drawn_pattern.get("gondola", "")))
     csv_path = tmp_path / "pattern.csv"
     csv_path.write_text(drawn_pattern["csv"])
     state.state_path().parent.mkdir(parents=True, exist_ok=True)

@@ -8,7 +8,9 @@ whole drawing sits (a rigid motion of the drawing is not observable from distanc
 model has none: its frame is the anchors and gravity). The gondola's cord spacing trades off
 exactly against the anchor distance (the drawing depends on their difference only), so one of
 the two is fitted and the other kept. The pen's height below the cords only moves the whole
-drawing and is kept.
+drawing and is kept. The gondola's centre of mass (mass_below_pen_mm: how far the gondola
+tilts) can be fitted too (names(..., fit_mass=True)); mass_told() says whether the
+measurements tell it.
 
 Least squares by Levenberg-Marquardt (numpy only: no SciPy on a Pi Zero), Jacobian by
 central differences; the uncertainty is the usual s^2 (J^T J)^-1. Measurements that do not
@@ -26,6 +28,7 @@ from vplotter.kinematics.vplotter import TwoCord
 GROSS_MM, GROSS_SHARE = 20.0, 0.05    # off the config's own prediction by more: a typo
 OUTLIER_SIGMAS, OUTLIER_MIN_MM = 4.0, 1.0
 MASS_START_MM = 30.0    # where a fit of the centre of mass starts when the config has none
+MASS_SHARE = 0.25       # its uncertainty above this share of its arm: the data cannot tell
 RMS_MAX_MM = 1.5        # a tape measure does better: the measurements do not fit together
 
 
@@ -67,7 +70,7 @@ class Machine:
 
 def names(fit_spacing: bool, fit_mass: bool = False) -> tuple[str, ...]:
     """The parameters a fit adjusts (fields of Machine); `fit_mass`: the gondola's centre of
-    mass too (mass_below_pen_mm; a Machine without one starts from a level-ish gondola)."""
+    mass too (mass_below_pen_mm; fit() starts a Machine without one at MASS_START_MM)."""
     first = "cord_spacing_mm" if fit_spacing else "anchor_distance_mm"
     return (first, "ref_left_mm", "ref_right_mm", "left_circumference_mm",
             "right_circumference_mm", "stretch") + (("mass_below_pen_mm",) if fit_mass else ())
@@ -194,6 +197,28 @@ def fit(m0: Machine, steps: np.ndarray, a: np.ndarray, b: np.ndarray, dist: np.n
     res = Result(m, keys, np.sqrt(np.abs(np.diag(cov))), cov, r_all, used,
                  float(np.sqrt(np.mean(r_all[used] ** 2))) if used.any() else float("nan"))
     return res, outliers
+
+
+def mass_told(res: Result) -> bool:
+    """Whether the measurements tell where the gondola's centre of mass is: its uncertainty
+    below MASS_SHARE of its distance from the cords' line (beyond, the gondola barely tilts
+    or the fit trades the tilt off against the other parameters), and a gondola that hangs."""
+    m = res.machine
+    k = res.names.index("mass_below_pen_mm")
+    arm = m.mass_below_pen_mm + m.pen_below_mm
+    # no uncertainty at all: the distances do not depend on it (the pen where the cords meet)
+    sigma = res.sigma[k]
+    return bool(np.isfinite(sigma) and 0 < sigma <= MASS_SHARE * arm and arm > 0)
+
+
+def mass_untold(res: Result, kept: float | None) -> str:
+    """The line that says so, and what is kept."""
+    k = res.names.index("mass_below_pen_mm")
+    keep = ("kept unset (the gondola stays level)" if kept is None
+            else f"kept at {kept:g} mm")
+    return (f"note: the measurements cannot tell where the gondola's centre of mass is "
+            f"(mass_below_pen_mm {res.machine.mass_below_pen_mm:.1f} ± {res.sigma[k]:.1f} mm): "
+            f"{keep}; measure the gondola's balance point instead")
 
 
 def line_bend_mm(believed: Machine, true: Machine, origin, a_gcode, b_gcode) -> float:

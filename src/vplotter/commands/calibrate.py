@@ -202,7 +202,8 @@ def calibrate_fit(args, cfg, command: str) -> int:
                           "vplotter calibrate fit pattern.csv")
     pat = pattern.read(args.file)
     measured = [p for p in pat.pairs if p.distance_mm is not None]
-    keys = fit.names(args.fit_spacing)
+    fit_mass = bool(getattr(args, "fit_mass", False))
+    keys = fit.names(args.fit_spacing, fit_mass)
     need = fit.min_pairs(len(keys))
     if len(measured) < need:
         raise InputError(f"{args.file}: error: {len(measured)} pairs measured; fitting "
@@ -212,12 +213,16 @@ def calibrate_fit(args, cfg, command: str) -> int:
     stored = state.load()
     reference = _reference(args.file, pat.reference, stored)
     old = _machine_from(cfg, reference)
-    res, good = _fitted(args, old, pat, measured, need)
+    res, good = _fitted(args, old, pat, measured, need, fit_mass)
+    if fit_mass and not fit.mass_told(res):
+        print(fit.mass_untold(res, old.mass_below_pen_mm))
+        keys = fit.names(args.fit_spacing)
+        res, good = _fitted(args, old, pat, measured, need, False, say=False)
     new = _rounded(res.machine, keys)
     home, origin = _origin(cfg, reference, new)
     _report(args, cfg, old, new, res, keys, measured, good, home, origin)
     path = Path(args.config)
-    text = _config_text(path, args.fit_spacing, new, origin)
+    text = _config_text(path, args.fit_spacing, new, origin, "mass_below_pen_mm" in keys)
     if args.dry_run:
         print(f"dry run: {path} and the stored position not changed")
         return 0
@@ -266,7 +271,8 @@ def _reference(file: str, ref: dict, stored) -> tuple:
                      f"draw the pattern again")
 
 
-def _fitted(args, old, pat, measured: list, need: int):
+def _fitted(args, old, pat, measured: list, need: int, fit_mass: bool = False,
+            say: bool = True):
     """(the fit, how many pairs it used): the outliers it left out are said, and a fit on too
     few pairs, or whose pairs do not fit together, is refused."""
     import numpy as np
@@ -279,8 +285,8 @@ def _fitted(args, old, pat, measured: list, need: int):
     a = np.array([index[p.a] for p in measured])
     b = np.array([index[p.b] for p in measured])
     dist = np.array([p.distance_mm for p in measured])
-    res, outliers = fit.fit(old, steps, a, b, dist, args.fit_spacing)
-    for k in outliers:
+    res, outliers = fit.fit(old, steps, a, b, dist, args.fit_spacing, fit_mass)
+    for k in outliers if say else ():
         p = measured[k]
         r = res.residual_mm[k]
         print(f"{p.where}: pair {p.a}-{p.b}: measured {p.distance_mm:.2f} mm, the fit says "
@@ -331,8 +337,9 @@ def _report(args, cfg, old, new, res, keys, measured, good, home, origin) -> Non
     print(f"{'parameter':<24}{'old':>12}{'new':>12}{'uncertainty':>14}")
     for k, sig in zip(keys, res.sigma):
         unit, dec = UNITS[k]
-        print(f"{k:<24}{getattr(old, k):>12.{dec}f}{getattr(new, k):>12.{dec}f}"
-              f"{'±':>6}{sig:.{dec}f} {unit}")
+        was = getattr(old, k)
+        was = f"{was:>12.{dec}f}" if was is not None else f"{'unset':>12}"
+        print(f"{k:<24}{was}{getattr(new, k):>12.{dec}f}{'±':>6}{sig:.{dec}f} {unit}")
     print(f"{'origin (x_mm, y_mm)':<24}{cfg.origin.x_mm:>6.2f},{cfg.origin.y_mm:.2f}"
           f"{origin[0]:>6.2f},{origin[1]:.2f}  (keeps the calibrated point at "
           f"X{home[0]:.3f} Y{home[1]:.3f})")
@@ -354,7 +361,7 @@ def _report(args, cfg, old, new, res, keys, measured, good, home, origin) -> Non
               "anchor_distance_mm was kept")
 
 
-def _config_text(path: Path, fit_spacing: bool, new, origin) -> str:
+def _config_text(path: Path, fit_spacing: bool, new, origin, fit_mass: bool = False) -> str:
     """config.toml with the new values (comments and layout kept); refused if it would not
     load."""
     import tomllib
@@ -372,6 +379,9 @@ def _config_text(path: Path, fit_spacing: bool, new, origin) -> str:
     doc["motors"]["left_spool_circumference_mm"] = new.left_circumference_mm
     doc["motors"]["right_spool_circumference_mm"] = new.right_circumference_mm
     doc.setdefault("cords", tomlkit.table())["stretch"] = new.stretch
+    if fit_mass:
+        gondola = doc.setdefault("gondola", tomlkit.table())
+        gondola["mass_below_pen_mm"] = new.mass_below_pen_mm
     text = tomlkit.dumps(doc)
     config.from_dict(tomllib.loads(text), str(path))     # refuse a config that would not load
     return text

@@ -37,6 +37,9 @@ def add_calibrate(p) -> None:
                         "`photo`: a picture of the marks found (found.png)")
     p.add_argument("--fit-spacing", action="store_true",
                    help="with `fit`: fit [gondola] cord_spacing_mm instead of the anchor distance")
+    p.add_argument("--fit-mass", action="store_true",
+                   help="with `fit`: fit the gondola's centre of mass ([gondola] "
+                        "mass_below_pen_mm: the gondola tilts)")
     add_machine_options(p)
 
 

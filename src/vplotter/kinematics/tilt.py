@@ -105,6 +105,25 @@ class Gondola:
         fy = -gl_x * rrx + gr_x * rlx
         return phi, c, s, df, fx, fy, r
 
+    def solve_one(self, x: float, y: float) -> tuple:
+        """solve() for one point in Python floats (no array overhead): (r_Lx, r_Ly, r_Rx,
+        r_Ry) and phi."""
+        import math
+
+        phi, lo, hi = 0.0, -PHI_LIMIT, PHI_LIMIT
+        for _ in range(PHI_STEPS):
+            f, df, _, _ = self._terms(x, y, math.cos(phi), math.sin(phi))
+            if self.sign * f > 0:
+                hi = phi
+            else:
+                lo = phi
+            nxt = phi - f / df if self.sign * df > 0 else (lo + hi) / 2.0
+            nxt = nxt if lo <= nxt <= hi else (lo + hi) / 2.0
+            step, phi = abs(nxt - phi), nxt
+            if not step > PHI_NEWTON:
+                break
+        return self._terms(x, y, math.cos(phi), math.sin(phi))[2], phi
+
     def cords(self, x, y, phi=None) -> tuple:
         """The cord vectors (r_Lx, r_Ly, r_Rx, r_Ry) of the balanced gondola, and phi."""
         phi, _, _, _, _, _, r = self.solve(x, y, phi)

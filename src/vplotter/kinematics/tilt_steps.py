@@ -21,7 +21,7 @@ import numpy as np
 from vplotter.kinematics.tilt import cord_jets
 
 SUB_MM = 3.0
-END_MARGIN, END_MARGIN_MM = 0.03, 0.2     # a piece whose end is not known: past its last step
+END_MARGIN, END_MARGIN_MM = 0.03, 1.0     # a piece whose end is not known: past its last step
 
 
 def _ends(kin, p0, e, motor, piece, q, rising):
@@ -41,7 +41,9 @@ def _ends(kin, p0, e, motor, piece, q, rising):
     if need.any():
         i = last[need]
         pc = piece[i]
-        rel = kin._rel(p0[pc])[:, motor]
+        # a few points (the block's last piece): the balance in floats
+        rel = np.array([kin.gondola.solve_one(float(x), float(y))[0][2 * motor:2 * motor + 2]
+                        for x, y in p0[pc]]) * -1.0
         b = np.einsum("ij,ij->i", rel, e[pc])
         root = np.sqrt(np.maximum(b * b - np.einsum("ij,ij->i", rel, rel) + q[i] ** 2, 0.0))
         s = np.maximum(np.where(rising[i], root - b, -b - root), 0.0)
@@ -55,18 +57,8 @@ def crossing(kin, p0, e, motor, piece, q, rising, exact) -> np.ndarray:
         return np.zeros(0)
     if np.any(piece[1:] < piece[:-1]):
         return exact(p0, e, motor, piece, q, rising)
-    has = np.zeros(len(p0), bool)
-    has[piece] = True
-    d = _ends(kin, p0, e, motor, piece, q, rising)
-    used = np.flatnonzero(has)
-    k = np.maximum(1, np.ceil(d[used] / SUB_MM - 1e-9)).astype(np.int64)
-    # sub-piece ends: piece start + d j / k, j = 0..k
-    first = np.cumsum(k + 1) - (k + 1)
-    owner = np.repeat(np.arange(len(used)), k + 1)
-    j = np.arange(len(owner)) - first[owner]
-    t = d[used][owner] * j / k[owner]
-    pc = used[owner]
-    r, _ = kin.gondola.jets(p0[pc] + t[:, None] * e[pc], e[pc])
+    lay = _layout(kin, p0, e, motor, piece, q, rising)
+    used, k, first, owner, j, t, pc, r = lay
     qj = cord_jets(r, kin.stretch)[motor]
     rx, ry = r[motor]
     # sub-pieces: from point i to point i + 1 of the same piece
@@ -97,15 +89,39 @@ def crossing(kin, p0, e, motor, piece, q, rising, exact) -> np.ndarray:
     turn = np.zeros(len(used), bool)
     step_sign = np.sign(np.diff(qj[0]))
     same = owner[1:] == owner[:-1]
-    dirn = np.where(rising[np.searchsorted(piece, used)], 1.0, -1.0)
+    at = np.clip(np.searchsorted(piece, used), 0, len(q) - 1)     # a step of each piece
+    dirn = np.where(rising[at], 1.0, -1.0)
     np.logical_or.at(turn, owner[1:][same], (step_sign[same] * dirn[owner[1:][same]]) < 0)
-    reach = dirn * (qj[0][first + k] - q[np.r_[np.flatnonzero(np.diff(piece)), len(q) - 1]])
+    last = np.clip(np.searchsorted(piece, used, side="right") - 1, 0, len(q) - 1)
+    reach = dirn * (qj[0][first + k] - q[last])
     turn |= reach < 0
     slow |= turn[rank[piece]]
     if slow.any():
         i = np.flatnonzero(slow)
         s[i] = exact(p0, e, motor, piece[i], q[i], rising[i])
     return s
+
+
+def _layout(kin, p0, e, motor, piece, q, rising):
+    """The sub-pieces of the pieces and the cords' triples at their ends, both motors: kept
+    on the machine for the other motor's call on the same pieces."""
+    cache = getattr(kin, "_tilt_layout", None)
+    if (cache is not None and cache[0].shape == p0.shape and np.array_equal(cache[0], p0)
+            and np.array_equal(cache[1], e) and np.isfinite(cache[2][piece]).all()):
+        return cache[3]
+    d = _ends(kin, p0, e, motor, piece, q, rising)
+    used = np.flatnonzero(np.isfinite(d))
+    k = np.maximum(1, np.ceil(d[used] / SUB_MM - 1e-9)).astype(np.int64)
+    # sub-piece ends: piece start + d j / k, j = 0..k
+    first = np.cumsum(k + 1) - (k + 1)
+    owner = np.repeat(np.arange(len(used)), k + 1)
+    j = np.arange(len(owner)) - first[owner]
+    t = d[used][owner] * j / k[owner]
+    pc = used[owner]
+    r, _ = kin.gondola.jets(p0[pc] + t[:, None] * e[pc], e[pc])
+    lay = (used, k, first, owner, j, t, pc, r)
+    kin._tilt_layout = (p0.copy(), e.copy(), d, lay)
+    return lay
 
 
 def _models(t, qj, rx, ry, start):

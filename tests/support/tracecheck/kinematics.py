@@ -49,7 +49,7 @@ def _machine_cords(c: dict, x, y):
 
 
 TILT_LIMIT = 1.0        # rad: the bisection's bracket
-TILT_HALVINGS = 36       # 2 / 2^36 rad: 3e-11 rad
+TILT_FALSI = 3           # regula falsi steps after the halvings: phi within 1e-12 rad
 
 
 def _mass(c: dict):
@@ -82,17 +82,30 @@ def _forces(c: dict, x, y, phi):
     return torque, TL, TR, np.hypot(Lx, Ly), np.hypot(D - Rx, Ry)
 
 
-def _bisect(fn, shape):
-    """The phi in [-TILT_LIMIT, TILT_LIMIT] where fn(phi) changes sign."""
-    lo = np.full(shape, -TILT_LIMIT)
-    hi = np.full(shape, TILT_LIMIT)
-    f_lo = np.sign(fn(lo))
-    for _ in range(TILT_HALVINGS):
+def _bisect(fn, shape, around=None):
+    """The phi in [-TILT_LIMIT, TILT_LIMIT] (or within 0.05 of `around`) where fn(phi)
+    changes sign: halvings down to 1e-4 rad, then regula falsi inside the bracket (each step
+    gains some four digits there)."""
+    lo = np.full(shape, -TILT_LIMIT) if around is None else around - 0.05
+    hi = np.full(shape, TILT_LIMIT) if around is None else around + 0.05
+    f_lo = fn(lo)
+    while (hi - lo).max(initial=0.0) > 1e-4:
         mid = 0.5 * (lo + hi)
-        same = np.sign(fn(mid)) == f_lo
-        lo = np.where(same, mid, lo)
+        f_mid = fn(mid)
+        same = np.sign(f_mid) == np.sign(f_lo)
+        lo, f_lo = np.where(same, mid, lo), np.where(same, f_mid, f_lo)
         hi = np.where(same, hi, mid)
-    return 0.5 * (lo + hi)
+    f_hi = fn(hi)
+    x = 0.5 * (lo + hi)
+    for _ in range(TILT_FALSI):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x = lo - f_lo * (hi - lo) / (f_hi - f_lo)
+        x = np.where((x >= lo) & (x <= hi), x, 0.5 * (lo + hi))
+        f_x = fn(x)
+        same = np.sign(f_x) == np.sign(f_lo)
+        lo, f_lo = np.where(same, x, lo), np.where(same, f_x, f_lo)
+        hi, f_hi = np.where(same, hi, x), np.where(same, f_hi, f_x)
+    return x
 
 
 def _tilted_cords(c: dict, x, y):
@@ -123,8 +136,11 @@ def _tilted_forward(c: dict, a, b):
         # the lower of the two points (+y down): the pen hangs below the anchors
         return ex + along * dx / d - up * dy / d, ey + along * dy / d + up * dx / d
 
+    phi = None
     for _ in range(6 if k else 1):
-        phi = _bisect(lambda p: _forces(c, *pen(p), p)[0], a.shape)
+        # the tensions change the cords by k T (a few mm at most): phi moves far less than
+        # 0.05 rad after the first round
+        phi = _bisect(lambda p: _forces(c, *pen(p), p)[0], a.shape, phi)
         x, y = pen(phi)
         if k:
             _, TL, TR, _, _ = _forces(c, x, y, phi)
