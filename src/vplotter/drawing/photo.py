@@ -30,9 +30,10 @@ from vplotter.errors import ConfigError
 from vplotter.inputs.strokes import Stroke
 
 # the first spacing tried, per style, in pen widths; time ~ spacing^-POWER
-START_PENS = {"hatch": 3.0, "spiral": 3.0, "squiggle": 3.0, "stipple": 8.0, "tsp": 5.0}
-POWER = {"hatch": 1.0, "spiral": 1.0, "squiggle": 1.0, "stipple": 2.0, "tsp": 1.0}
-CURVES = ("hatch", "spiral", "squiggle")   # the styles whose tone curve is chosen per picture
+START_PENS = {"hatch": 3.0, "spiral": 3.0, "squiggle": 3.0, "stipple": 8.0, "tsp": 5.0,
+              "flow": 3.0}
+POWER = {"hatch": 1.0, "spiral": 1.0, "squiggle": 1.0, "stipple": 2.0, "tsp": 1.0, "flow": 1.0}
+CURVES = ("hatch", "spiral", "squiggle", "flow")    # whose tone curve is chosen per picture
 CURVE_STEP = 1.6          # the curves tried: the spacing's own exponent, / and x this
 CURVE_MAX = 16.0
 CURVE_TRIES = 3           # drawings made per other curve (from the spacing already found)
@@ -335,12 +336,14 @@ def pens_of(names: tuple[str, ...], owned: tuple = ()) -> list[tuple[str, str]]:
 def default_gamma(style: str, spacing_mm: float, pen_mm: float, picture=None,
                   tsp: bool = False) -> float:
     """The tone curve's exponent a style takes from the spacing (the tour: and the picture)."""
-    from vplotter.inputs.image import hatch, squiggle, stipple
+    from vplotter.inputs.image import flow, hatch, squiggle, stipple
 
     if tsp:
         return stipple.cap_gamma(picture, spacing_mm, pen_mm, True)
     if style == "hatch":
         return hatch.tone_gamma(spacing_mm, pen_mm)
+    if style == "flow":
+        return flow.tone_gamma(spacing_mm, pen_mm)
     return squiggle.tone_gamma(spacing_mm, pen_mm)
 
 
