@@ -21,8 +21,8 @@ stops at the picture's edge or near another line (a grid of cells TEST x d_g / 2
 the last line through each, a neighbouring cell's line counts): one of an earlier round, one of
 its own round of higher priority or that was there before it, or itself where it closes a
 loop. Lines shorter than MIN_SEPS x d_g (d_g at most SHORT_PENS pen widths) are dropped.
-Up to ROUNDS rounds per generation, then the next, finer one between them: so a generation's lines lie about half-way
-between the coarser ones, and the lines of generations 0..g together are about d_g apart,
+Up to ROUNDS rounds per generation, then the next, finer one between them: so a generation's
+lines lie about half-way between the coarser ones, and the lines of generations 0..g together are about d_g apart,
 the same nesting as the straight lines of `hatch.py` (every 16th, 8th ... line). Generations
 are made when a drawing first asks for them and remembered per picture (`lines`): the budget's
 search and the tone curves tried all draw on the same streamlines.
@@ -58,7 +58,7 @@ def tangents(darkness: np.ndarray, width_mm: float, height_mm: float, pen_mm: fl
     h, w = darkness.shape
     cols = max(2, round(width_mm / (CELL_PENS * pen_mm)))
     rows = max(2, round(height_mm / (CELL_PENS * pen_mm)))
-    cols, rows = min(cols, w), min(rows, h)
+    cols, rows = max(3, min(cols, w)), max(3, min(rows, h))
     d = np.asarray(Image.fromarray(np.asarray(darkness, dtype=np.float32), mode="F")
                    .resize((cols, rows), Image.BOX), dtype=np.float32)
     cw, ch = width_mm / cols, height_mm / rows
