@@ -24,8 +24,8 @@ loop. Lines shorter than MIN_SEPS x d_g (d_g at most SHORT_PENS pen widths) are 
 Up to ROUNDS rounds per generation, then the next, finer one between them: so a generation's
 lines lie about half-way between the coarser ones, and the lines of generations 0..g together
 are about d_g apart, the same nesting as the straight lines of `hatch.py` (every 16th, 8th ...
-line). Generations are made when a drawing first asks for them and remembered per picture (`lines`): the budget's
-search and the tone curves tried all draw on the same streamlines.
+line). Generations are made when a drawing first asks for them and remembered per picture
+(`flow.lines`): the budget's search and the tone curves tried all draw on the same streamlines.
 """
 
 from __future__ import annotations
