@@ -12,8 +12,9 @@ largest at most p, and it stands for p by taking the share d_G / p of the tone: 
 darkness d asks for the share s = f(d) x d_G / p of the lines, f the budget's tone curve
 (d^`tone_gamma`, or the curve the budget chose). Generation G takes the nesting level 4 (the
 share from 1/2 to 1), G - 1 level 3 (1/4 to 1/2) ... and G - 4 and every coarser one level 0
-(0 to 1/16): each line is drawn in dashes (period 16 d_G along it, the dash the part of its
-range the share has reached) across its level's range and whole above it (`tone.dashed`), so
+(0 to 1/16): each line is drawn in dashes (period 16 d_G along it, d_G at least DASH_PENS pen
+widths there so that the lightest tones' dashes are not shorter than the shortest piece drawn;
+the dash the part of its range the share has reached) across its level's range and whole above it (`tone.dashed`), so
 the separation of the lines drawn follows the tone: d_G in black, 2 d_G where s = 1/2, 16
 d_G in the lightest tones, in dashes; halving p about doubles the line (the jump from one
 generation to the next is seamless: the same lines at the same shares). The darkness is blurred
@@ -35,6 +36,7 @@ from vplotter.inputs.strokes import Stroke
 CROSS_PENS, SCARCE_PENS = 1.5, 6.0     # the tone curve: d up to this pitch, d^8 from this
 MIN_RUN_PENS = 2.0                     # pen-down pieces shorter than this are dropped
 GAP_PENS = 4.0                         # gaps shorter than this are drawn through
+DASH_PENS = 4.0                        # the dashes' period: 16 d_G, d_G at least this
 EVEN_CELLS = 3.0                       # `evenness`: the density blurred over this many d_G / 2
 MEMO = 8                               # pictures whose streamlines are remembered
 _memo: list = []                       # (picture, key, flow_lines.Lines)
@@ -89,7 +91,8 @@ def strokes(picture, spacing_mm: float, pen_mm: float = 0.5, angle_deg: float = 
     level = np.maximum(made.gen[line] - (g_top - (tone.LEVELS - 1)), 0)
     share = tone.curve(smooth.at(pts), g) * np.float32(min(1.0, d_top / spacing_mm))
     share *= _evenness(made, g_top, keep)
-    on = tone.dashed(share, level, arc, line, tone.DASH_LINES * d_top)
+    period = tone.DASH_LINES * max(d_top, DASH_PENS * pen_mm)
+    on = tone.dashed(share, level, arc, line, period)
     return [Stroke(p) for p in _runs(pts, line, arc, on, pen_mm)]
 
 
@@ -120,11 +123,9 @@ def _runs(pts: np.ndarray, line: np.ndarray, arc: np.ndarray, on: np.ndarray, pe
 
     start = np.r_[True, line[1:] != line[:-1]]
     s = arc + np.cumsum(start) * 1e6              # each line far from the next
-    on = on.copy()
-    on[start] = False                             # the pieces' bounds: one point lost per line
-    on = hysteresis(on, s, GAP_PENS * pen_mm, MIN_RUN_PENS * pen_mm)
-    on[start] = False
-    f = np.diff(np.concatenate([[0], on.astype(np.int8), [0]]))
-    a, b = np.flatnonzero(f == 1), np.flatnonzero(f == -1)
-    a = np.maximum(a - 1, 0)                      # from the point before (a line's first, too)
-    return [pts[i:j] for i, j in zip(a.tolist(), b.tolist()) if j - i >= 2]
+    on = hysteresis(on, s, GAP_PENS * pen_mm, MIN_RUN_PENS * pen_mm - 1e-6)
+    first = on & (start | ~np.r_[False, on[:-1]])                 # a piece starts here
+    last = on & (np.r_[start[1:], True] | ~np.r_[on[1:], False])   # ... and ends here
+    a, b = np.flatnonzero(first), np.flatnonzero(last)
+    long = arc[b] - arc[a] >= MIN_RUN_PENS * pen_mm - 1e-9
+    return [pts[i:j + 1] for i, j in zip(a[long].tolist(), b[long].tolist()) if j > i]
