@@ -235,11 +235,14 @@ class Hatched:
 
 # ---------------------------------------------------------------- ours
 def machine_page(config: str) -> tuple[float, float]:
-    """The page's centre in G-code mm (where vplotter centres a photo)."""
+    """Where vplotter centres a photo in G-code mm: X0 Y0 (`place.origin`), or the page's
+    centre when X0 Y0 is off the page."""
     import tomllib
 
     with open(config, "rb") as f:
         page = tomllib.load(f)["page"]
+    if page["x_min_mm"] <= 0 <= page["x_max_mm"] and page["y_min_mm"] <= 0 <= page["y_max_mm"]:
+        return 0.0, 0.0
     return (page["x_min_mm"] + page["x_max_mm"]) / 2, (page["y_min_mm"] + page["y_max_mm"]) / 2
 
 
@@ -255,12 +258,14 @@ def plot_time(ngc: str, config: str, *extra) -> float:
     return float(m.group(1))
 
 
-def ours(photo: str, style: str, budget: str, out: str, config: str):
-    """(pen-down polylines in G-code mm, seconds, spacing note) of vplotter convert."""
+def ours(photo: str, style: str, budget: str, out: str, config: str, reuse: bool = False):
+    """(pen-down polylines in G-code mm, seconds, spacing note) of vplotter convert (reuse: a
+    file already there is read back, not made again; its seconds NaN)."""
     from bench import test_support
 
     tracecheck = test_support("tracecheck")
-
+    if reuse and os.path.exists(out):
+        return tracecheck.reference_path(out, spacing=0.25), float("nan"), None
     t0 = time.perf_counter()
     how = ("--style", "stipple", "--tsp") if style == "tsp" else ("--style", style)
     r = vplotter("convert", photo, "-o", out, *how, "--width", f"{WIDTH_MM:g}",
@@ -412,7 +417,7 @@ def one_photo(photo, styles, budgets, args, tmp):
     def convert(job):
         s, b = job
         out = os.path.join(args.keep or tmp, f"{name}.{s}.{b}.ngc")
-        polys, wall, spacing = ours(photo, s, b, out, args.config)
+        polys, wall, spacing = ours(photo, s, b, out, args.config, args.reuse)
         return job, out, polys, wall, spacing
 
     with ThreadPoolExecutor(args.jobs) as pool:
@@ -541,6 +546,8 @@ def main() -> None:
     ap.add_argument("--hatched-python", default="/tmp/venv-hatched/bin/python")
     ap.add_argument("--config", default=os.path.join(ROOT, "config.toml"))
     ap.add_argument("--keep", metavar="DIR", help="keep our G-code files there")
+    ap.add_argument("--reuse", action="store_true",
+                    help="with --keep: read back the G-code files already there")
     ap.add_argument("--jobs", type=int, default=2, help="conversions at once")
     ap.add_argument("--json", metavar="FILE", help="also write every figure there")
     args = ap.parse_args()
