@@ -13,7 +13,8 @@ either side, and curves fitted to the drawing's own measured response:
 in spacing), then choose their curve once, at the spacing found, and search again with it.
 Last, `budget.fill` puts the drawing in its final order (--order best: `order.py`'s; the
 stipples keep their tour; never longer than the quick order) and spends the time that saves on
-a denser spacing.
+a denser spacing. `--style auto` (and a budgeted stipple: its dots or its tour) draws each
+candidate so and keeps the one that draws the tone best (`photo_auto.py`).
 """
 
 from __future__ import annotations

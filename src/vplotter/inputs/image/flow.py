@@ -14,10 +14,11 @@ darkness d asks for the share s = f(d) x d_G / p of the lines, f the budget's to
 share from 1/2 to 1), G - 1 level 3 (1/4 to 1/2) ... and G - 4 and every coarser one level 0
 (0 to 1/16): each line is drawn in dashes (period 16 d_G along it, d_G at least DASH_PENS pen
 widths there so that the lightest tones' dashes are not shorter than the shortest piece drawn;
-the dash the part of its range the share has reached) across its level's range and whole above it (`tone.dashed`), so
-the separation of the lines drawn follows the tone: d_G in black, 2 d_G where s = 1/2, 16
-d_G in the lightest tones, in dashes; halving p about doubles the line (the jump from one
-generation to the next is seamless: the same lines at the same shares). The darkness is blurred
+the dash the part of its range the share has reached) across its level's range and whole
+above it (`tone.dashed`), so the separation of the lines drawn follows the tone: d_G in
+black, 2 d_G where s = 1/2, 16 d_G in the lightest tones, in dashes; halving p about doubles
+the line (the jump from one generation to the next is seamless: the same lines at the same
+shares). The darkness is blurred
 over about two pen widths first; gaps shorter than 4 pen widths are drawn through and pieces
 shorter than MIN_RUN_PENS pen widths dropped, so the strokes are long and the lifts few.
 """
