@@ -32,7 +32,7 @@ import numpy as np
 
 
 WIDTH_MM, PEN_MM, SPACING_MM = 300.0, 0.5, 1.5
-STYLES = ("hatch", "spiral", "squiggle", "stipple")
+STYLES = ("hatch", "spiral", "squiggle", "stipple", "flow")
 
 
 def scene(w: int, h: int):

@@ -14,7 +14,8 @@ zlib: 900 MB of pixels if decoded), an empty file, a text file named .png and a 
 half: exit status, the one line it printed, the time.
 
 Run (from the repository root, in vplotter's venv): python -m bench.photo_speed
-    [--budgets 1h,3h] [--styles hatch,spiral,squiggle,stipple,tsp]   (tsp: stipple --tsp)
+    [--budgets 1h,3h] [--styles hatch,spiral,squiggle,stipple,flow,tsp,auto]
+    (tsp: stipple --tsp; auto: --style auto, every style tried)
 """
 
 from __future__ import annotations
@@ -30,7 +31,7 @@ import time
 import zlib
 
 from bench import ROOT
-STYLES = ("hatch", "spiral", "squiggle", "stipple")
+STYLES = ("hatch", "spiral", "squiggle", "stipple", "flow")
 
 
 def scene(w: int, h: int):
@@ -103,13 +104,14 @@ def main() -> None:
     ap.add_argument("--budgets", default="1h,3h")
     ap.add_argument("--styles", default=",".join(STYLES))
     ap.add_argument("--config", default=os.path.join(ROOT, "config.toml"))
+    ap.add_argument("--first", type=int, default=3, help="only the first N pictures (12 MP first)")
     args = ap.parse_args()
     cfg = ["--config", args.config]
     with tempfile.TemporaryDirectory() as tmp:
         pics = pictures(tmp)
         print(f"{'picture':22} {'style':9} {'budget':6} {'wall s':>7} {'RSS MB':>7} "
               f"{'plot time':>9} {'/ budget':>8}  chosen")
-        for pic in pics:
+        for pic in pics[:args.first]:
             for b in args.budgets.split(","):
                 budget = {"h": 3600, "m": 60}[b[-1]] * float(b[:-1])
                 for s in args.styles.split(","):

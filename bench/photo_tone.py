@@ -28,6 +28,14 @@ For every image in a folder, every style (hatch, spiral, squiggle, stipple) and 
   bands across: the ink per area in each band must rise with darkness, in every style.
 
 Style "tsp" is `--style stipple --tsp` (TSP art: a line, compared at the same drawn length).
+Style "stipple" with a budget is the better of its dots and its tour (the converter chooses).
+
+At the same plot time: every drawing is also compared with `hatched` at the pitch whose lines,
+put in a nearest-neighbour order (`vplotter estimate --order greedy`: the draw's own planner),
+take our drawing's plot time (`h@time`, `diff` = ours - hatched's correlation). `own`: the
+converter's own score of our file (`inputs/image/score.py`, 1 mm cells); per picture and
+budget the style with the best own score is the one `--style auto` keeps (it runs the same
+styles and ranks them by that score), printed beside the best style by the bench's measure.
 
 Output: per image a table (style, budget, drawn m, our plot time, ours corr, hatched corr at the
 same length, ratio, SSIM both, mean ink both, hatched pitch and plot time), then the smallest
@@ -67,7 +75,7 @@ CELL = 5               # raster px per analysis cell (0.5 mm)
 SIGMA_MM = 1.0         # viewing-distance blur
 HATCHED_PX = 1000      # hatched's picture: pixels across
 TOL = 0.02             # drawn length (or plot time) within 2 % of ours
-STYLES = ("hatch", "spiral", "squiggle", "stipple")
+STYLES = ("hatch", "spiral", "squiggle", "stipple", "flow")
 SUFFIXES = (".png", ".jpg", ".jpeg", ".webp", ".bmp", ".tif", ".tiff", ".gif")
 
 
@@ -227,11 +235,14 @@ class Hatched:
 
 # ---------------------------------------------------------------- ours
 def machine_page(config: str) -> tuple[float, float]:
-    """The page's centre in G-code mm (where vplotter centres a photo)."""
+    """Where vplotter centres a photo in G-code mm: X0 Y0 (`place.origin`), or the page's
+    centre when X0 Y0 is off the page."""
     import tomllib
 
     with open(config, "rb") as f:
         page = tomllib.load(f)["page"]
+    if page["x_min_mm"] <= 0 <= page["x_max_mm"] and page["y_min_mm"] <= 0 <= page["y_max_mm"]:
+        return 0.0, 0.0
     return (page["x_min_mm"] + page["x_max_mm"]) / 2, (page["y_min_mm"] + page["y_max_mm"]) / 2
 
 
@@ -247,12 +258,14 @@ def plot_time(ngc: str, config: str, *extra) -> float:
     return float(m.group(1))
 
 
-def ours(photo: str, style: str, budget: str, out: str, config: str):
-    """(pen-down polylines in G-code mm, seconds, spacing note) of vplotter convert."""
+def ours(photo: str, style: str, budget: str, out: str, config: str, reuse: bool = False):
+    """(pen-down polylines in G-code mm, seconds, spacing note) of vplotter convert (reuse: a
+    file already there is read back, not made again; its seconds NaN)."""
     from bench import test_support
 
     tracecheck = test_support("tracecheck")
-
+    if reuse and os.path.exists(out):
+        return tracecheck.reference_path(out, spacing=0.25), float("nan"), None
     t0 = time.perf_counter()
     how = ("--style", "stipple", "--tsp") if style == "tsp" else ("--style", style)
     r = vplotter("convert", photo, "-o", out, *how, "--width", f"{WIDTH_MM:g}",
@@ -404,7 +417,7 @@ def one_photo(photo, styles, budgets, args, tmp):
     def convert(job):
         s, b = job
         out = os.path.join(args.keep or tmp, f"{name}.{s}.{b}.ngc")
-        polys, wall, spacing = ours(photo, s, b, out, args.config)
+        polys, wall, spacing = ours(photo, s, b, out, args.config, args.reuse)
         return job, out, polys, wall, spacing
 
     with ThreadPoolExecutor(args.jobs) as pool:
@@ -427,6 +440,11 @@ def one_photo(photo, styles, budgets, args, tmp):
             pitch, _ = hat.match(length, lambda p: hat.run(p)[0])
         else:
             pitch, _ = hat.match(t_ours, hatched_time)
+        # at the same plot time: hatched's lines in a nearest-neighbour order, timed by the
+        # same planner (`estimate --order greedy`)
+        p_t, t_ht = hat.match(t_ours, lambda p: hatched_nn_time(hat, p, centre, height, tmp,
+                                                                args.config))
+        at_time = score(ink(hat.lines(hat.run(p_t)[1]), height), dark)
         h_len, npz = hat.run(pitch)
         h_pic = hat.lines(npz)
         theirs = score(ink(h_pic, height), dark)
@@ -435,12 +453,43 @@ def one_photo(photo, styles, budgets, args, tmp):
         t_h = plot_time(g, args.config, "--order", "best")
         dots = sum(1 for p in pic if len(p) == 1 or np.ptp(p, axis=0).max() < 1e-6)
         rows.append(dict(photo=name, style=s, budget=b, spacing=spacing, drawn_m=length,
+                         own=own_score(pic, photo, height), h_time=at_time, h_t_pitch=p_t,
+                         h_t_s=t_ht, h_t_m=hat.run(p_t)[0],
                          dots=dots, t_ours=t_ours, wall=wall, ours=mine, hatched=theirs,
                          h_pitch=pitch, h_drawn_m=h_len, t_h=t_h, dark=float(dark.mean()),
                          bands=mine_bands,
                          h_bands=bands(ink(h_pic, height), dark) if mine_bands else None))
     hat.close()
     return rows
+
+
+_NN_TIMES: dict = {}
+
+
+def hatched_nn_time(hat, pitch, centre, height, tmp, config) -> float:
+    """hatched's lines at this pitch in a nearest-neighbour order, timed by the planner."""
+    _, npz = hat.run(pitch)
+    if npz not in _NN_TIMES:
+        g = os.path.join(tmp, "hatched-nn.ngc")
+        write_gcode(hat.lines(npz), centre, height, g)
+        _NN_TIMES[npz] = plot_time(g, config, "--order", "greedy")
+    return _NN_TIMES[npz]
+
+
+_PICTURES: dict = {}
+
+
+def own_score(pic, photo, height) -> float:
+    """The converter's own tone score of a drawing (`inputs/image/score.py`, what --style auto
+    ranks the styles by): our lines (picture mm, y down) against vplotter's picture."""
+    from vplotter.inputs.image import load, score
+    from vplotter.inputs.strokes import Stroke
+
+    if photo not in _PICTURES:
+        _PICTURES[photo] = load.load(photo, WIDTH_MM, height, PEN_MM)
+    picture = _PICTURES[photo]
+    strokes = [Stroke(np.column_stack([p[:, 0], height - p[:, 1]])) for p in pic]
+    return score.correlation(strokes, picture, PEN_MM)
 
 
 def clock(s: float) -> str:
@@ -453,7 +502,8 @@ def print_rows(rows):
     print(f"\n{r0['photo']}  (mean darkness {r0['dark']:.3f})")
     print(f"{'style':9} {'budget':6} {'spacing':>7} {'drawn m':>8} {'dots':>6} {'plot':>8} "
           f"{'conv s':>6} | {'corr':>6} {'hatched':>7} {'ratio':>6} | {'SSIM':>6} {'hatched':>7} "
-          f"| {'ink':>6} {'hatched':>7} | {'h pitch':>7} {'h m':>6} {'h plot':>8}")
+          f"| {'ink':>6} {'hatched':>7} | {'h pitch':>7} {'h m':>6} {'h plot':>8} | "
+          f"{'own':>6} | {'h@time':>6} {'diff':>6} {'h m':>5} {'h plot':>8}")
     for r in rows:
         o, t = r["ours"], r["hatched"]
         ratio = o["corr"] / t["corr"] if t["corr"] > 0 else float("inf")
@@ -462,7 +512,15 @@ def print_rows(rows):
               f"{r['dots']:6d} {clock(r['t_ours']):>8} {r['wall']:6.1f} | {o['corr']:6.3f} "
               f"{t['corr']:7.3f} {ratio:6.2f} | {o['ssim']:6.3f} {t['ssim']:7.3f} | "
               f"{o['ink']:6.3f} {t['ink']:7.3f} | {r['h_pitch']:7.2f} {r['h_drawn_m']:6.1f} "
-              f"{clock(r['t_h']):>8}")
+              f"{clock(r['t_h']):>8} | {r['own']:6.3f} | {r['h_time']['corr']:6.3f} "
+              f"{o['corr'] - r['h_time']['corr']:+6.3f} {r['h_t_m']:5.1f} {clock(r['h_t_s']):>8}")
+    for b in dict.fromkeys(r["budget"] for r in rows):
+        mine = [r for r in rows if r["budget"] == b]
+        pick = max(mine, key=lambda r: r["own"])
+        top = max(mine, key=lambda r: r["ours"]["corr"])
+        print(f"  {b}: auto picks {pick['style']} (own score {pick['own']:.3f}; bench "
+              f"{pick['ours']['corr']:.3f}, best style {top['style']} {top['ours']['corr']:.3f}); "
+              f"hatched at the same plot time {pick['h_time']['corr']:.3f}")
     if rows[0]["bands"]:
         print("grey ramp: ink per area in 5 bands, light to dark (darkness of the band first)")
         for r in rows:
@@ -488,6 +546,8 @@ def main() -> None:
     ap.add_argument("--hatched-python", default="/tmp/venv-hatched/bin/python")
     ap.add_argument("--config", default=os.path.join(ROOT, "config.toml"))
     ap.add_argument("--keep", metavar="DIR", help="keep our G-code files there")
+    ap.add_argument("--reuse", action="store_true",
+                    help="with --keep: read back the G-code files already there")
     ap.add_argument("--jobs", type=int, default=2, help="conversions at once")
     ap.add_argument("--json", metavar="FILE", help="also write every figure there")
     args = ap.parse_args()
@@ -535,6 +595,21 @@ def main() -> None:
             best[k] = max(best.get(k, 0), r["ratio"])
         k = min(best, key=best.get)
         print(f"    best style per picture and budget: min ratio {best[k]:.2f} ({k[0]} {k[1]})")
+    print("\nat the same plot time (hatched in a nearest-neighbour order): best style - hatched")
+    for label, rs in groups.items():
+        best = {}
+        for r in rs:
+            k = (r["photo"], r["budget"])
+            d = r["ours"]["corr"] - r["h_time"]["corr"]
+            if k not in best or d > best[k][0]:
+                best[k] = (d, r["style"])
+        if best:
+            k = min(best, key=lambda q: best[q][0])
+            print(f"  {label}: least {best[k][0]:+.3f} ({k[0]} {k[1]}, {best[k][1]})")
+        for s in styles:
+            mine = [r["ours"]["corr"] - r["h_time"]["corr"] for r in rs if r["style"] == s]
+            if mine:
+                print(f"    {s:9} min {min(mine):+.3f}, mean {np.mean(mine):+.3f}")
     ramp = [r for r in every if r["bands"]]
     if ramp:
         bad = [f"{r['style']} {r['budget']}" for r in ramp

@@ -24,7 +24,7 @@ def run(capsys, argv):
      "vplotter info: error: unknown option --max-tiem=2h; did you mean --max-time?"),
     (["draw", "cat.jpg", "--style", "hach"],
      "vplotter draw: error: --style hach: not a choice; did you mean hatch? (choose from "
-     "spiral, hatch, stipple, squiggle)"),
+     "spiral, hatch, stipple, squiggle, flow, auto)"),
     (["darw", "car.ngc"], "vplotter: error: 'darw' is not a command; did you mean 'draw'?"),
     (["pen", "dwon"], "vplotter pen: error: the action dwon: not a choice; did you mean down?"),
     (["convert", "car.ngc", "-o", "x.ngc", "--order", "fast"],

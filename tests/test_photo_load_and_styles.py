@@ -23,7 +23,7 @@ from vplotter.inputs.image.picture import Picture
 
 DATA = REPO / "tests" / "data" / "images"
 GREY = float(1 - srgb_decode(128 / 255))           # darkness of sRGB 128: 0.784
-MINE = ("hatch", "spiral", "squiggle")
+MINE = ("hatch", "spiral", "squiggle", "flow")
 
 
 def _dark(path, w=20.0, h=10.0, **kw):
@@ -312,7 +312,7 @@ def _ink_per_band(strokes, pic, pen):
 
 
 # a generous spacing (tone curve d^1) per style: the hatch crosses its layers only this fine
-GENEROUS = {"hatch": 0.75}
+GENEROUS = {"hatch": 0.75, "flow": 0.75}
 
 
 @pytest.mark.parametrize("name", MINE)
@@ -342,7 +342,8 @@ def test_spacing_is_the_density_knob(name):
     sp = GENEROUS.get(name, 1.5)
     n = sum(s.length_mm() for s in style(name)(pic, sp, 0.5))
     m = sum(s.length_mm() for s in style(name)(pic, sp / 2, 0.5))
-    assert (1.25 if name == "hatch" else 1.6) < m / n < 2.5
+    # (flow: its lines never come closer than the pen's width, 0.5 mm: 1.5 x at most here)
+    assert (1.25 if name in ("hatch", "flow") else 1.6) < m / n < 2.5
     # coarser (a steeper curve, fewer layers): less line still, never more
     lengths = [sum(s.length_mm() for s in style(name)(pic, sp, 0.5)) for sp in (1.5, 2.5, 4, 6)]
     assert all(b <= a for a, b in zip(lengths, lengths[1:])) and lengths[-1] < lengths[1], lengths
@@ -371,11 +372,11 @@ def test_ramp_ink_rises_in_every_band(name, scarce):
     """Five grey bands, 0.2 to 1.0: every one gets ink and each darker one strictly more, at a
     generous spacing (tone curve d^1) and at a scarce one (d^6 or more, one hatch layer, sparse
     dashed lines in the light)."""
-    from vplotter.inputs.image import hatch, squiggle, tone
+    from vplotter.inputs.image import flow, hatch, squiggle, tone
 
     spacing = (6.0 if name in ("spiral", "squiggle") else 3.0) if scarce else GENEROUS.get(name, 1.5)
     own = {"spiral": squiggle.tone_gamma, "squiggle": squiggle.tone_gamma,
-           "hatch": hatch.tone_gamma}.get(name, tone.gamma)
+           "hatch": hatch.tone_gamma, "flow": flow.tone_gamma}.get(name, tone.gamma)
     w_mm, h_mm, px = 500.0, 50.0, 0.5
     cols = round(w_mm / px)
     d = np.repeat(np.array(RAMP5, np.float32), cols // len(RAMP5))

@@ -17,7 +17,7 @@ from support import REPO
 from vplotter import budget
 from support.cli import run
 
-STYLES = ("hatch", "spiral", "squiggle", "stipple")
+STYLES = ("hatch", "spiral", "squiggle", "stipple", "flow")
 PAGE_CENTRE = (0.0, 0.0)         # where a photo is centred: G-code X0 Y0 (docs: Placement)
 
 
@@ -234,7 +234,8 @@ def test_info_says_which_tone_curve_the_picture_got(capsys, config_path, photo, 
     assert info["time_s"]["best"] <= 1200
 
 
-@pytest.mark.parametrize("style", ["hatch", "spiral", "squiggle", "stipple --tsp"])
+@pytest.mark.parametrize("style", ["hatch", "spiral", "squiggle", "stipple --tsp", "flow",
+                                   "auto"])
 @pytest.mark.parametrize("limit", ["15m", "45m"])
 def test_a_chosen_curve_keeps_ink_rising_with_darkness(capsys, config_path, tmp_path, style, limit):
     """Five grey bands (linear darkness 0.2 to 1.0) through the whole budget search, the

@@ -114,7 +114,8 @@ def test_position_home_and_the_pen_from_the_api(serve):  # noqa: F811
     assert server.request("POST", "/api/pen", {"state": "cycle", "up_us": "x"})[0] == 400
     code, setup, _ = server.request("GET", "/api/setup")
     assert setup["pen"] == {"kind": "servo", "up_us": 500, "down_us": 1500}
-    assert setup["choices"]["style"] == ["spiral", "hatch", "stipple", "squiggle"]
+    assert setup["choices"]["style"] == ["spiral", "hatch", "stipple", "squiggle", "flow",
+                                         "auto"]
     code, saved, _ = server.request("POST", "/api/pen/save", {"up_us": 650, "down_us": 1350})
     assert code == 200 and (saved["up_us"], saved["down_us"]) == (650, 1350), saved
     text = server.config.read_text()

@@ -11,7 +11,7 @@ from typing import Callable
 
 from vplotter.drawing import pen_options
 from vplotter.errors import ConfigError
-from vplotter.inputs.image import STYLES as PHOTO_STYLES
+from vplotter.inputs.image import CHOICES as PHOTO_STYLES
 
 # ------------------------------------------------------------------ options
 def _number(kind: str, lo: float | None = None, above: bool = False):
@@ -77,7 +77,9 @@ def add_file_options(p: argparse.ArgumentParser, verbose: bool = True) -> None:
                               "art, at a density that fits the plot-time budget)")
     ph.add_argument("--style", choices=PHOTO_STYLES,
                     help="hatch: crosshatched tone bands; spiral: one pulsing spiral; stipple: "
-                         "dots (--tsp: one tour); squiggle: rows of zigzags (default hatch)")
+                         "dots (--tsp: one tour); squiggle: rows of zigzags; flow: lines "
+                         "along the picture's shapes; auto: each tried, the best kept "
+                         "(default hatch)")
     ph.add_argument("--max-time", metavar="TIME",
                     help="plot-time budget, e.g. 2h, 45m, 1h30m (default for photos: 1h)")
     ph.add_argument("--spacing", type=_number("spacing", 0, above=True), metavar="MM",

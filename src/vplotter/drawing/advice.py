@@ -32,10 +32,12 @@ import math
 from dataclasses import dataclass, field
 
 # the spacing (pen widths) at which a face shows, per style ("tsp": stipple --tsp)
-GOOD_PENS = {"hatch": 3.2, "spiral": 10.0, "squiggle": 10.0, "stipple": 8.0, "tsp": 4.0}
+GOOD_PENS = {"hatch": 3.2, "spiral": 10.0, "squiggle": 10.0, "stipple": 8.0, "tsp": 4.0,
+             "flow": 3.2}
 # time ~ spacing^-k along the budget's choices, k at least this (measured from 1 h to 3 h on
 # a 300 x 400 mm portrait; the budget's own tries say more, `time_power`), at most MAX_POWER
-TIME_POWER = {"hatch": 1.45, "spiral": 1.3, "squiggle": 1.3, "stipple": 2.0, "tsp": 1.3}
+TIME_POWER = {"hatch": 1.45, "spiral": 1.3, "squiggle": 1.3, "stipple": 2.0, "tsp": 1.3,
+              "flow": 1.45}
 MAX_POWER = 3.0
 MARGIN = 1.1              # the time asked for x this (the size / its square root)
 MAX_S = 30 * 86400.0      # --max-time's own limit
@@ -75,7 +77,7 @@ def sparse(kind: str, spacing_mm: float, pen_mm: float | None = None) -> str:
     """A sparse drawing in a person's words (with pen_mm: and in pen widths)."""
     s = _mm(spacing_mm)
     pens = "" if pen_mm is None else f", {spacing_mm / pen_mm:.1f} pen widths"
-    if kind == "hatch":
+    if kind in ("hatch", "flow"):
         return f"the lines are {s} mm apart{pens}"
     if kind in ("stipple", "tsp"):
         return f"the dots are {s} mm apart{pens}"
@@ -108,7 +110,7 @@ def good_spacing(kind: str, pen_mm: float, w_mm: float | None = None,
 def spaced(kind: str, spacing_mm: float) -> str:
     """The spacing in a person's words."""
     s = _mm(spacing_mm)
-    if kind == "hatch":
+    if kind in ("hatch", "flow"):
         return f"lines {s} mm apart"
     if kind in ("stipple", "tsp"):
         return f"dots {s} mm apart"

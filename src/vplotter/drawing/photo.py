@@ -13,7 +13,8 @@ either side, and curves fitted to the drawing's own measured response:
 in spacing), then choose their curve once, at the spacing found, and search again with it.
 Last, `budget.fill` puts the drawing in its final order (--order best: `order.py`'s; the
 stipples keep their tour; never longer than the quick order) and spends the time that saves on
-a denser spacing.
+a denser spacing. `--style auto` (and a budgeted stipple: its dots or its tour) draws each
+candidate so and keeps the one that draws the tone best (`photo_auto.py`).
 """
 
 from __future__ import annotations
@@ -30,9 +31,10 @@ from vplotter.errors import ConfigError
 from vplotter.inputs.strokes import Stroke
 
 # the first spacing tried, per style, in pen widths; time ~ spacing^-POWER
-START_PENS = {"hatch": 3.0, "spiral": 3.0, "squiggle": 3.0, "stipple": 8.0, "tsp": 5.0}
-POWER = {"hatch": 1.0, "spiral": 1.0, "squiggle": 1.0, "stipple": 2.0, "tsp": 1.0}
-CURVES = ("hatch", "spiral", "squiggle")   # the styles whose tone curve is chosen per picture
+START_PENS = {"hatch": 3.0, "spiral": 3.0, "squiggle": 3.0, "stipple": 8.0, "tsp": 5.0,
+              "flow": 3.0}
+POWER = {"hatch": 1.0, "spiral": 1.0, "squiggle": 1.0, "stipple": 2.0, "tsp": 1.0, "flow": 1.0}
+CURVES = ("hatch", "spiral", "squiggle", "flow")    # whose tone curve is chosen per picture
 CURVE_STEP = 1.6          # the curves tried: the spacing's own exponent, / and x this
 CURVE_MAX = 16.0
 CURVE_TRIES = 3           # drawings made per other curve (from the spacing already found)
@@ -112,22 +114,47 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
     from vplotter.inputs import image
     from vplotter.inputs.image import load
 
-    try:
-        style = image.style(opts.style)
-    except ValueError as e:
-        raise ConfigError(f"error: --style: {e}") from None
+    if opts.style != image.AUTO:
+        try:
+            image.style(opts.style)
+        except ValueError as e:
+            raise ConfigError(f"error: --style: {e}") from None
     if opts.tsp and opts.style != "stipple":
         raise ConfigError("error: --tsp is for --style stipple (one tour through the stipples)")
     if placement.scale != 1.0:
         raise ConfigError("error: a photo is sized with --width or --height (or the page), "
                           "not --scale")
+    if opts.spacing_mm is not None and opts.max_time_s is not None:
+        raise ConfigError("error: give --spacing or --max-time, not both")
+    if opts.spacing_mm is None and plot_time is None:
+        raise ConfigError("error: a photo needs --spacing here (no planner to time a budget)")
     w, h = size_mm(load.aspect(path), opts, page, placement.margin_mm)
-    picture, layers, inks = _pictures(path, opts, w, h, owned)
-    put, shift, A, b = _frame(placement, page, w, h)
+    pictures = _pictures(path, opts, w, h, owned)
+    frame = _frame(placement, page, w, h)
+
+    def one(o: PhotoOptions):
+        return _one(o, pictures, frame, w, h, plot_time, start_xy, method)
+
+    from vplotter.drawing import photo_auto
+
+    tries = photo_auto.variants(opts)
+    if len(tries) == 1:
+        return one(opts)[:2]
+    return photo_auto.best(opts, tries, one, pictures)
+
+
+def _one(opts: PhotoOptions, pictures, frame, w: float, h: float, plot_time, start_xy,
+         method: str):
+    """One style's drawing: (placed strokes in their drawing order, what is said, the style's
+    own strokes in picture mm, the plot time or None)."""
+    from vplotter.inputs import image
+
+    picture, layers, inks = pictures
+    put, shift, A, b = frame
     # the dots come in the order of their tour (`stipple._dots`), better than any other
     how = "keep" if opts.style == "stipple" and not opts.tsp else "greedy"
-    d = _Drawings(style, opts, picture, layers, inks, put, shift, A, b, start_xy, how,
-                  method == "best" and how == "greedy")
+    d = _Drawings(image.style(opts.style), opts, picture, layers, inks, put, shift, A, b,
+                  start_xy, how, method == "best" and how == "greedy")
     said = advice.Said(details=[f"pen {opts.pen_mm:g} mm wide (--pen-width): the line the tone "
                                 f"model assumes"])
     if layers is not None:
@@ -136,16 +163,14 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
         said.notes.append(f"{'cmyk' if opts.cmyk else 'colours'}: {len(inks)} pens, light to "
                           f"dark, ink asked for (mean coverage): {cmyk.shares(layers, inks)}")
     if opts.spacing_mm is not None:
-        if opts.max_time_s is not None:
-            raise ConfigError("error: give --spacing or --max-time, not both")
         said.notes.insert(0, advice.chosen(opts.kind, w, h, opts.spacing_mm))
         said.details.append(image.describe(opts.style, opts.spacing_mm, opts.pen_mm, picture,
                                            **d.extra))
         said.advice = advice.advise(opts.kind, opts.pen_mm, opts.spacing_mm, w, h)
-        return d.final(d.make(opts.spacing_mm)[0]), said
-    if plot_time is None:
-        raise ConfigError("error: a photo needs --spacing here (no planner to time a budget)")
-    return _budgeted(d, plot_time, w, h, said)
+        placed, raw = d.make(opts.spacing_mm)
+        return d.final(placed), said, raw, None
+    drawn, said, raw, time_s = _budgeted(d, plot_time, w, h, said)
+    return drawn, said, raw, time_s
 
 
 def _pictures(path: str, opts: PhotoOptions, w: float, h: float, owned: tuple):
@@ -244,9 +269,9 @@ class _Drawings:
 
 
 def _budgeted(d: _Drawings, plot_time, w: float, h: float, said: advice.Said):
-    """The drawing that fits the budget (and what is said): the densest spacing, the tone
-    curve that draws the picture best, the final order and the time it saves spent on
-    density."""
+    """The drawing that fits the budget (and what is said, the style's own strokes, the plot
+    time): the densest spacing, the tone curve that draws the picture best, the final order
+    and the time it saves spent on density."""
     from vplotter.inputs import image
 
     opts, picture = d.opts, d.picture
@@ -269,7 +294,7 @@ def _budgeted(d: _Drawings, plot_time, w: float, h: float, said: advice.Said):
                                        choice.limit.startswith("as dense")))
     said.advice = advice.advise(opts.kind, opts.pen_mm, choice.spacing_mm, w, h, choice.time_s,
                                 budget_s, choice.tries)
-    return drawn, said
+    return drawn, said, d.draw(choice.spacing_mm, curve), choice.time_s
 
 
 def _search(d: _Drawings, timed, budget_s: float, lo: float, hi: float):
@@ -335,12 +360,14 @@ def pens_of(names: tuple[str, ...], owned: tuple = ()) -> list[tuple[str, str]]:
 def default_gamma(style: str, spacing_mm: float, pen_mm: float, picture=None,
                   tsp: bool = False) -> float:
     """The tone curve's exponent a style takes from the spacing (the tour: and the picture)."""
-    from vplotter.inputs.image import hatch, squiggle, stipple
+    from vplotter.inputs.image import flow, hatch, squiggle, stipple
 
     if tsp:
         return stipple.cap_gamma(picture, spacing_mm, pen_mm, True)
     if style == "hatch":
         return hatch.tone_gamma(spacing_mm, pen_mm)
+    if style == "flow":
+        return flow.tone_gamma(spacing_mm, pen_mm)
     return squiggle.tone_gamma(spacing_mm, pen_mm)
 
 

@@ -15,7 +15,9 @@ from __future__ import annotations
 import importlib
 
 SUFFIXES = (".png", ".jpg", ".jpeg", ".webp", ".bmp", ".tif", ".tiff", ".gif")
-STYLES = ("spiral", "hatch", "stipple", "squiggle")     # module names in this package
+STYLES = ("spiral", "hatch", "stipple", "squiggle", "flow")     # module names in this package
+AUTO = "auto"          # --style auto: every style tried, the best kept (drawing/photo_auto.py)
+CHOICES = STYLES + (AUTO,)
 
 
 def style(name: str):
@@ -36,6 +38,14 @@ def describe(name: str, spacing_mm: float, pen_mm: float, picture=None, **extra)
         return (f"finest pitch {spacing_mm:.2f} mm (the spacing; every {tone.TOP}th line, dashed, "
                 f"in the lightest tones, up to {full_layers(spacing_mm, pen_mm):.1f} crossed "
                 f"layers in black), tone curve {tone.name(g)}")
+    if name == "flow":
+        from vplotter.inputs.image.flow import generation, tone_gamma
+        from vplotter.inputs.image.flow_lines import TOP_POW
+        g = tone_gamma(spacing_mm, pen_mm) if chosen is None else chosen
+        d = pen_mm * 2.0 ** (TOP_POW - generation(spacing_mm, pen_mm))
+        return (f"streamlines along the picture's edges, {d:g} mm apart in black (finest "
+                f"pitch {spacing_mm:.2f} mm; every {tone.TOP}th line, dashed, in the lightest "
+                f"tones), tone curve {tone.name(g)}")
     if name in ("spiral", "squiggle"):
         from vplotter.inputs.image.squiggle import tone_gamma, track_pitch
         g = tone_gamma(spacing_mm, pen_mm) if chosen is None else chosen

@@ -125,6 +125,8 @@ def layer_options(style: str, index: int, inks: tuple = INKS) -> dict:
     n = len(inks)
     if style == "hatch":
         return {"angle_deg": inks[index][2]}
+    if style == "flow":                  # own flat-area direction, own seeds
+        return {"angle_deg": inks[index][2], "phase": index / n}
     if style == "spiral":
         return {"turn_deg": 360.0 * index / n}
     if style == "squiggle":

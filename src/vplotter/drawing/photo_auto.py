@@ -1,0 +1,87 @@
+"""Choosing among drawings of a photo by how well each draws its tone: `--style auto` (every
+style at the budget) and stipples at a budget (the dots, or the tour through them).
+
+Each candidate is drawn as its own style would be (`photo._one`: the budget's search, the tone
+curves, the final order), on the picture loaded once, and scored with the converter's own
+measure (`inputs/image/score.py`: the ink at the pen's width blurred at 1 mm against the
+picture's darkness blurred the same, the correlation bench/photo_tone.py reports, on 1 mm
+cells); with several pens each pen's strokes against its own layer, weighted by the ink the
+layer asks for. The best is kept and one note says which and why, with every candidate's score
+and plot time (so `info` lists them). Auto costs the sum of its styles (each is searched
+whole: a shortcut that ranked styles on a cheaper search could pick another than the full
+search would): about 30 s for a 300 mm photo at 1 h on this machine, where one style takes
+3 to 9 s.
+
+Stipples at a budget: a dot costs a pen lift (about 2 s on the seed machine), so an hour of
+dots lays little ink; the tour (TSP art) draws a line through the same kind of stipples and
+lays far more ink per second. With a budget and no --tsp, the dots and the tour are both
+drawn and the better kept (said in the note); --tsp asks for the tour alone.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+from vplotter.budget import clock_text
+
+AUTO_STYLES = ("hatch", "squiggle", "spiral", "flow", "stipple")
+
+
+def variants(opts) -> list:
+    """The drawings to choose among for these options (one: no choice)."""
+    from vplotter.inputs.image import AUTO
+
+    if opts.style == AUTO:
+        out = []
+        for s in AUTO_STYLES:
+            out += variants(replace(opts, style=s))
+        return out
+    if opts.style == "stipple" and not opts.tsp and opts.spacing_mm is None:
+        return [opts, replace(opts, tsp=True)]
+    return [opts]
+
+
+def name(opts) -> str:
+    return "stipple --tsp" if opts.tsp else opts.style
+
+
+def tone_score(raw, pictures, pen_mm: float) -> float:
+    """The correlation of the strokes' ink with the picture's darkness (several pens: each
+    against its layer, weighted by the layer's mean darkness)."""
+    from vplotter.inputs.image import score
+
+    picture, layers, inks = pictures
+    if layers is None:
+        return score.correlation(raw, picture, pen_mm)
+    total = weight = 0.0
+    for (pen, _, _), layer in zip(inks, layers):
+        mine = [s for s in raw if s.pen == pen]
+        w = float(layer.darkness.mean())
+        total += w * score.correlation(mine, layer, pen_mm)
+        weight += w
+    return total / weight if weight > 0 else 0.0
+
+
+def best(opts, tries: list, one, pictures):
+    """(placed strokes, what is said) of the candidate that draws the tone best; its note
+    first says which was chosen, and every candidate's score and plot time."""
+    from vplotter.inputs.image import AUTO
+
+    made = []
+    for o in tries:
+        placed, said, raw, time_s = one(o)
+        made.append((tone_score(raw, pictures, o.pen_mm), o, placed, said, time_s))
+    chosen = max(made, key=lambda m: m[0])
+    _, o, placed, said, _ = chosen
+
+    def figures(m) -> str:
+        return f"{m[0]:.3f}" + ("" if m[4] is None else f", {clock_text(m[4])}")
+
+    others = "; ".join(f"{name(m[1])} {figures(m)}" for m in made if m is not chosen)
+    if opts.style == AUTO:
+        head = f"--style auto chose {name(o)}"
+    else:
+        head = f"stipple: {'the tour through the dots' if o.tsp else 'dots'}"
+    said.notes.insert(0, f"{head} (tone {figures(chosen)}; {others}): the drawing whose ink "
+                      f"follows the darkness best (correlation at a 1 mm blur)")
+    return placed, said

@@ -1,0 +1,151 @@
+"""The flow style (streamlines along the picture's shapes, spaced by tone), --style auto (every
+style tried, the best kept) and the budgeted stipple's choice between its dots and its tour."""
+
+from __future__ import annotations
+
+import json
+import re
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from support import tracecheck as tc
+from support.cli import run
+from vplotter.inputs.image import flow, score
+from vplotter.inputs.image.picture import Picture
+
+
+def _disc(w_mm=80.0, h_mm=60.0, px=0.25, r_mm=18.0):
+    """A dark disc on a light grey ground."""
+    rows, cols = round(h_mm / px), round(w_mm / px)
+    yy, xx = np.mgrid[0:rows, 0:cols]
+    x, y = (xx + 0.5) * px, h_mm - (yy + 0.5) * px
+    d = np.where(np.hypot(x - w_mm / 2, y - h_mm / 2) < r_mm, 0.9, 0.15).astype(np.float32)
+    return Picture(d, w_mm, h_mm, "disc")
+
+
+def test_lines_follow_the_edges():
+    """Near the disc's edge the lines run along it (across the gradient), not into it."""
+    pic = _disc()
+    strokes = flow.strokes(pic, 1.0, 0.5)
+    seg = np.concatenate([np.diff(s.pts, axis=0) for s in strokes])
+    mid = np.concatenate([(s.pts[1:] + s.pts[:-1]) / 2 for s in strokes])
+    radial = mid - np.array([40.0, 30.0])
+    r = np.hypot(*radial.T)
+    near = (r > 16) & (r < 20)
+    cos = np.abs((seg[near] * radial[near]).sum(1)) / (np.hypot(*seg[near].T) * r[near])
+    assert near.sum() > 100 and np.median(cos) < 0.25, np.median(cos)
+
+
+def test_long_strokes_few_lifts():
+    """On a flat grey the lines are long: few pen lifts for the line drawn."""
+    pic = Picture(np.full((240, 320), 0.8, np.float32), 80, 60)
+    strokes = flow.strokes(pic, 1.0, 0.5)
+    lengths = np.array([s.length_mm() for s in strokes])
+    assert lengths.sum() > 1000 and lengths.mean() > 10, (lengths.sum(), lengths.mean())
+
+
+def test_dark_gets_denser_lines_and_the_tone_shows():
+    """The separation follows the tone: more line on the disc than around it, and the ink
+    correlates with the darkness."""
+    pic = _disc()
+    strokes = flow.strokes(pic, 1.5, 0.5)
+    pts = np.concatenate([s.pts for s in strokes])
+    inside = np.hypot(pts[:, 0] - 40, pts[:, 1] - 30) < 17
+    disc_area, rest = np.pi * 17 ** 2, 80 * 60 - np.pi * 19 ** 2
+    assert inside.sum() / disc_area > 2 * (~inside).sum() / rest
+    assert score.correlation(strokes, pic, 0.5) > 0.6
+
+
+def test_the_same_streamlines_for_every_try():
+    """The budget's tries draw on one set of streamlines: a second drawing costs little and
+    a denser spacing adds lines where the coarser drew (the nesting)."""
+    pic = _disc()
+    a = flow.strokes(pic, 3.0, 0.5)
+    made = flow.lines(pic, 0.5)
+    b = flow.strokes(pic, 1.5, 0.5)
+    assert flow.lines(pic, 0.5) is made
+    assert sum(s.length_mm() for s in b) > 1.5 * sum(s.length_mm() for s in a)
+    again = flow.strokes(pic, 3.0, 0.5)                     # deterministic
+    assert len(again) == len(a) and all(np.array_equal(x.pts, y.pts) for x, y in zip(a, again))
+
+
+def test_a_white_picture_draws_nothing():
+    assert flow.strokes(Picture(np.zeros((40, 60), np.float32), 60, 40), 1.0, 0.5) == []
+
+
+@pytest.fixture
+def photo(tmp_path):
+    """A 240 x 160 px picture: a dark disc on a left-to-right ramp."""
+    h, w = 160, 240
+    x = np.linspace(40, 255, w, dtype=np.float32)[None, :].repeat(h, 0)
+    yy, xx = np.mgrid[0:h, 0:w]
+    x[(xx - 120) ** 2 + (yy - 80) ** 2 < 45 ** 2] = 15
+    path = tmp_path / "photo.png"
+    Image.fromarray(x.astype(np.uint8)).save(path)
+    return path
+
+
+def _estimate(capsys, config, path) -> float:
+    code, out, _ = run(capsys, ["--config", config, "estimate", path])
+    assert code == 0
+    return float(re.search(r"\(([\d.]+) s\)", out).group(1))
+
+
+def test_flow_fits_the_budget(capsys, config_path, photo, tmp_path):
+    out = tmp_path / "flow.ngc"
+    code, _, err = run(capsys, ["--config", config_path, "convert", photo, "-o", out,
+                                "--style", "flow", "--width", 120, "--max-time", "10m"])
+    assert code == 0, err
+    assert "photo: flow, 120 x 80 mm" in err and "within 10:00" in err
+    assert _estimate(capsys, config_path, out) <= 600 * 1.01
+    pts = np.concatenate(tc.reference_path(str(out)))
+    assert np.all(np.abs(pts[:, 0]) <= 60 + 1e-3) and np.all(np.abs(pts[:, 1]) <= 40 + 1e-3)
+
+
+def test_flow_in_four_pens(capsys, config_path, photo, tmp_path):
+    out = tmp_path / "cmyk.ngc"
+    code, _, err = run(capsys, ["--config", config_path, "convert", photo, "-o", out,
+                                "--style", "flow", "--cmyk", "--width", 100, "--max-time",
+                                "10m"])
+    assert code == 0, err
+    assert "(layer black" in out.read_text()                # a grey picture: the black pen
+
+
+def test_auto_lists_every_style_and_keeps_the_best(capsys, config_path, photo):
+    """info --style auto: one note names the style kept and every style's score and plot
+    time; the one kept scores best."""
+    code, out, err = run(capsys, ["--config", config_path, "info", photo, "--json",
+                                  "--style", "auto", "--width", 100, "--max-time", "8m"])
+    assert code == 0, err
+    note = json.loads(out)["notes"][0]
+    m = re.match(r"--style auto chose (\S+( --tsp)?) \(tone ([0-9.]+), [0-9:]+; (.*)\): ", note)
+    assert m, note
+    others = dict((s, float(v)) for s, v in re.findall(r"([a-z]+(?: --tsp)?) ([0-9.]+), [0-9:]+",
+                                                       m.group(4)))
+    assert set(others) | {m.group(1)} == {"hatch", "squiggle", "spiral", "flow", "stipple",
+                                          "stipple --tsp"}
+    assert float(m.group(3)) >= max(others.values())
+    assert json.loads(out)["time_s"]["best"] <= 480 * 1.01
+
+
+def test_a_budgeted_stipple_says_dots_or_tour(capsys, config_path, photo, tmp_path):
+    out = tmp_path / "st.ngc"
+    code, _, err = run(capsys, ["--config", config_path, "convert", photo, "-o", out,
+                                "--style", "stipple", "--width", 100, "--max-time", "5m"])
+    assert code == 0, err
+    m = re.search(r"stipple: (dots|the tour through the dots) \(tone ([0-9.]+), [0-9:]+; "
+                  r"stipple(?: --tsp)? ([0-9.]+)", err)
+    assert m and float(m.group(2)) >= float(m.group(3)), err
+    polys = tc.reference_path(str(out))
+    dots = sum(1 for p in polys if len(p) == 1)
+    assert (dots == len(polys)) == (m.group(1) == "dots")
+
+
+def test_auto_on_a_bad_image_is_one_line(capsys, config_path, tmp_path):
+    bad = tmp_path / "cut.png"
+    bad.write_bytes(b"\x89PNG\r\n\x1a\n" + b"\0" * 20)
+    code, _, err = run(capsys, ["--config", config_path, "convert", bad, "-o",
+                                tmp_path / "o.ngc", "--style", "auto", "--max-time", "5m"])
+    assert code == 2 and len(err.strip().splitlines()) == 1 and str(bad) in err
