@@ -3,10 +3,11 @@ motors' acceleration budget, and the vertex speed that allows.
 
 At a vertex the cord speeds change at once by v x |slope change| (`jump`); inside one window
 TAU_S that counts as an acceleration of jump x v x max(1 / TAU_S, v / ds), ds the shorter of
-the two pieces (`Corners.takes`). `corners` gives each corner its share of the budget for the
-first plan (CORNER_SHARE on a curve, the quickest of SHARP_TRY at a lone sharp corner, never
-more than CORNER_CEIL with the bending next to it) and the most it may keep in the later ones
-(`Corners.again`)."""
+the two pieces, or on a curve cut into short chords (both passed within TAU_S / EVEN) the mean
+of the two: the curve's own v^2 x curvature, so the pen can go round evenly (`Corners.takes`).
+`corners` gives each corner its share of the budget for the first plan (CORNER_SHARE on a
+curve, the quickest of SHARP_TRY at a lone sharp corner, never more than CORNER_CEIL with the
+bending next to it) and the most it may keep in the later ones (`Corners.again`)."""
 
 from __future__ import annotations
 
@@ -19,6 +20,7 @@ from vplotter.motion.refine import CORNER_SHARE, SHARP_TRY, TAU_S, least, sharp_
 RETRY_GAIN = 1.2       # later plans: corners keep what they take at this x the best plan's speed
 CORNER_CEIL = 0.9      # a corner and the bending next to it take at most this together (first plan)
 CORNER_TOP = 0.98      # and in later plans, on a curve, where the ramps next to it leave that
+EVEN = 1.5             # a corner counts as on a curve from v = EVEN x (longer piece) / TAU_S
 
 
 def _fleast(a: np.ndarray) -> np.ndarray:
@@ -36,25 +38,39 @@ class Corners:
 
     jump: np.ndarray       # (M, n-1) |slope change| of each motor's cord
     ds: np.ndarray         # (n-1,) the shorter of the two pieces
+    dm: np.ndarray         # (n-1,) their mean (on a curve: see `takes`)
+    v_even: np.ndarray     # (n-1,) from this speed on both pieces take at most TAU_S / EVEN
     vc: np.ndarray         # (n-1,) the slower of the two pieces' speed caps
     corner: np.ndarray     # (M, n+1) the budget each vertex keeps in the first plan
     top: np.ndarray        # (M, n+1) the most it may keep in the later plans
     sgn_v: np.ndarray      # (M, n+1) the way each corner changes each cord's speed (+1, -1, 0)
 
     def takes(self, v: np.ndarray) -> np.ndarray:
-        """What each corner takes passed at speeds v (n-1,)."""
-        return self.jump * v * np.maximum(1.0 / TAU_S, v / self.ds)
+        """What each corner takes passed at speeds v (n-1,): the jump over the shorter piece;
+        but from v_even on, where both pieces are passed within TAU_S / EVEN (a curve cut
+        into chords, which the 0.1 s window sees as one even bend), over half of each (as
+        the continuous curvature v^2 x (slope change) / (path between the chords' middles)),
+        and at least what it took at v_even (what a corner takes never drops as v rises, so
+        a corner passed slower than planned takes no more). Chords that short keep the
+        window's worst sum of jumps what the shorter piece alone gives (chords of unequal
+        length: where an arc meets one of another radius)."""
+        v_even = self.v_even
+        below = self.jump * v * np.maximum(1.0 / TAU_S, v / self.ds)
+        above = self.jump * np.maximum(v * v / self.dm, v_even * v_even / self.ds)
+        return np.where(v < v_even, below, above)
 
     def speed(self, budget: np.ndarray) -> np.ndarray:
         """The highest corner speeds within `budget` (M, n-1) or (M, 1), for every motor:
-        jump * v * max(1/TAU, v/ds) <= budget  <=>  both limits."""
+        jump * v * max(1/TAU, v/ds) <= budget  <=>  both limits, or on a curve (see `takes`)
+        jump * v^2 / dm <= budget where that speed is one."""
         jump = self.jump
         # (where there is no jump: inf, or NaN for a zero budget, which fmin leaves out as it
         # would the inf it stands for)
         with np.errstate(divide="ignore", invalid="ignore"):
-            v_tau = _fleast(budget * TAU_S / jump)
-            v_ds = _fleast(np.sqrt(budget * self.ds / jump))
-        return np.fmin(np.fmin(v_tau, v_ds), self.vc)
+            v_short = np.fmin(budget * TAU_S / jump, np.sqrt(budget * self.ds / jump))
+            v_mean = np.sqrt(budget * self.dm / jump)
+        v = _fleast(np.where(v_short >= self.v_even, v_mean, v_short))
+        return np.fmin(v, self.vc)
 
     def again(self, u: np.ndarray, d: np.ndarray, slope: np.ndarray, bent: np.ndarray,
               acc: np.ndarray, ksgn: np.ndarray) -> np.ndarray:
@@ -90,9 +106,12 @@ def corners(k0, k1, kmax, d, vcap, bent, acc, stop) -> Corners:
     change = k0[:, 1:] - k1[:, :-1]
     jump = np.abs(change)                                  # (M, n-1)
     ds = np.minimum(d[1:], d[:-1])
+    dm = 0.5 * (d[1:] + d[:-1])
+    v_even = EVEN * np.maximum(d[1:], d[:-1]) / TAU_S
     vc = np.minimum(vcap[1:], vcap[:-1])
     m = len(acc)
-    c = Corners(jump, ds, vc, np.zeros((m, n + 1)), np.zeros((m, n + 1)), np.zeros((m, n + 1)))
+    c = Corners(jump, ds, dm, v_even, vc, np.zeros((m, n + 1)), np.zeros((m, n + 1)),
+                np.zeros((m, n + 1)))
     c.sgn_v[:, 1:n] = np.sign(change)
     acc = acc[:, None]
     # what the corner takes passed at the highest speed its pieces allow
