@@ -171,8 +171,7 @@ def test_corners_and_ramps_share_the_acceleration_budget(name):
     cord's speed the way of its slope, slowing down the other way; a corner the way of the
     slope change. |s x slope x a + (slope change) x v x max(1/TAU, v/ds)| <= max_accel per
     motor (steps/s^2), s = +1 for the ramp up and -1 for the ramp down of each trapezoid; ds
-    the shorter piece, or on a curve cut into chords (corners.Corners.takes) the mean of the
-    two."""
+    the shorter piece, or on a curve cut into chords (corners.Corners.takes) half of each."""
     from vplotter.motion.planner import ACCEL_MARGIN, TAU_S
 
     counts, ref = _start()
@@ -194,13 +193,13 @@ def test_corners_and_ramps_share_the_acceleration_budget(name):
         unknown = (sign == 0) & (ramp > 0)
         change = k0[1:] - k1[:-1]
         v = b.v1[:-1, None]
-        # the jump counts over the shorter piece; on a curve (from v_even on: both pieces
-        # passed within TAU / 1.5) over half of each, but at least as at v_even
+        # the jump counts over the shorter piece; on a curve (the shorter piece passed within
+        # TAU / 1.5) over half of each, the longer up to what is passed in TAU / 1.5
         ds = np.minimum(b.d[1:], b.d[:-1])[:, None]
-        dm = 0.5 * (b.d[1:] + b.d[:-1])[:, None]
-        v_even = 1.5 * np.maximum(b.d[1:], b.d[:-1])[:, None] / TAU_S
-        corner = np.where(v < v_even, change * v * np.maximum(1 / TAU_S, v / ds),
-                          change * np.maximum(v * v / dm, v_even * v_even / ds))
+        dl = np.maximum(b.d[1:], b.d[:-1])[:, None]
+        curve = v * TAU_S / 1.5 >= ds
+        cell = np.where(curve, 0.5 * (ds + np.minimum(dl, v * TAU_S / 1.5)), ds)
+        corner = change * v * np.maximum(1 / TAU_S, v / cell)
         assert (np.abs(corner) <= acc * (1 + 1e-9)).all()
         for r in (up, down):        # with the corner at a piece's start, and at its end
             for side, c in ((slice(1, None), corner), (slice(None, -1), corner)):

@@ -20,7 +20,7 @@ from vplotter.motion.refine import CORNER_SHARE, SHARP_TRY, TAU_S, least, sharp_
 RETRY_GAIN = 1.2       # later plans: corners keep what they take at this x the best plan's speed
 CORNER_CEIL = 0.9      # a corner and the bending next to it take at most this together (first plan)
 CORNER_TOP = 0.98      # and in later plans, on a curve, where the ramps next to it leave that
-EVEN = 1.5             # a corner counts as on a curve from v = EVEN x (longer piece) / TAU_S
+EVEN = 1.5             # a corner counts as on a curve from v = EVEN x (shorter piece) / TAU_S
 
 
 def _fleast(a: np.ndarray) -> np.ndarray:
@@ -38,8 +38,8 @@ class Corners:
 
     jump: np.ndarray       # (M, n-1) |slope change| of each motor's cord
     ds: np.ndarray         # (n-1,) the shorter of the two pieces
-    dm: np.ndarray         # (n-1,) their mean (on a curve: see `takes`)
-    v_even: np.ndarray     # (n-1,) from this speed on both pieces take at most TAU_S / EVEN
+    dl: np.ndarray         # (n-1,) the longer one (on a curve: see `takes`)
+    v_lo: np.ndarray       # (n-1,) from this speed on the shorter takes at most TAU_S / EVEN
     vc: np.ndarray         # (n-1,) the slower of the two pieces' speed caps
     corner: np.ndarray     # (M, n+1) the budget each vertex keeps in the first plan
     top: np.ndarray        # (M, n+1) the most it may keep in the later plans
@@ -47,30 +47,32 @@ class Corners:
 
     def takes(self, v: np.ndarray) -> np.ndarray:
         """What each corner takes passed at speeds v (n-1,): the jump over the shorter piece;
-        but from v_even on, where both pieces are passed within TAU_S / EVEN (a curve cut
-        into chords, which the 0.1 s window sees as one even bend), over half of each (as
-        the continuous curvature v^2 x (slope change) / (path between the chords' middles)),
-        and at least what it took at v_even (what a corner takes never drops as v rises, so
-        a corner passed slower than planned takes no more). Chords that short keep the
-        window's worst sum of jumps what the shorter piece alone gives (chords of unequal
-        length: where an arc meets one of another radius)."""
-        v_even = self.v_even
-        below = self.jump * v * np.maximum(1.0 / TAU_S, v / self.ds)
-        above = self.jump * np.maximum(v * v / self.dm, v_even * v_even / self.ds)
-        return np.where(v < v_even, below, above)
+        but on a curve cut into chords, where the shorter piece is passed within TAU_S / EVEN
+        (from v_lo on), over half of each piece (as the curve's own v^2 x curvature: the
+        0.1 s window sees the chords' corners as one even bend), the longer one counted up to
+        the path passed in TAU_S / EVEN. That keeps the window's worst sum of jumps what the
+        shorter piece alone gives (1.125 x the budget at worst, an idealised bound), and what
+        a corner takes still rises with v, from where the two rules meet (at v_lo)."""
+        ds, lo = self.ds, v < self.v_lo
+        near = np.minimum(self.dl, v * (TAU_S / EVEN))
+        cell = np.where(lo, ds, 0.5 * (ds + near))
+        return self.jump * v * np.maximum(1.0 / TAU_S, v / cell)
 
     def speed(self, budget: np.ndarray) -> np.ndarray:
         """The highest corner speeds within `budget` (M, n-1) or (M, 1), for every motor:
-        jump * v * max(1/TAU, v/ds) <= budget  <=>  both limits, or on a curve (see `takes`)
-        jump * v^2 / dm <= budget where that speed is one."""
-        jump = self.jump
+        the inverse of `takes` (which rises with v), piece by piece: the shorter piece's rule
+        jump * v * max(1/TAU, v/ds) <= budget, on a curve 2 jump v^2 <= budget (ds + v T)
+        (T = TAU_S / EVEN), and where v T reaches the longer piece 2 jump v^2 <= budget dm."""
+        jump, ds, t = self.jump, self.ds, TAU_S / EVEN
         # (where there is no jump: inf, or NaN for a zero budget, which fmin leaves out as it
         # would the inf it stands for)
         with np.errstate(divide="ignore", invalid="ignore"):
-            v_short = np.fmin(budget * TAU_S / jump, np.sqrt(budget * self.ds / jump))
-            v_mean = np.sqrt(budget * self.dm / jump)
-        v = _fleast(np.where(v_short >= self.v_even, v_mean, v_short))
-        return np.fmin(v, self.vc)
+            v = np.fmin(budget * TAU_S / jump, np.sqrt(budget * ds / jump))
+            bt = budget * t
+            v_curve = (bt + np.sqrt(bt * bt + 8.0 * jump * budget * ds)) / (4.0 * jump)
+            v_mean = np.sqrt(budget * (ds + self.dl) / (2.0 * jump))
+            v = np.where(v >= self.v_lo, np.where(v_curve * t >= self.dl, v_mean, v_curve), v)
+        return np.fmin(_fleast(v), self.vc)
 
     def again(self, u: np.ndarray, d: np.ndarray, slope: np.ndarray, bent: np.ndarray,
               acc: np.ndarray, ksgn: np.ndarray) -> np.ndarray:
@@ -106,11 +108,11 @@ def corners(k0, k1, kmax, d, vcap, bent, acc, stop) -> Corners:
     change = k0[:, 1:] - k1[:, :-1]
     jump = np.abs(change)                                  # (M, n-1)
     ds = np.minimum(d[1:], d[:-1])
-    dm = 0.5 * (d[1:] + d[:-1])
-    v_even = EVEN * np.maximum(d[1:], d[:-1]) / TAU_S
+    dl = np.maximum(d[1:], d[:-1])
+    v_lo = EVEN * ds / TAU_S
     vc = np.minimum(vcap[1:], vcap[:-1])
     m = len(acc)
-    c = Corners(jump, ds, dm, v_even, vc, np.zeros((m, n + 1)), np.zeros((m, n + 1)),
+    c = Corners(jump, ds, dl, v_lo, vc, np.zeros((m, n + 1)), np.zeros((m, n + 1)),
                 np.zeros((m, n + 1)))
     c.sgn_v[:, 1:n] = np.sign(change)
     acc = acc[:, None]
