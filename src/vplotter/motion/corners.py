@@ -39,6 +39,7 @@ class Corners:
     jump: np.ndarray       # (M, n-1) |slope change| of each motor's cord
     ds: np.ndarray         # (n-1,) the shorter of the two pieces
     dl: np.ndarray         # (n-1,) the longer one (on a curve: see `takes`)
+    dm: np.ndarray         # (n-1,) their mean
     v_lo: np.ndarray       # (n-1,) from this speed on the shorter takes at most TAU_S / EVEN
     vc: np.ndarray         # (n-1,) the slower of the two pieces' speed caps
     corner: np.ndarray     # (M, n+1) the budget each vertex keeps in the first plan
@@ -53,26 +54,44 @@ class Corners:
         the path passed in TAU_S / EVEN. That keeps the window's worst sum of jumps what the
         shorter piece alone gives (1.125 x the budget at worst, an idealised bound), and what
         a corner takes still rises with v, from where the two rules meet (at v_lo)."""
-        ds, lo = self.ds, v < self.v_lo
-        near = np.minimum(self.dl, v * (TAU_S / EVEN))
-        cell = np.where(lo, ds, 0.5 * (ds + near))
-        return self.jump * v * np.maximum(1.0 / TAU_S, v / cell)
+        # below v_lo, v T < ds and the clip gives ds
+        x = v * (TAU_S / EVEN)
+        np.clip(x, self.ds, self.dl, out=x)
+        x += self.ds
+        np.divide(v, x, out=x)                  # v / cell, cell = x / 2
+        x *= 2.0
+        np.maximum(x, 1.0 / TAU_S, out=x)
+        x *= v
+        return self.jump * x
 
     def speed(self, budget: np.ndarray) -> np.ndarray:
-        """The highest corner speeds within `budget` (M, n-1) or (M, 1), for every motor:
-        the inverse of `takes` (which rises with v), piece by piece: the shorter piece's rule
-        jump * v * max(1/TAU, v/ds) <= budget, on a curve 2 jump v^2 <= budget (ds + v T)
-        (T = TAU_S / EVEN), and where v T reaches the longer piece 2 jump v^2 <= budget dm."""
-        jump, ds, t = self.jump, self.ds, TAU_S / EVEN
-        # (where there is no jump: inf, or NaN for a zero budget, which fmin leaves out as it
-        # would the inf it stands for)
+        """The highest corner speeds within `budget` (M, n-1) or (M, 1), for every motor: the
+        inverse of `takes`. That is the lesser of the shorter piece's rule and the curve's
+        (each rising with v: the first is the lesser below v_lo, the second above), so its
+        inverse is the larger of theirs: jump * v * max(1/TAU, v/ds) <= budget, and
+        jump * v * max(1/TAU, 2 v / (ds + min(dl, v T))) <= budget (T = TAU_S / EVEN: a
+        quadratic where v T < dl, 2 jump v^2 <= budget (ds + dl) beyond)."""
+        t = TAU_S / EVEN
+        # Each rule's speed rises with budget / jump, so the least over the motors is that of
+        # the least budget / jump (where there is no jump: inf, or NaN for a zero budget, which
+        # fmin leaves out as it would the inf it stands for; all NaN: no limit but vc).
         with np.errstate(divide="ignore", invalid="ignore"):
-            v = np.fmin(budget * TAU_S / jump, np.sqrt(budget * ds / jump))
-            bt = budget * t
-            v_curve = (bt + np.sqrt(bt * bt + 8.0 * jump * budget * ds)) / (4.0 * jump)
-            v_mean = np.sqrt(budget * (ds + self.dl) / (2.0 * jump))
-            v = np.where(v >= self.v_lo, np.where(v_curve * t >= self.dl, v_mean, v_curve), v)
-        return np.fmin(_fleast(v), self.vc)
+            q = _fleast(budget / self.jump)
+            qds = q * self.ds
+            v = q * t
+            r = v * v
+            r += 8.0 * qds
+            np.sqrt(r, out=r)
+            v += r
+            v *= 0.25                           # the quadratic's root
+            np.multiply(q, self.dm, out=r)
+            np.sqrt(r, out=r)
+            np.fmin(v, r, out=v)                # the curve's
+            np.sqrt(qds, out=qds)
+            np.fmax(v, qds, out=v)              # the larger of both rules'
+            q *= TAU_S
+            np.fmin(v, q, out=v)
+        return np.fmin(v, self.vc)
 
     def again(self, u: np.ndarray, d: np.ndarray, slope: np.ndarray, bent: np.ndarray,
               acc: np.ndarray, ksgn: np.ndarray) -> np.ndarray:
@@ -109,10 +128,11 @@ def corners(k0, k1, kmax, d, vcap, bent, acc, stop) -> Corners:
     jump = np.abs(change)                                  # (M, n-1)
     ds = np.minimum(d[1:], d[:-1])
     dl = np.maximum(d[1:], d[:-1])
+    dm = 0.5 * (ds + dl)
     v_lo = EVEN * ds / TAU_S
     vc = np.minimum(vcap[1:], vcap[:-1])
     m = len(acc)
-    c = Corners(jump, ds, dl, v_lo, vc, np.zeros((m, n + 1)), np.zeros((m, n + 1)),
+    c = Corners(jump, ds, dl, dm, v_lo, vc, np.zeros((m, n + 1)), np.zeros((m, n + 1)),
                 np.zeros((m, n + 1)))
     c.sgn_v[:, 1:n] = np.sign(change)
     acc = acc[:, None]
