@@ -163,18 +163,21 @@ def test_cutting_many_moves_at_once_equals_one_by_one(raw, tol):
         assert np.abs(pts - np.concatenate([p for p in one if len(p)])).max() < 1e-9
 
 
-def test_corners_and_ramps_share_the_acceleration_budget():
+@pytest.mark.parametrize("name", ["gcode_samples/strokes.ngc", "tests/data/micro_arcs.ngc",
+                                  "tests/data/gcodetools_far.ngc"])
+def test_corners_and_ramps_share_the_acceleration_budget(name):
     """On every piece, what each ramp adds to a cord's acceleration plus what the corner at
     either end adds stays within the budget, each with its sign: a ramp speeding up changes a
     cord's speed the way of its slope, slowing down the other way; a corner the way of the
     slope change. |s x slope x a + (slope change) x v x max(1/TAU, v/ds)| <= max_accel per
-    motor (steps/s^2), s = +1 for the ramp up and -1 for the ramp down of each trapezoid."""
+    motor (steps/s^2), s = +1 for the ramp up and -1 for the ramp down of each trapezoid; ds
+    the shorter piece, or on a curve cut into chords (corners.Corners.takes) half of each."""
     from vplotter.motion.planner import ACCEL_MARGIN, TAU_S
 
     counts, ref = _start()
     acc = CFG.motors.max_accel * ACCEL_MARGIN / SPM
-    ops = pipeline.plan(CFG, gcode.read(str(STROKES), warn=lambda m: None), counts, ref,
-                        "strokes", pipeline.Summary())
+    ops = pipeline.plan(CFG, gcode.read(str(REPO / name), warn=lambda m: None), counts, ref,
+                        name, pipeline.Summary())
     for b in (op.block for op in ops if isinstance(op, Motion)):
         e = b.e
         k0, k1 = KIN.slope(b.verts[:-1], e), KIN.slope(b.verts[1:], e)
@@ -190,8 +193,13 @@ def test_corners_and_ramps_share_the_acceleration_budget():
         unknown = (sign == 0) & (ramp > 0)
         change = k0[1:] - k1[:-1]
         v = b.v1[:-1, None]
+        # the jump counts over the shorter piece; on a curve (the shorter piece passed within
+        # TAU / 1.5) over half of each, the longer up to what is passed in TAU / 1.5
         ds = np.minimum(b.d[1:], b.d[:-1])[:, None]
-        corner = change * v * np.maximum(1 / TAU_S, v / ds)
+        dl = np.maximum(b.d[1:], b.d[:-1])[:, None]
+        curve = v * TAU_S / 1.5 >= ds
+        cell = np.where(curve, 0.5 * (ds + np.minimum(dl, v * TAU_S / 1.5)), ds)
+        corner = change * v * np.maximum(1 / TAU_S, v / cell)
         assert (np.abs(corner) <= acc * (1 + 1e-9)).all()
         for r in (up, down):        # with the corner at a piece's start, and at its end
             for side, c in ((slice(1, None), corner), (slice(None, -1), corner)):

@@ -3,10 +3,11 @@ motors' acceleration budget, and the vertex speed that allows.
 
 At a vertex the cord speeds change at once by v x |slope change| (`jump`); inside one window
 TAU_S that counts as an acceleration of jump x v x max(1 / TAU_S, v / ds), ds the shorter of
-the two pieces (`Corners.takes`). `corners` gives each corner its share of the budget for the
-first plan (CORNER_SHARE on a curve, the quickest of SHARP_TRY at a lone sharp corner, never
-more than CORNER_CEIL with the bending next to it) and the most it may keep in the later ones
-(`Corners.again`)."""
+the two pieces, or on a curve cut into short chords (both passed within TAU_S / EVEN) the mean
+of the two: the curve's own v^2 x curvature, so the pen can go round evenly (`Corners.takes`).
+`corners` gives each corner its share of the budget for the first plan (CORNER_SHARE on a
+curve, the quickest of SHARP_TRY at a lone sharp corner, never more than CORNER_CEIL with the
+bending next to it) and the most it may keep in the later ones (`Corners.again`)."""
 
 from __future__ import annotations
 
@@ -19,6 +20,7 @@ from vplotter.motion.refine import CORNER_SHARE, SHARP_TRY, TAU_S, least, sharp_
 RETRY_GAIN = 1.2       # later plans: corners keep what they take at this x the best plan's speed
 CORNER_CEIL = 0.9      # a corner and the bending next to it take at most this together (first plan)
 CORNER_TOP = 0.98      # and in later plans, on a curve, where the ramps next to it leave that
+EVEN = 1.5             # a corner counts as on a curve from v = EVEN x (shorter piece) / TAU_S
 
 
 def _fleast(a: np.ndarray) -> np.ndarray:
@@ -36,25 +38,60 @@ class Corners:
 
     jump: np.ndarray       # (M, n-1) |slope change| of each motor's cord
     ds: np.ndarray         # (n-1,) the shorter of the two pieces
+    dl: np.ndarray         # (n-1,) the longer one (on a curve: see `takes`)
+    dm: np.ndarray         # (n-1,) their mean
+    v_lo: np.ndarray       # (n-1,) from this speed on the shorter takes at most TAU_S / EVEN
     vc: np.ndarray         # (n-1,) the slower of the two pieces' speed caps
     corner: np.ndarray     # (M, n+1) the budget each vertex keeps in the first plan
     top: np.ndarray        # (M, n+1) the most it may keep in the later plans
     sgn_v: np.ndarray      # (M, n+1) the way each corner changes each cord's speed (+1, -1, 0)
 
     def takes(self, v: np.ndarray) -> np.ndarray:
-        """What each corner takes passed at speeds v (n-1,)."""
-        return self.jump * v * np.maximum(1.0 / TAU_S, v / self.ds)
+        """What each corner takes passed at speeds v (n-1,): the jump over the shorter piece;
+        but on a curve cut into chords, where the shorter piece is passed within TAU_S / EVEN
+        (from v_lo on), over half of each piece (as the curve's own v^2 x curvature: the
+        0.1 s window sees the chords' corners as one even bend), the longer one counted up to
+        the path passed in TAU_S / EVEN. That keeps the window's worst sum of jumps what the
+        shorter piece alone gives (1.125 x the budget at worst, an idealised bound), and what
+        a corner takes still rises with v, from where the two rules meet (at v_lo)."""
+        # below v_lo, v T < ds and the clip gives ds
+        x = v * (TAU_S / EVEN)
+        np.clip(x, self.ds, self.dl, out=x)
+        x += self.ds
+        np.divide(v, x, out=x)                  # v / cell, cell = x / 2
+        x *= 2.0
+        np.maximum(x, 1.0 / TAU_S, out=x)
+        x *= v
+        return self.jump * x
 
     def speed(self, budget: np.ndarray) -> np.ndarray:
-        """The highest corner speeds within `budget` (M, n-1) or (M, 1), for every motor:
-        jump * v * max(1/TAU, v/ds) <= budget  <=>  both limits."""
-        jump = self.jump
-        # (where there is no jump: inf, or NaN for a zero budget, which fmin leaves out as it
-        # would the inf it stands for)
+        """The highest corner speeds within `budget` (M, n-1) or (M, 1), for every motor: the
+        inverse of `takes`. That is the lesser of the shorter piece's rule and the curve's
+        (each rising with v: the first is the lesser below v_lo, the second above), so its
+        inverse is the larger of theirs: jump * v * max(1/TAU, v/ds) <= budget, and
+        jump * v * max(1/TAU, 2 v / (ds + min(dl, v T))) <= budget (T = TAU_S / EVEN: a
+        quadratic where v T < dl, 2 jump v^2 <= budget (ds + dl) beyond)."""
+        t = TAU_S / EVEN
+        # Each rule's speed rises with budget / jump, so the least over the motors is that of
+        # the least budget / jump (where there is no jump: inf, or NaN for a zero budget, which
+        # fmin leaves out as it would the inf it stands for; all NaN: no limit but vc).
         with np.errstate(divide="ignore", invalid="ignore"):
-            v_tau = _fleast(budget * TAU_S / jump)
-            v_ds = _fleast(np.sqrt(budget * self.ds / jump))
-        return np.fmin(np.fmin(v_tau, v_ds), self.vc)
+            q = _fleast(budget / self.jump)
+            qds = q * self.ds
+            v = q * t
+            r = v * v
+            r += 8.0 * qds
+            np.sqrt(r, out=r)
+            v += r
+            v *= 0.25                           # the quadratic's root
+            np.multiply(q, self.dm, out=r)
+            np.sqrt(r, out=r)
+            np.fmin(v, r, out=v)                # the curve's
+            np.sqrt(qds, out=qds)
+            np.fmax(v, qds, out=v)              # the larger of both rules'
+            q *= TAU_S
+            np.fmin(v, q, out=v)
+        return np.fmin(v, self.vc)
 
     def again(self, u: np.ndarray, d: np.ndarray, slope: np.ndarray, bent: np.ndarray,
               acc: np.ndarray, ksgn: np.ndarray) -> np.ndarray:
@@ -90,9 +127,13 @@ def corners(k0, k1, kmax, d, vcap, bent, acc, stop) -> Corners:
     change = k0[:, 1:] - k1[:, :-1]
     jump = np.abs(change)                                  # (M, n-1)
     ds = np.minimum(d[1:], d[:-1])
+    dl = np.maximum(d[1:], d[:-1])
+    dm = 0.5 * (ds + dl)
+    v_lo = EVEN * ds / TAU_S
     vc = np.minimum(vcap[1:], vcap[:-1])
     m = len(acc)
-    c = Corners(jump, ds, vc, np.zeros((m, n + 1)), np.zeros((m, n + 1)), np.zeros((m, n + 1)))
+    c = Corners(jump, ds, dl, dm, v_lo, vc, np.zeros((m, n + 1)), np.zeros((m, n + 1)),
+                np.zeros((m, n + 1)))
     c.sgn_v[:, 1:n] = np.sign(change)
     acc = acc[:, None]
     # what the corner takes passed at the highest speed its pieces allow

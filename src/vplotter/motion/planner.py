@@ -18,7 +18,9 @@ acceleration (a trapezoid in path distance), such that for each motor
 
 Junction rule (our "deviation" rule, in cord space): at a vertex the cord speeds change at
 once by v x |slope change|. A change that lands inside one measurement window TAU counts as an
-acceleration of jump / min(TAU, dt) where dt is the time to the next corner. A corner takes
+acceleration of jump / min(TAU, dt) where dt is the time to the next corner (over the shorter
+piece; on a curve of chords each passed within TAU / 1.5, over half of each: `corners`,
+EVEN). A corner takes
 what that is at the highest speed its pieces allow, but at most CORNER_SHARE of the budget on
 a curve (the next corner comes within TAU: the pen goes round at that speed, hardly speeding
 up or slowing down) and at a lone sharp corner the share of SHARP_TRY that passes it and the
