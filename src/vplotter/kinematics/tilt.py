@@ -147,11 +147,12 @@ class Gondola:
         f = tl.sub(tl.mul(k[0], out[1][0]), tl.mul(k[1], out[0][0]))
         return out, f
 
-    def jets(self, xy, e, state=None):
+    def jets(self, xy, e, state=None, phi=None):
         """The cords r_m along p(s) = xy + s e at s = 0 as triples (value, d/ds, d2/ds2):
-        ((rLx, rLy), (rRx, rRy)), with phi's own triple; `state`: solve(xy) when known."""
+        ((rLx, rLy), (rRx, rRy)), with phi's own triple; `state`: solve(xy) when known,
+        `phi`: a first guess for it."""
         x, y = xy[:, 0], xy[:, 1]
-        phi, c, s, df, fx, fy, _ = self.solve(x, y) if state is None else state
+        phi, c, s, df, fx, fy, _ = self.solve(x, y, phi) if state is None else state
         ex, ey = e[:, 0], e[:, 1]
         zero = np.zeros(len(x))
         p1 = -(fx * ex + fy * ey) / df

@@ -91,8 +91,11 @@ class TwoCord:
             return self._geometric(xy)
         m = np.asarray(xy, dtype=float)
         if self.gondola is not None:
-            r, _ = self.gondola.cords(m[..., 0], m[..., 1])
-            return cords_value(r, self.stretch)
+            flat = m.reshape(-1, 2)
+            state = self.gondola.solve(flat[:, 0], flat[:, 1])
+            if m.ndim == 2 and len(m) > 2:        # a window's vertices: see tilt_steps
+                tilt_steps.remember(self, m, state)
+            return cords_value(state[6], self.stretch).reshape(m.shape)
         flat = m.reshape(-1, 2)
         q, _, _ = self._jets(flat, np.zeros_like(flat))
         return q.reshape(m.shape)
@@ -143,6 +146,8 @@ class TwoCord:
         xy = np.asarray(xy, dtype=float)
         e = np.asarray(e, dtype=float)
         if self.gondola is not None:
+            if state is None:
+                state = tilt_steps.known_state(self, xy)
             r, _ = self.gondola.jets(xy, e, state)
             ql, qr = cord_jets(r, self.stretch)
             return tuple(np.stack((a, b), axis=-1) for a, b in zip(ql, qr))
