@@ -141,21 +141,21 @@ def _window(kin, p0, e):
         m = len(w.verts)
         if n > m - 1:
             continue
-        i = w.cursor
-        if not (i + n <= m - 1 and np.array_equal(w.verts[i:i + n], p0)):
-            hits = np.flatnonzero((w.verts[:m - n, 0] == p0[0, 0])
-                                  & (w.verts[:m - n, 1] == p0[0, 1]))
-            hits = [h for h in hits.tolist() if np.array_equal(w.verts[h:h + n], p0)]
-            if not hits:
-                continue
-            i = hits[0]
         if w.e is None:
             diff = np.diff(w.verts, axis=0)
             w.d = np.hypot(diff[:, 0], diff[:, 1])
             with np.errstate(divide="ignore", invalid="ignore"):
                 w.e = np.column_stack((diff[:, 0] / w.d, diff[:, 1] / w.d))
-        if not np.array_equal(w.e[i:i + n], e):
-            continue
+        i = w.cursor
+        if not (i + n <= m - 1 and np.array_equal(w.verts[i:i + n], p0)
+                and np.array_equal(w.e[i:i + n], e)):
+            hits = np.flatnonzero((w.verts[:m - n, 0] == p0[0, 0])
+                                  & (w.verts[:m - n, 1] == p0[0, 1]))
+            hits = [h for h in hits.tolist() if np.array_equal(w.verts[h:h + n], p0)
+                    and np.array_equal(w.e[h:h + n], e)]
+            if not hits:
+                continue
+            i = hits[0]
         if w.lay is None:
             ok = w.d > 0
             w.lay = _lay(kin, w.verts[:-1], np.where(ok[:, None], w.e, 0.0),
@@ -179,7 +179,6 @@ def crossing(kin, p0, e, motor, piece, q, rising, exact) -> np.ndarray:
     n = len(p0)
     qv = lay.q[motor]
     k = lay.k[i:i + n]
-    sg = np.where(rising, 1.0, -1.0)
     if k.max() > 1:
         fst = lay.first[i:i + n + 1]
         q0 = qv[fst[:-1]]
@@ -188,14 +187,14 @@ def crossing(kin, p0, e, motor, piece, q, rising, exact) -> np.ndarray:
         own = lay.owner[pts] - i
         up = np.sign(qv[fst[1:] - 1] - q0)
         key_in = own * span + up[own] * (qv[pts] - q0[own])
-        key = piece * span + sg * (q - q0[piece])
+        key = piece * span + np.where(rising, 1.0, -1.0) * (q - q0[piece])
         # the inner ends before the step's, less those of the pieces before (k - 1 each)
         idx = np.searchsorted(key_in, key) + piece + lay.sub0[i]
     else:
         idx = piece + lay.sub0[i]
-    sx, d0, a, b, inv_a, kappa, c2 = lay.model[motor][:, idx]
+    sx, d0, a, b_a, sg_a, kappa, c2 = lay.model[motor][:, idx]
     g = q + kappa
-    u = (sg * np.sqrt(np.maximum(d0 + a * g * g, 0.0)) - b) * inv_a
+    u = sg_a * np.sqrt(np.maximum(d0 + a * g * g, 0.0)) - b_a
     s = sx + u + c2 * u * u
     slow = _slow(lay, motor, i, n, piece, q, rising, idx)
     if slow is not None:
@@ -206,10 +205,9 @@ def crossing(kin, p0, e, motor, piece, q, rising, exact) -> np.ndarray:
 def _slow(lay, motor, i, n, piece, q, rising, idx):
     """The steps the model cannot take (None: none): on a sub-piece it fails on, or on a piece
     whose cord turns against its steps or ends short of its last step."""
-    lo = np.searchsorted(piece, np.arange(n))
-    hi = np.searchsorted(piece, np.arange(n), side="right")
-    has = hi > lo
-    last = np.maximum(hi - 1, 0)
+    count = np.bincount(piece, minlength=n)
+    has = count > 0
+    last = np.maximum(np.cumsum(count) - 1, 0)
     dirn = np.where(rising[last], 1.0, -1.0)
     end = lay.q[motor][lay.first[i + 1:i + n + 1] - 1]
     turn = (dirn * (end - q[last]) < 0) | np.where(dirn > 0, lay.down[motor][i:i + n],
@@ -300,4 +298,5 @@ def _models(t, qj, rx, ry, start):
     with np.errstate(divide="ignore", invalid="ignore"):
         c2 = np.where(np.abs(u) > 1e-12, (want - u) / (u * u), 0.0)
     bad |= ~np.isfinite(c2) | (np.abs(c2 * u) > 0.5)
-    return (sx, d0, a, b, inv_a, kappa, c2), bad
+    # the steps on a sub-piece go the way its cord goes (else the piece turns: see _slow)
+    return (sx, d0, a, b * inv_a, sg * inv_a, kappa, c2), bad
