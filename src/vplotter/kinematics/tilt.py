@@ -130,6 +130,20 @@ class Gondola:
         return r, phi
 
     # ------------------------------------------------------------------ along a line
+    def slopes(self, xy, e, state=None) -> np.ndarray:
+        """(N, 2) d|r_m|/ds along p(s) = xy + s e (the cords' slopes without stretch)."""
+        x, y = xy[:, 0], xy[:, 1]
+        _, c, s, df, fx, fy, r = self.solve(x, y) if state is None else state
+        ex, ey = e[:, 0], e[:, 1]
+        p1 = -(fx * ex + fy * ey) / df
+        out = []
+        for (vx, vy), rx, ry in zip(self.v, r[::2], r[1::2]):
+            # r' = -e - phi' d(R v)/dphi, d(R v)/dphi = (-(R v)_y, (R v)_x)
+            dx = -ex + p1 * (s * vx + c * vy)
+            dy = -ey - p1 * (c * vx - s * vy)
+            out.append((rx * dx + ry * dy) / np.sqrt(rx * rx + ry * ry))
+        return np.stack(out, axis=-1)
+
     def _r_jets(self, X, Y, C, S):
         """The cords r_m and the balance F as triples, for triples of x, y, cos and sin."""
         out = []

@@ -63,6 +63,7 @@ class Window:
     d: np.ndarray | None = None
     lay: Layout | None = None
     cursor: int = 0
+    at: int = 0
 
 
 _WINDOWS: list = []     # (machine, Window): the planner and the schedule have each a machine
@@ -146,7 +147,9 @@ def _window(kin, p0, e):
             w.d = np.hypot(diff[:, 0], diff[:, 1])
             with np.errstate(divide="ignore", invalid="ignore"):
                 w.e = np.column_stack((diff[:, 0] / w.d, diff[:, 1] / w.d))
-        i = w.cursor
+        # the block asked last (the other motor's call), or the next one
+        i = w.at if len(w.verts) > w.at + n and np.array_equal(w.verts[w.at:w.at + n], p0) \
+            else w.cursor
         if not (i + n <= m - 1 and np.array_equal(w.verts[i:i + n], p0)
                 and np.array_equal(w.e[i:i + n], e)):
             hits = np.flatnonzero((w.verts[:m - n, 0] == p0[0, 0])
@@ -160,7 +163,7 @@ def _window(kin, p0, e):
             ok = w.d > 0
             w.lay = _lay(kin, w.verts[:-1], np.where(ok[:, None], w.e, 0.0),
                          np.where(ok, w.d, 0.0), w.state[0])
-        w.cursor = i + n
+        w.at, w.cursor = i, i + n
         return w.lay, i
     return None
 
@@ -192,7 +195,7 @@ def crossing(kin, p0, e, motor, piece, q, rising, exact) -> np.ndarray:
         idx = np.searchsorted(key_in, key) + piece + lay.sub0[i]
     else:
         idx = piece + lay.sub0[i]
-    sx, d0, a, b_a, sg_a, kappa, c2 = lay.model[motor][:, idx]
+    sx, d0, a, b_a, sg_a, kappa, c2 = np.take(lay.model[motor], idx, axis=1)   # C order
     g = q + kappa
     u = sg_a * np.sqrt(np.maximum(d0 + a * g * g, 0.0)) - b_a
     s = sx + u + c2 * u * u

@@ -192,6 +192,10 @@ class TwoCord:
         return np.stack(ks, axis=-1), np.stack(gs, axis=-1)
 
     def slope(self, xy: np.ndarray, e: np.ndarray) -> np.ndarray:
+        if self.gondola is not None and self.stretch == 0.0:
+            xy = np.asarray(xy, dtype=float)
+            return self.gondola.slopes(xy, np.asarray(e, dtype=float),
+                                       tilt_steps.known_state(self, xy))
         if not self.plain:
             return self._jets(xy, e)[1]
         return self._along(xy, e)[0]
