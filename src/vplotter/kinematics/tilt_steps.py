@@ -162,7 +162,7 @@ def _window(kin, p0, e):
         if w.lay is None:
             ok = w.d > 0
             w.lay = _lay(kin, w.verts[:-1], np.where(ok[:, None], w.e, 0.0),
-                         np.where(ok, w.d, 0.0), w.state[0])
+                         np.where(ok, w.d, 0.0), w.state)
         w.at, w.cursor = i, i + n
         return w.lay, i
     return None
@@ -237,9 +237,10 @@ def _block_layout(kin, p0, e, motor, piece, q, rising):
     return lay
 
 
-def _lay(kin, p0, e, d, phi_ends=None) -> Layout:
+def _lay(kin, p0, e, d, ends=None) -> Layout:
     """The sub-pieces of pieces p0 + t e, 0 <= t <= d, and the cords' triples at their ends;
-    phi_ends: the balance at the pieces' starts and the last one's end (a first guess)."""
+    ends: the balance at the pieces' starts and the last one's end (Gondola.solve), when
+    known (then only the points inside the pieces are solved)."""
     n = len(p0)
     k = np.maximum(1, np.ceil(d / SUB_MM - 1e-9)).astype(np.int64)
     first = np.concatenate(([0], np.cumsum(k + 1)))
@@ -247,11 +248,15 @@ def _lay(kin, p0, e, d, phi_ends=None) -> Layout:
     j = np.arange(first[-1]) - first[owner]
     frac = j / k[owner]
     t = d[owner] * frac
-    guess = None
-    if phi_ends is not None:
-        guess = phi_ends[owner] + (phi_ends[owner + 1] - phi_ends[owner]) * frac
     pts = p0[owner] + t[:, None] * e[owner]
-    r, _ = kin.gondola.jets(pts, e[owner], phi=guess)
+    inner = (j > 0) & (j < k[owner])
+    state = None
+    if ends is not None:
+        vert = owner + (j > 0)                      # the vertex at each end point
+        phi = ends[0]
+        guess = phi[owner] + (phi[owner + 1] - phi[owner]) * frac
+        state = _merged(kin.gondola, pts, inner, guess, ends, vert)
+    r, _ = kin.gondola.jets(pts, e[owner], state)
     qj = cord_jets(r, kin.stretch)
     start = np.flatnonzero(j < k[owner])
     models, bads, ups, downs = [], [], [], []
@@ -263,9 +268,27 @@ def _lay(kin, p0, e, d, phi_ends=None) -> Layout:
         dq = qj[m][0][start + 1] - qj[m][0][start]
         ups.append(np.bincount(owner[start], dq > 0, minlength=n) > 0)
         downs.append(np.bincount(owner[start], dq < 0, minlength=n) > 0)
-    inner = (j > 0) & (j < k[owner])
     return Layout(k, first, first[:-1] - np.arange(n), (qj[0][0], qj[1][0]), tuple(models),
                   tuple(bads), tuple(ups), tuple(downs), inner, owner)
+
+
+def _merged(gondola, pts, inner, guess, ends, vert) -> tuple:
+    """The balance at the points: solved inside the pieces, the vertices' known."""
+    at = np.flatnonzero(inner)
+    solved = gondola.solve(pts[at, 0], pts[at, 1], guess[at])
+    out = []
+    for known, new in zip(ends, solved):
+        if isinstance(known, tuple):
+            out.append(tuple(_put(a, b, vert, at) for a, b in zip(known, new)))
+        else:
+            out.append(_put(known, new, vert, at))
+    return tuple(out)
+
+
+def _put(known, new, vert, at):
+    v = known[vert]
+    v[at] = new
+    return v
 
 
 def _models(t, qj, rx, ry, start):
