@@ -34,6 +34,7 @@ from vplotter.kinematics import taylor as tl
 PHI_LIMIT = 1.2           # rad: the bracket (no gondola that balances turns this far)
 PHI_NEWTON = 1e-7         # rad: Newton stops after a step below this: phi within 1e-13
 PHI_STEPS = 60
+PHI_FAST = 8              # plain Newton steps before the bracketed ones
 
 
 class Gondola:
@@ -76,6 +77,28 @@ class Gondola:
         x = np.asarray(x, dtype=float)
         y = np.asarray(y, dtype=float)
         phi = np.zeros(x.shape) if phi is None else np.array(phi, dtype=float)
+        # plain Newton steps first (the balance is smooth and phi small: three steps from
+        # zero); the rows that did not settle on the stable balance go the bracketed way
+        step = np.zeros(x.shape)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            for _ in range(PHI_FAST):
+                f, df, _, _ = self._terms(x, y, np.cos(phi), np.sin(phi))
+                step = f / df
+                phi = phi - step
+                if not np.abs(step).max(initial=0.0) > PHI_NEWTON:
+                    break
+        c, s = np.cos(phi), np.sin(phi)
+        f, df, r, g = self._terms(x, y, c, s)
+        ok = (np.abs(step) <= PHI_NEWTON) & (self.sign * df > 0) & (np.abs(phi) < PHI_LIMIT)
+        if not ok.all():
+            i = np.flatnonzero(~ok)
+            phi[i] = self._bracketed(x[i], y[i], np.zeros(len(i)))
+            c, s = np.cos(phi), np.sin(phi)
+            f, df, r, g = self._terms(x, y, c, s)
+        return self._state(phi, c, s, df, r, g)
+
+    def _bracketed(self, x, y, phi):
+        """phi by Newton steps kept inside a bracket (bisection where a step would leave it)."""
         lo = np.full(x.shape, -PHI_LIMIT)
         hi = np.full(x.shape, PHI_LIMIT)
         sg = self.sign
@@ -94,8 +117,10 @@ class Gondola:
             # Newton doubles the digits: after a step this small phi is within about 1e-13
             if not step.max(initial=0.0) > PHI_NEWTON:
                 break
-        c, s = np.cos(phi), np.sin(phi)
-        f, df, r, g = self._terms(x, y, c, s)
+        return phi
+
+    def _state(self, phi, c, s, df, r, g):
+        """solve()'s answer from the balance's terms at phi."""
         gl_x, gl_y, gr_x, gr_y = g
         rlx, _, rrx, _ = r
         kl = gl_x * r[1] - gl_y * rlx
