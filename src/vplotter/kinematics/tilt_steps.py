@@ -89,17 +89,40 @@ def remember(kin, xy: np.ndarray, state: tuple) -> None:
     del _WINDOWS[:-4 * WINDOWS]
 
 
-def known_state(kin, xy: np.ndarray):
-    """The balance at xy when it is a window's vertices less the last or the first (the
-    starts and the ends of its pieces), else None."""
-    for w in reversed(_windows(kin)):
-        n = len(w.verts)
-        if len(xy) != n - 1:
-            continue
-        for a in (0, 1):
-            if np.array_equal(w.verts[a:a + n - 1], xy):
-                return tuple(_cut(v, a, a + n - 1) for v in w.state)
-    return None
+def balance(kin, xy: np.ndarray) -> tuple:
+    """Gondola.solve at the points xy (N, 2), reusing what the machine solved last: the same
+    points, a window's vertices less the last or the first (the starts and the ends of its
+    pieces), or the points of the last solve moved on by one (one new point solved)."""
+    n = len(xy)
+    seen = getattr(kin, "_tilt_solves", [])
+    for m, st in reversed([*seen, *((w.verts, w.state) for w in _windows(kin))]):
+        if len(m) == n + 1:
+            for a in (0, 1):
+                if np.array_equal(m[a:a + n], xy):
+                    return tuple(_cut(v, a, a + n) for v in st)
+        elif len(m) == n and n > 1 and np.array_equal(m, xy):
+            return st
+        elif len(m) == n and n > 1 and np.array_equal(m[1:], xy[:-1]):
+            new = kin.gondola.solve(xy[-1:, 0], xy[-1:, 1])
+            st = tuple(_joined(_cut(v, 1, n), w) for v, w in zip(st, new))
+            break
+        elif len(m) == n - 1 and n > 2 and np.array_equal(m, xy[1:]):
+            new = kin.gondola.solve(xy[:1, 0], xy[:1, 1])
+            st = tuple(_joined(w, v) for v, w in zip(st, new))
+            break
+        elif len(m) == n - 1 and n > 2 and np.array_equal(m, xy[:-1]):
+            new = kin.gondola.solve(xy[-1:, 0], xy[-1:, 1])
+            st = tuple(_joined(v, w) for v, w in zip(st, new))
+            break
+    else:
+        st = kin.gondola.solve(xy[:, 0], xy[:, 1])
+    if n > 2:
+        kin._tilt_solves = [*seen[-2:], (xy.copy(), st)]
+    return st
+
+
+def _joined(a, b):
+    return tuple(map(np.concatenate, zip(a, b))) if isinstance(a, tuple) else np.r_[a, b]
 
 
 def _cut(v, a, b):

@@ -92,7 +92,8 @@ class TwoCord:
         m = np.asarray(xy, dtype=float)
         if self.gondola is not None:
             flat = m.reshape(-1, 2)
-            state = self.gondola.solve(flat[:, 0], flat[:, 1])
+            state = (tilt_steps.balance(self, flat) if len(flat) > 2
+                     else self.gondola.solve(flat[:, 0], flat[:, 1]))
             if m.ndim == 2 and len(m) > 2:        # a window's vertices: see tilt_steps
                 tilt_steps.remember(self, m, state)
             return cords_value(state[6], self.stretch).reshape(m.shape)
@@ -147,7 +148,7 @@ class TwoCord:
         e = np.asarray(e, dtype=float)
         if self.gondola is not None:
             if state is None:
-                state = tilt_steps.known_state(self, xy)
+                state = tilt_steps.balance(self, xy)
             r, _ = self.gondola.jets(xy, e, state)
             ql, qr = cord_jets(r, self.stretch)
             return tuple(np.stack((a, b), axis=-1) for a, b in zip(ql, qr))
@@ -195,7 +196,7 @@ class TwoCord:
         if self.gondola is not None and self.stretch == 0.0:
             xy = np.asarray(xy, dtype=float)
             return self.gondola.slopes(xy, np.asarray(e, dtype=float),
-                                       tilt_steps.known_state(self, xy))
+                                       tilt_steps.balance(self, xy))
         if not self.plain:
             return self._jets(xy, e)[1]
         return self._along(xy, e)[0]
@@ -243,7 +244,12 @@ class TwoCord:
                 _, k, b = self._jets(p0[rows] + e[rows] * s[:, None], e[rows])
                 return sign * k[:, m], sign * b[:, m]
 
-            out[rows, m] = _bracketed(f, np.zeros(len(rows)), d[rows].astype(float), TOL_MM)
+            # first guess: where the level gondola's cord turns (the foot of the perpendicular
+            # from its shifted anchor), inside the piece
+            a = self.anchors[m]
+            s0 = -((p0[rows, 0] - a[0]) * e[rows, 0] + (p0[rows, 1] - a[1]) * e[rows, 1])
+            s0 = np.clip(s0, 0.0, d[rows]) if self.gondola is not None else None
+            out[rows, m] = _bracketed(f, np.zeros(len(rows)), d[rows].astype(float), TOL_MM, s0)
         return out
 
     def crossing(self, p0: np.ndarray, e: np.ndarray, motor: int, piece: np.ndarray,
