@@ -50,6 +50,9 @@ class Layout:
     down: tuple
     inner: np.ndarray     # the points inside a piece (neither end)
     owner: np.ndarray     # each point's piece
+    end: tuple = ()       # per motor the cord at each piece's end
+    badp: tuple = ()      # per motor: a sub-piece of the piece fails
+    longs: np.ndarray | None = None   # pieces with k > 1 before each piece (n + 1)
 
 
 @dataclass
@@ -75,7 +78,9 @@ def _machine(kin) -> tuple:
 
 
 def _windows(kin) -> list:
-    key = _machine(kin)
+    key = kin.__dict__.get("_tilt_key")
+    if key is None:
+        key = kin._tilt_key = _machine(kin)
     return [w for m, w in _WINDOWS if m == key]
 
 
@@ -204,8 +209,8 @@ def crossing(kin, p0, e, motor, piece, q, rising, exact) -> np.ndarray:
         lay, i = found
     n = len(p0)
     qv = lay.q[motor]
-    k = lay.k[i:i + n]
-    if k.max() > 1:
+    if lay.longs[i + n] > lay.longs[i]:
+        k = lay.k[i:i + n]
         fst = lay.first[i:i + n + 1]
         q0 = qv[fst[:-1]]
         span = 2.0 * np.abs(qv[fst[0]:fst[-1]] - np.repeat(q0, k + 1)).max() + 1.0
@@ -232,17 +237,14 @@ def _slow(lay, motor, i, n, piece, q, rising, idx):
     """The steps the model cannot take (None: none): on a sub-piece it fails on, or on a piece
     whose cord turns against its steps or ends short of its last step."""
     count = np.bincount(piece, minlength=n)
-    has = count > 0
-    last = np.maximum(np.cumsum(count) - 1, 0)
-    dirn = np.where(rising[last], 1.0, -1.0)
-    end = lay.q[motor][lay.first[i + 1:i + n + 1] - 1]
-    turn = (dirn * (end - q[last]) < 0) | np.where(dirn > 0, lay.down[motor][i:i + n],
-                                                    lay.up[motor][i:i + n])
-    turn &= has
-    bad = lay.bad[motor]
-    s0, s1 = lay.sub0[i], lay.sub0[i + n] if i + n < len(lay.sub0) else len(bad)
-    if not turn.any() and not bad[s0:s1].any():
+    last = np.cumsum(count) - 1
+    rl = rising[last]
+    ql, end = q[last], lay.end[motor][i:i + n]
+    turn = np.where(rl, (end < ql) | lay.down[motor][i:i + n], (end > ql) | lay.up[motor][i:i + n])
+    turn &= count > 0
+    if not (turn | lay.badp[motor][i:i + n]).any():
         return None
+    bad = lay.bad[motor]
     slow = np.flatnonzero(turn[piece] | bad[idx])
     return slow if len(slow) else None
 
@@ -291,8 +293,12 @@ def _lay(kin, p0, e, d, ends=None) -> Layout:
         dq = qj[m][0][start + 1] - qj[m][0][start]
         ups.append(np.bincount(owner[start], dq > 0, minlength=n) > 0)
         downs.append(np.bincount(owner[start], dq < 0, minlength=n) > 0)
-    return Layout(k, first, first[:-1] - np.arange(n), (qj[0][0], qj[1][0]), tuple(models),
-                  tuple(bads), tuple(ups), tuple(downs), inner, owner)
+    q = (qj[0][0], qj[1][0])
+    ends = first[1:] - 1
+    badp = tuple(np.bincount(owner[start], b, minlength=n) > 0 for b in bads)
+    return Layout(k, first, first[:-1] - np.arange(n), q, tuple(models), tuple(bads),
+                  tuple(ups), tuple(downs), inner, owner, (q[0][ends], q[1][ends]), badp,
+                  np.concatenate(([0], np.cumsum(k > 1))))
 
 
 def _merged(gondola, pts, inner, guess, ends, vert) -> tuple:
