@@ -233,7 +233,13 @@ class TwoCord:
         n = len(p0)
         out = np.full((n, 2), np.nan)
         k0 = self.slope(p0, e)
-        k1 = self.slope(p0 + e * d[:, None], e)
+        ends = p0 + e * d[:, None]
+        if self.gondola is not None and n > 1:
+            # pieces that follow one another: the next start (the balance solved already;
+            # the slope differs by the bend times a rounding error)
+            same = np.abs(ends[:-1] - p0[1:]).max(axis=1) <= 1e-9
+            ends[:-1][same] = p0[1:][same]
+        k1 = self.slope(ends, e)
         for m in (0, 1):
             rows = np.flatnonzero(k0[:, m] * k1[:, m] < 0)
             if not len(rows):
