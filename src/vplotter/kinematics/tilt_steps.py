@@ -53,6 +53,7 @@ class Layout:
     end: tuple = ()       # per motor the cord at each piece's end
     badp: tuple = ()      # per motor: a sub-piece of the piece fails
     longs: np.ndarray | None = None   # pieces with k > 1 before each piece (n + 1)
+    spread: tuple = ()    # per motor the most the cord moves from each piece's start
 
 
 @dataclass
@@ -162,7 +163,7 @@ def _ends(kin, p0, e, motor, piece, q, rising):
     return np.nan_to_num(d, nan=0.0)
 
 
-def _window(kin, p0, e):
+def _window(kin, p0, e, motor=0):
     """(layout, offset of the block's first piece in it) when the block is a run of pieces
     of a window the machine knows, else None."""
     n = len(p0)
@@ -175,11 +176,14 @@ def _window(kin, p0, e):
             w.d = np.hypot(diff[:, 0], diff[:, 1])
             with np.errstate(divide="ignore", invalid="ignore"):
                 w.e = np.column_stack((diff[:, 0] / w.d, diff[:, 1] / w.d))
-        # the block asked last (the other motor's call), or the next one
-        i = w.at if len(w.verts) > w.at + n and np.array_equal(w.verts[w.at:w.at + n], p0) \
-            else w.cursor
-        if not (i + n <= m - 1 and np.array_equal(w.verts[i:i + n], p0)
-                and np.array_equal(w.e[i:i + n], e)):
+        # the block asked last (the other motor's call) or the next one, else a search
+        i = -1
+        for c in ((w.at, w.cursor) if motor else (w.cursor, w.at)):
+            if (c + n <= m - 1 and np.array_equal(w.verts[c:c + n], p0)
+                    and np.array_equal(w.e[c:c + n], e)):
+                i = c
+                break
+        if i < 0:
             hits = np.flatnonzero((w.verts[:m - n, 0] == p0[0, 0])
                                   & (w.verts[:m - n, 1] == p0[0, 1]))
             hits = [h for h in hits.tolist() if np.array_equal(w.verts[h:h + n], p0)
@@ -202,7 +206,7 @@ def crossing(kin, p0, e, motor, piece, q, rising, exact) -> np.ndarray:
         return np.zeros(0)
     if np.any(piece[1:] < piece[:-1]):
         return exact(p0, e, motor, piece, q, rising)
-    found = _window(kin, p0, e)
+    found = _window(kin, p0, e, motor)
     if found is None:
         lay, i = _block_layout(kin, p0, e, motor, piece, q, rising), 0
     else:
@@ -213,7 +217,7 @@ def crossing(kin, p0, e, motor, piece, q, rising, exact) -> np.ndarray:
         k = lay.k[i:i + n]
         fst = lay.first[i:i + n + 1]
         q0 = qv[fst[:-1]]
-        span = 2.0 * np.abs(qv[fst[0]:fst[-1]] - np.repeat(q0, k + 1)).max() + 1.0
+        span = 2.0 * lay.spread[motor][i:i + n].max() + 1.0
         pts = fst[0] + np.flatnonzero(lay.inner[fst[0]:fst[-1]])
         own = lay.owner[pts] - i
         up = np.sign(qv[fst[1:] - 1] - q0)
@@ -298,7 +302,14 @@ def _lay(kin, p0, e, d, ends=None) -> Layout:
     badp = tuple(np.bincount(owner[start], b, minlength=n) > 0 for b in bads)
     return Layout(k, first, first[:-1] - np.arange(n), q, tuple(models), tuple(bads),
                   tuple(ups), tuple(downs), inner, owner, (q[0][ends], q[1][ends]), badp,
-                  np.concatenate(([0], np.cumsum(k > 1))))
+                  np.concatenate(([0], np.cumsum(k > 1))),
+                  tuple(_spread(v, first, owner, n) for v in q))
+
+
+def _spread(q, first, owner, n):
+    out = np.zeros(n)
+    np.maximum.at(out, owner, np.abs(q - q[first[:-1]][owner]))
+    return out
 
 
 def _merged(gondola, pts, inner, guess, ends, vert) -> tuple:
