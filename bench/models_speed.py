@@ -1,17 +1,21 @@
-"""Planning speed of car.ngc under each machine model (the full dry-run pipeline: parse,
+"""Planning speed of car.ngc and of a large gcodetools-like file (bench/make/samples.py's
+gcodetools_file, 16,000 lines) under each machine model (the full dry-run pipeline: parse,
 segment, plan, step schedule, coil words; no trace writing).
 
 The plain machine and the gondola model solve each step in closed form; stretch solves it
 by bracketed Newton steps; the tilting gondola ([gondola] mass_below_pen_mm) solves its balance
-once per sub-piece of 3 mm and each step in closed form on an osculating level model
-(kinematics/tilt_steps.py). Each tilt row is printed beside the same model without tilt, and
-the last column says how much slower tilt makes it. Run: python -m bench.models_speed
+once per sub-piece of 3 mm, a planned window at a time, and each step in closed form on an
+osculating level model (kinematics/tilt_steps.py). Each tilt row is printed beside the same
+model without tilt, and the last column says how much slower tilt makes it (CPU time, the
+best of 5 runs, 3 on the large file). Run: python -m bench.models_speed [--car-only]
 """
 
 from __future__ import annotations
 
 import dataclasses
 import os
+import sys
+import tempfile
 import time
 
 import numpy as np
@@ -20,9 +24,19 @@ from vplotter import config, kinematics, pipeline
 from vplotter.inputs import gcode
 
 from bench import ROOT
+from bench.make import samples
 
 
 def main() -> None:
+    files = [os.path.join(ROOT, "gcode_samples", "car.ngc")]
+    if "--car-only" not in sys.argv:
+        files.append(samples.gcodetools_file(os.path.join(tempfile.mkdtemp(), "gcodetools.ngc")))
+    for path in files:
+        print(f"\n{os.path.basename(path)}:\n")
+        table(path, 5 if path == files[0] else 3)
+
+
+def table(path: str, runs: int) -> None:
     base = config.load(os.path.join(ROOT, "config.toml"))
     models = {
         "plain": base,
@@ -44,7 +58,6 @@ def main() -> None:
     }
     without = {"gondola, tilting (mass 30 mm below the pen)": "gondola 40 mm, pen 15 mm below",
                "all of them, tilting": "all of them"}
-    path = os.path.join(ROOT, "gcode_samples", "car.ngc")
     print("| model | steps | planning CPU | steps / CPU s | plot time | tilt costs |")
     print("| --- | --- | --- | --- | --- | --- |")
     cpu_of = {}
@@ -52,7 +65,7 @@ def main() -> None:
         kin = kinematics.from_config(cfg)
         cords = kin.inverse(kin.to_machine(np.zeros((1, 2))))[0]
         best = None
-        for _ in range(5):
+        for _ in range(runs):
             summary = pipeline.Summary()
             t0 = time.process_time()
             for _rows in pipeline.stream(cfg, gcode.read(path, warn=lambda m: None), (0, 0),

@@ -34,6 +34,7 @@ from vplotter.kinematics import taylor as tl
 PHI_LIMIT = 1.2           # rad: the bracket (no gondola that balances turns this far)
 PHI_NEWTON = 1e-7         # rad: Newton stops after a step below this: phi within 1e-13
 PHI_STEPS = 60
+PHI_FAST = 8              # plain Newton steps before the bracketed ones
 
 
 class Gondola:
@@ -76,6 +77,28 @@ class Gondola:
         x = np.asarray(x, dtype=float)
         y = np.asarray(y, dtype=float)
         phi = np.zeros(x.shape) if phi is None else np.array(phi, dtype=float)
+        # plain Newton steps first (the balance is smooth and phi small: three steps from
+        # zero); the rows that did not settle on the stable balance go the bracketed way
+        step = np.zeros(x.shape)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            for _ in range(PHI_FAST):
+                f, df, _, _ = self._terms(x, y, np.cos(phi), np.sin(phi))
+                step = f / df
+                phi = phi - step
+                if not np.abs(step).max(initial=0.0) > PHI_NEWTON:
+                    break
+        c, s = np.cos(phi), np.sin(phi)
+        f, df, r, g = self._terms(x, y, c, s)
+        ok = (np.abs(step) <= PHI_NEWTON) & (self.sign * df > 0) & (np.abs(phi) < PHI_LIMIT)
+        if not ok.all():
+            i = np.flatnonzero(~ok)
+            phi[i] = self._bracketed(x[i], y[i], np.zeros(len(i)))
+            c, s = np.cos(phi), np.sin(phi)
+            f, df, r, g = self._terms(x, y, c, s)
+        return self._state(phi, c, s, df, r, g)
+
+    def _bracketed(self, x, y, phi):
+        """phi by Newton steps kept inside a bracket (bisection where a step would leave it)."""
         lo = np.full(x.shape, -PHI_LIMIT)
         hi = np.full(x.shape, PHI_LIMIT)
         sg = self.sign
@@ -94,8 +117,10 @@ class Gondola:
             # Newton doubles the digits: after a step this small phi is within about 1e-13
             if not step.max(initial=0.0) > PHI_NEWTON:
                 break
-        c, s = np.cos(phi), np.sin(phi)
-        f, df, r, g = self._terms(x, y, c, s)
+        return phi
+
+    def _state(self, phi, c, s, df, r, g):
+        """solve()'s answer from the balance's terms at phi."""
         gl_x, gl_y, gr_x, gr_y = g
         rlx, _, rrx, _ = r
         kl = gl_x * r[1] - gl_y * rlx
@@ -130,6 +155,20 @@ class Gondola:
         return r, phi
 
     # ------------------------------------------------------------------ along a line
+    def slopes(self, xy, e, state=None) -> np.ndarray:
+        """(N, 2) d|r_m|/ds along p(s) = xy + s e (the cords' slopes without stretch)."""
+        x, y = xy[:, 0], xy[:, 1]
+        _, c, s, df, fx, fy, r = self.solve(x, y) if state is None else state
+        ex, ey = e[:, 0], e[:, 1]
+        p1 = -(fx * ex + fy * ey) / df
+        out = []
+        for (vx, vy), rx, ry in zip(self.v, r[::2], r[1::2]):
+            # r' = -e - phi' d(R v)/dphi, d(R v)/dphi = (-(R v)_y, (R v)_x)
+            dx = -ex + p1 * (s * vx + c * vy)
+            dy = -ey - p1 * (c * vx - s * vy)
+            out.append((rx * dx + ry * dy) / np.sqrt(rx * rx + ry * ry))
+        return np.stack(out, axis=-1)
+
     def _r_jets(self, X, Y, C, S):
         """The cords r_m and the balance F as triples, for triples of x, y, cos and sin."""
         out = []
@@ -147,11 +186,12 @@ class Gondola:
         f = tl.sub(tl.mul(k[0], out[1][0]), tl.mul(k[1], out[0][0]))
         return out, f
 
-    def jets(self, xy, e, state=None):
+    def jets(self, xy, e, state=None, phi=None):
         """The cords r_m along p(s) = xy + s e at s = 0 as triples (value, d/ds, d2/ds2):
-        ((rLx, rLy), (rRx, rRy)), with phi's own triple; `state`: solve(xy) when known."""
+        ((rLx, rLy), (rRx, rRy)), with phi's own triple; `state`: solve(xy) when known,
+        `phi`: a first guess for it."""
         x, y = xy[:, 0], xy[:, 1]
-        phi, c, s, df, fx, fy, _ = self.solve(x, y) if state is None else state
+        phi, c, s, df, fx, fy, _ = self.solve(x, y, phi) if state is None else state
         ex, ey = e[:, 0], e[:, 1]
         zero = np.zeros(len(x))
         p1 = -(fx * ex + fy * ey) / df

@@ -91,8 +91,12 @@ class TwoCord:
             return self._geometric(xy)
         m = np.asarray(xy, dtype=float)
         if self.gondola is not None:
-            r, _ = self.gondola.cords(m[..., 0], m[..., 1])
-            return cords_value(r, self.stretch)
+            flat = m.reshape(-1, 2)
+            state = (tilt_steps.balance(self, flat) if len(flat) > 2
+                     else self.gondola.solve(flat[:, 0], flat[:, 1]))
+            if m.ndim == 2 and len(m) > 2:        # a window's vertices: see tilt_steps
+                tilt_steps.remember(self, m, state)
+            return cords_value(state[6], self.stretch).reshape(m.shape)
         flat = m.reshape(-1, 2)
         q, _, _ = self._jets(flat, np.zeros_like(flat))
         return q.reshape(m.shape)
@@ -143,6 +147,8 @@ class TwoCord:
         xy = np.asarray(xy, dtype=float)
         e = np.asarray(e, dtype=float)
         if self.gondola is not None:
+            if state is None:
+                state = tilt_steps.balance(self, xy)
             r, _ = self.gondola.jets(xy, e, state)
             ql, qr = cord_jets(r, self.stretch)
             return tuple(np.stack((a, b), axis=-1) for a, b in zip(ql, qr))
@@ -187,6 +193,10 @@ class TwoCord:
         return np.stack(ks, axis=-1), np.stack(gs, axis=-1)
 
     def slope(self, xy: np.ndarray, e: np.ndarray) -> np.ndarray:
+        if self.gondola is not None and self.stretch == 0.0:
+            xy = np.asarray(xy, dtype=float)
+            return self.gondola.slopes(xy, np.asarray(e, dtype=float),
+                                       tilt_steps.balance(self, xy))
         if not self.plain:
             return self._jets(xy, e)[1]
         return self._along(xy, e)[0]
@@ -223,7 +233,13 @@ class TwoCord:
         n = len(p0)
         out = np.full((n, 2), np.nan)
         k0 = self.slope(p0, e)
-        k1 = self.slope(p0 + e * d[:, None], e)
+        ends = p0 + e * d[:, None]
+        if self.gondola is not None and n > 1:
+            # pieces that follow one another: the next start (the balance solved already;
+            # the slope differs by the bend times a rounding error)
+            same = np.abs(ends[:-1] - p0[1:]).max(axis=1) <= 1e-9
+            ends[:-1][same] = p0[1:][same]
+        k1 = self.slope(ends, e)
         for m in (0, 1):
             rows = np.flatnonzero(k0[:, m] * k1[:, m] < 0)
             if not len(rows):
@@ -234,7 +250,12 @@ class TwoCord:
                 _, k, b = self._jets(p0[rows] + e[rows] * s[:, None], e[rows])
                 return sign * k[:, m], sign * b[:, m]
 
-            out[rows, m] = _bracketed(f, np.zeros(len(rows)), d[rows].astype(float), TOL_MM)
+            # first guess: where the level gondola's cord turns (the foot of the perpendicular
+            # from its shifted anchor), inside the piece
+            a = self.anchors[m]
+            s0 = -((p0[rows, 0] - a[0]) * e[rows, 0] + (p0[rows, 1] - a[1]) * e[rows, 1])
+            s0 = np.clip(s0, 0.0, d[rows]) if self.gondola is not None else None
+            out[rows, m] = _bracketed(f, np.zeros(len(rows)), d[rows].astype(float), TOL_MM, s0)
         return out
 
     def crossing(self, p0: np.ndarray, e: np.ndarray, motor: int, piece: np.ndarray,
