@@ -9,8 +9,8 @@ cells); with several pens each pen's strokes against its own layer, weighted by 
 layer asks for. The best is kept and one note says which and why, with every candidate's score
 and plot time (so `info` lists them). Auto costs the sum of its styles (each is searched
 whole: a shortcut that ranked styles on a cheaper search could pick another than the full
-search would): about 30 s for a 300 mm photo at 1 h on this machine, where one style takes
-3 to 9 s.
+search would): about 5.4 x the hatch's time for a 12 MP photo at 1 h (bench/photo_speed.py;
+about 20 s idle on this machine), where the hatch takes 3-4 s and the others up to 2.2 x.
 
 Stipples at a budget: a dot costs a pen lift (about 2 s on the seed machine), so an hour of
 dots lays little ink; the tour (TSP art) draws a line through the same kind of stipples and
