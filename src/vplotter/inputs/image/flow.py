@@ -37,7 +37,7 @@ from vplotter.inputs.strokes import Stroke
 CROSS_PENS, SCARCE_PENS = 1.5, 6.0     # the tone curve: d up to this pitch, d^8 from this
 MIN_RUN_PENS = 2.0                     # pen-down pieces shorter than this are dropped
 GAP_PENS = 4.0                         # gaps shorter than this are drawn through
-DASH_PENS = 4.0                        # the dashes' period: 16 d_G, d_G at least this
+DASH_PENS = 2.0                        # the dashes' period: 16 d_G, d_G at least this
 EVEN_CELLS = 3.0                       # `evenness`: the density blurred over this many d_G / 2
 MEMO = 8                               # pictures whose streamlines are remembered
 _memo: list = []                       # (picture, key, flow_lines.Lines)
