@@ -124,15 +124,33 @@ def test_auto_lists_every_style_and_keeps_the_best(capsys, config_path, photo):
     assert m, note
     others = dict((s, float(v)) for s, v in re.findall(r"([a-z]+(?: --tsp)?) ([0-9.]+), [0-9:]+",
                                                        m.group(4)))
-    assert set(others) | {m.group(1)} == {"hatch", "squiggle", "spiral", "flow", "stipple",
-                                          "stipple --tsp"}
+    assert set(others) | {m.group(1)} == {"hatch", "squiggle", "spiral", "flow",
+                                          "stipple --tsp"}    # a photograph: no dots
     assert float(m.group(3)) >= max(others.values())
     assert json.loads(out)["time_s"]["best"] <= 480 * 1.01
 
 
-def test_a_budgeted_stipple_says_dots_or_tour(capsys, config_path, photo, tmp_path):
+def test_a_budgeted_stipple_of_a_photograph_draws_the_tour(capsys, config_path, photo,
+                                                           tmp_path):
+    """A photograph (little of it white): the tour alone, said so, one search."""
     out = tmp_path / "st.ngc"
     code, _, err = run(capsys, ["--config", config_path, "convert", photo, "-o", out,
+                                "--style", "stipple", "--width", 100, "--max-time", "5m"])
+    assert code == 0, err
+    assert re.search(r"stipple: the tour through the dots \(tone [0-9.]+, [0-9:]+; dots not "
+                     r"tried: [0-9]+% of the picture is white", err), err
+    polys = tc.reference_path(str(out))
+    assert sum(1 for p in polys if len(p) > 1) > 0
+
+
+def test_a_budgeted_stipple_of_line_art_says_dots_or_tour(capsys, config_path, tmp_path):
+    """Line art (mostly white): the dots and the tour both drawn, the better kept."""
+    a = np.full((160, 240), 255, np.uint8)
+    a[40:44, 20:220] = a[100:140, 60:64] = a[60:120, 150:190] = 0
+    path = tmp_path / "lines.png"
+    Image.fromarray(a).save(path)
+    out = tmp_path / "st.ngc"
+    code, _, err = run(capsys, ["--config", config_path, "convert", path, "-o", out,
                                 "--style", "stipple", "--width", 100, "--max-time", "5m"])
     assert code == 0, err
     m = re.search(r"stipple: (dots|the tour through the dots) \(tone ([0-9.]+), [0-9:]+; "

@@ -137,8 +137,8 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
 
     from vplotter.drawing import photo_auto
 
-    tries = photo_auto.variants(opts)
-    if len(tries) == 1:
+    tries = photo_auto.variants(opts, pictures[0])
+    if tries == [opts]:
         return one(opts)[:2]
     return photo_auto.best(opts, tries, one, pictures)
 

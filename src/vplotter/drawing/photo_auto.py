@@ -9,13 +9,16 @@ cells); with several pens each pen's strokes against its own layer, weighted by 
 layer asks for. The best is kept and one note says which and why, with every candidate's score
 and plot time (so `info` lists them). Auto costs the sum of its styles (each is searched
 whole: a shortcut that ranked styles on a cheaper search could pick another than the full
-search would): about 30 s for a 300 mm photo at 1 h on this machine, where one style takes
-3 to 9 s.
+search would): about 5.4 x the hatch's time for a 12 MP photo at 1 h (bench/photo_speed.py;
+about 20 s idle on this machine), where the hatch takes 3-4 s and the others up to 2.2 x.
 
 Stipples at a budget: a dot costs a pen lift (about 2 s on the seed machine), so an hour of
 dots lays little ink; the tour (TSP art) draws a line through the same kind of stipples and
-lays far more ink per second. With a budget and no --tsp, the dots and the tour are both
-drawn and the better kept (said in the note); --tsp asks for the tour alone.
+lays far more ink per second. With a budget and no --tsp, the tour is drawn; on line art (at
+least LINE_ART of the picture white, darkness under WHITE) the dots are drawn too and the
+better kept (said in the note): the dots won only there in bench/photo_tone.py (the line
+drawing at 3 h), the tour on every photograph and the grey ramp (at most 2 % white), so a
+photograph pays for one search, not two. --tsp asks for the tour alone.
 """
 
 from __future__ import annotations
@@ -25,19 +28,26 @@ from dataclasses import replace
 from vplotter.budget import clock_text
 
 AUTO_STYLES = ("hatch", "squiggle", "spiral", "flow", "stipple")
+WHITE, LINE_ART = 0.05, 0.5     # line art: at least LINE_ART of the picture darkness < WHITE
 
 
-def variants(opts) -> list:
+def white_share(picture) -> float:
+    """The share of the picture that is white (darkness under WHITE)."""
+    return float((picture.darkness < WHITE).mean())
+
+
+def variants(opts, picture) -> list:
     """The drawings to choose among for these options (one: no choice)."""
     from vplotter.inputs.image import AUTO
 
     if opts.style == AUTO:
         out = []
         for s in AUTO_STYLES:
-            out += variants(replace(opts, style=s))
+            out += variants(replace(opts, style=s), picture)
         return out
     if opts.style == "stipple" and not opts.tsp and opts.spacing_mm is None:
-        return [opts, replace(opts, tsp=True)]
+        tour = replace(opts, tsp=True)
+        return [opts, tour] if white_share(picture) >= LINE_ART else [tour]
     return [opts]
 
 
@@ -78,6 +88,12 @@ def best(opts, tries: list, one, pictures):
         return f"{m[0]:.3f}" + ("" if m[4] is None else f", {clock_text(m[4])}")
 
     others = "; ".join(f"{name(m[1])} {figures(m)}" for m in made if m is not chosen)
+    if len(made) == 1:                  # a budgeted stipple of a photograph: the tour alone
+        said.notes.insert(0, f"stipple: the tour through the dots (tone {figures(chosen)}; "
+                          f"dots not tried: {white_share(pictures[0]):.0%} of the picture is "
+                          f"white, a photograph, where the tour lays more ink an hour; the "
+                          f"dots are tried on line art, at least {LINE_ART:.0%} white)")
+        return placed, said
     if opts.style == AUTO:
         head = f"--style auto chose {name(o)}"
     else:

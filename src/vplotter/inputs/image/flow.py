@@ -12,14 +12,16 @@ largest at most p, and it stands for p by taking the share d_G / p of the tone: 
 darkness d asks for the share s = f(d) x d_G / p of the lines, f the budget's tone curve
 (d^`tone_gamma`, or the curve the budget chose). Generation G takes the nesting level 4 (the
 share from 1/2 to 1), G - 1 level 3 (1/4 to 1/2) ... and G - 4 and every coarser one level 0
-(0 to 1/16): each line is drawn in dashes (period 16 d_G along it, d_G at least DASH_PENS pen
-widths there so that the lightest tones' dashes are not shorter than the shortest piece drawn;
-the dash the part of its range the share has reached) across its level's range and whole
-above it (`tone.dashed`), so the separation of the lines drawn follows the tone: d_G in
-black, 2 d_G where s = 1/2, 16 d_G in the lightest tones, in dashes; halving p about doubles
+(0 to 1/16): each line is drawn in dashes (period DASH_LINES d_G along it, d_G at least
+DASH_PENS pen widths there so that the lightest tones' dashes are not shorter than the shortest
+piece drawn; the dash the part of its range the share has reached; level 0, the lightest tones,
+16 d_G with d_G at least LIGHT_PENS, as the hatch; the denser levels 8 d_G, d_G at least 2 pen
+widths: finer dashes where the lines are dense, docs/measurements.md) across its level's range
+and whole above it (`tone.dashed`), so the separation of the lines drawn follows the tone: d_G
+in black, 2 d_G where s = 1/2, 16 d_G in the lightest tones, in dashes; halving p about doubles
 the line (the jump from one generation to the next is seamless: the same lines at the same
-shares). The darkness is blurred
-over about two pen widths first; gaps shorter than 4 pen widths are drawn through and pieces
+shares). The darkness is blurred over about two pen widths first; gaps shorter than 4 pen
+widths are drawn through and pieces
 shorter than MIN_RUN_PENS pen widths dropped, so the strokes are long and the lifts few.
 """
 
@@ -37,7 +39,9 @@ from vplotter.inputs.strokes import Stroke
 CROSS_PENS, SCARCE_PENS = 1.5, 6.0     # the tone curve: d up to this pitch, d^8 from this
 MIN_RUN_PENS = 2.0                     # pen-down pieces shorter than this are dropped
 GAP_PENS = 4.0                         # gaps shorter than this are drawn through
-DASH_PENS = 4.0                        # the dashes' period: 16 d_G, d_G at least this
+DASH_LINES = 8                         # the dashes' period: this many d_G, d_G at least
+DASH_PENS = 2.0                        # ... this many pen widths (level 0: the hatch's period,
+LIGHT_PENS = 4.0                       # 16 d_G, d_G at least this many pen widths)
 EVEN_CELLS = 3.0                       # `evenness`: the density blurred over this many d_G / 2
 MEMO = 8                               # pictures whose streamlines are remembered
 _memo: list = []                       # (picture, key, flow_lines.Lines)
@@ -92,7 +96,8 @@ def strokes(picture, spacing_mm: float, pen_mm: float = 0.5, angle_deg: float = 
     level = np.maximum(made.gen[line] - (g_top - (tone.LEVELS - 1)), 0)
     share = tone.curve(smooth.at(pts), g) * np.float32(min(1.0, d_top / spacing_mm))
     share *= _evenness(made, g_top, keep)
-    period = tone.DASH_LINES * max(d_top, DASH_PENS * pen_mm)
+    period = np.where(level == 0, tone.DASH_LINES * max(d_top, LIGHT_PENS * pen_mm),
+                      DASH_LINES * max(d_top, DASH_PENS * pen_mm))
     on = tone.dashed(share, level, arc, line, period)
     return [Stroke(p) for p in _runs(pts, line, arc, on, pen_mm)]
 
