@@ -80,7 +80,8 @@ def _residuals(x, m0, keys, steps, photos, used, tapes):
     if len(tapes):
         a, b, mm = tapes[:, 0].astype(int), tapes[:, 1].astype(int), tapes[:, 2]
         out.append((np.hypot(*(pen[a] - pen[b]).T) - mm) / SIGMA_TAPE_MM)
-    return np.concatenate(out)
+    # a machine that cannot put the pen there (a gondola tipped over): a step not taken
+    return np.nan_to_num(np.concatenate(out), nan=1e6, posinf=1e6, neginf=-1e6)
 
 
 def _solve(m0, keys, steps, photos, used, tapes, x0):
