@@ -19,6 +19,10 @@ TAPE_MAX_MM = 3.0           # a tape distance this far off the photos: a wrong m
 # where the fit of a gondola config.toml does not describe starts: cords 30 mm apart, the
 # pen 10 mm below them (and the centre of mass fit.MASS_START_MM below the pen)
 GONDOLA_START_MM = (30.0, 10.0)
+# evaluations per parameter and solve for a fit with the tilt: a tilting gondola converges in
+# fewer; a level one runs its centre of mass off towards infinity (and the time with it)
+TILT_EVALUATIONS = 4        # (the fit without the tilt, to compare with, too)
+TILT_GAIN = 0.8             # the marks' rms with the tilt below this share of it without
 
 
 def _distances(args, pat) -> list[tuple[int, int, float]]:
@@ -103,7 +107,8 @@ def calibrate_photo(args, cfg, command: str) -> int:
     old = cal._machine_from(cfg, reference)
     seen, pictures = _seen(args, photos, ids, page_xy)
     tape_rows = np.array([[index[a], index[b], d] for a, b, d in tapes], dtype=float)
-    res, gondola = _fit(args, old, steps, seen, tape_rows)
+    with np.errstate(all="ignore"):         # a fit trying a gondola that tips over
+        res, gondola = _fit(args, old, steps, seen, tape_rows)
     keys = res.names
     if args.output:
         for i, ((ph, loc), r) in enumerate(zip(pictures, res.residual_mm)):
@@ -135,6 +140,9 @@ def _fit(args, old, steps, seen, tape_rows):
 
     from vplotter.calibration import fit, photo_fit
 
+    level = fit.names(args.fit_spacing)
+    # to compare with: a level fit of a tilting gondola would take long to give up
+    base = photo_fit.fit(old, level, steps, seen, tape_rows, TILT_EVALUATIONS)
     gondola = old.cord_spacing_mm == 0 and old.pen_below_mm == 0
     keys = fit.names(args.fit_spacing, True)
     start = dataclasses.replace(old, mass_below_pen_mm=(
@@ -145,19 +153,20 @@ def _fit(args, old, steps, seen, tape_rows):
     tilt = None
     try:
         with np.errstate(all="ignore"):
-            tilt = photo_fit.fit(start, keys, steps, seen, tape_rows)
-            if gondola:
+            tilt = photo_fit.fit(start, keys, steps, seen, tape_rows, TILT_EVALUATIONS)
+            if gondola and _told(tilt, base, False):    # a level gondola runs off before
                 keys = (("cord_spacing_mm",) * (not args.fit_spacing) + keys[:-1]
                         + ("pen_below_mm",) + keys[-1:])
-                tilt = photo_fit.fit(tilt.machine, keys, steps, seen, tape_rows)
+                tilt = photo_fit.fit(tilt.machine, keys, steps, seen, tape_rows,
+                                     TILT_EVALUATIONS)
     except (np.linalg.LinAlgError, ValueError):
         tilt = None
-    if tilt is not None and _told(tilt, gondola):
+    if tilt is not None and _told(tilt, base, gondola):
         return tilt, gondola
     if tilt is None:
         print("note: the photos cannot tell where the gondola's centre of mass is (the fit "
               "with it did not converge): kept as config.toml has it")
-    elif gondola:
+    elif gondola and "pen_below_mm" in tilt.names:
         m, sig = tilt.machine, dict(zip(tilt.names, tilt.sigma))
         print(f"note: the photos cannot tell how the gondola tilts (cord_spacing_mm "
               f"{m.cord_spacing_mm:.1f} ± {sig['cord_spacing_mm']:.1f}, pen_below_mm "
@@ -166,15 +175,17 @@ def _fit(args, old, steps, seen, tape_rows):
               f"config.toml has it (level); measure where the cords hold it instead")
     else:
         print(fit.mass_untold(tilt, old.mass_below_pen_mm).replace("measurements", "photos"))
-    return photo_fit.fit(old, fit.names(args.fit_spacing), steps, seen, tape_rows), False
+    return photo_fit.fit(base.machine, level, steps, seen, tape_rows), False
 
 
-def _told(tilt, gondola: bool) -> bool:
-    """The fit with the tilt is kept: its centre of mass is told (fit.mass_told) and, where
-    the gondola was fitted, its cord spacing is positive and told, its pen offset too."""
+def _told(tilt, base, gondola: bool) -> bool:
+    """The fit with the tilt is kept: its marks fit clearly better than the fit without
+    (TILT_GAIN), its centre of mass is told (fit.mass_told) and, where the gondola was
+    fitted, its cord spacing is positive and told, its pen offset too."""
     from vplotter.calibration import fit
 
-    if not (np.all(np.isfinite(tilt.sigma)) and fit.mass_told(tilt)):
+    if not (np.all(np.isfinite(tilt.sigma)) and tilt.rms_mm < TILT_GAIN * base.rms_mm
+            and fit.mass_told(tilt)):
         return False
     if not gondola:
         return True
