@@ -5,7 +5,8 @@ decoded through the TRUE geometry, are rendered by tests/support/phone_photo.py 
 JPEGs (straight on; 25 degrees off-axis with lens distortion and a strong light gradient;
 upright, stored on its side with an EXIF orientation). For each, `vplotter calibrate photo`
 runs with one tape distance (0.3 mm off): its wall time and peak resident size
-(resource.getrusage of the children, from a small process that runs it), then
+and CPU time (resource.getrusage of the children, from a small process that runs it: the
+CPU time does not grow when other work shares the machine, the wall time does), then
 the 300 mm test drawing is drawn and decoded through the true geometry (rigid match): how
 far it is off its true shape. Two walls: the level one, and the same with a gondola that tilts
 (its centre of mass 30 mm below the pen; config.toml without a [gondola], so the photo route
@@ -34,7 +35,8 @@ from bench import test_support
 # the command runs in a grandchild forked from this small process: a child forked from the
 # bench itself would count the bench's own pages (the rendered photos) in its peak
 MEASURE = ("import resource, subprocess, sys; r = subprocess.run(sys.argv[1:]); "
-           "print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss, file=sys.stderr); "
+           "u = resource.getrusage(resource.RUSAGE_CHILDREN); "
+           "print(u.ru_maxrss, u.ru_utime + u.ru_stime, file=sys.stderr); "
            "sys.exit(r.returncode)")
 
 wall = test_support("wall")
@@ -61,8 +63,8 @@ def main() -> None:
     ap.add_argument("--wall", choices=("level", "tilted", "both"), default="both")
     args = ap.parse_args()
     tmp = Path(tempfile.mkdtemp(prefix="photo"))
-    print("| wall | photo | pixels | time | peak memory | test drawing off its shape |")
-    print("| --- | --- | --- | --- | --- | --- |")
+    print("| wall | photo | pixels | time | CPU time | peak memory | test drawing off its shape |")
+    print("| --- | --- | --- | --- | --- | --- | --- |")
     for tilted in {"level": [False], "tilted": [True], "both": [False, True]}[args.wall]:
         run_wall(tmp / ("tilted" if tilted else "level"), tilted, args.mp)
 
@@ -89,13 +91,15 @@ def run_wall(tmp: Path, tilted: bool, mp: float) -> None:
         t0 = time.perf_counter()
         r = subprocess.run([sys.executable, "-c", MEASURE, *cmd], capture_output=True, text=True)
         took = time.perf_counter() - t0
-        *err, rss = r.stderr.strip().splitlines()
+        *err, last = r.stderr.strip().splitlines()
         if r.returncode:
-            print(f"| {label} | {name} | failed: {' '.join(err)} | | | |")
+            print(f"| {label} | {name} | failed: {' '.join(err)} | | | | |")
             continue
+        rss, cpu = last.split()
         with contextlib.redirect_stdout(io.StringIO()):
             off = wall.draw_and_check(w, "after")
         print(f"| {label} | {name} | {view.size[0]} x {view.size[1]} | {took:.1f} s | "
+              f"{float(cpu):.1f} s | "
               f"{int(rss) / 1024:.0f} MB | {off:.3f} mm |", flush=True)
 
 

@@ -22,6 +22,7 @@ GONDOLA_START_MM = (30.0, 10.0)
 # evaluations per parameter and solve for a fit with the tilt: a tilting gondola converges in
 # fewer; a level one runs its centre of mass off towards infinity (and the time with it)
 TILT_EVALUATIONS = 4        # (the fit without the tilt, to compare with, too)
+MASS_MAX_MM = 1000.0        # a centre of mass further below: the gondola barely turns
 TILT_GAIN = 0.8             # the marks' rms with the tilt below this share of it without
 
 
@@ -185,7 +186,7 @@ def _told(tilt, base, gondola: bool) -> bool:
     from vplotter.calibration import fit
 
     if not (np.all(np.isfinite(tilt.sigma)) and tilt.rms_mm < TILT_GAIN * base.rms_mm
-            and fit.mass_told(tilt)):
+            and fit.mass_told(tilt) and tilt.machine.mass_below_pen_mm < MASS_MAX_MM):
         return False
     if not gondola:
         return True
