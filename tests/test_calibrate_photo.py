@@ -232,7 +232,7 @@ def test_a_tilting_gondola_from_one_photo(tilted, tmp_path, capsys, monkeypatch,
 def test_a_measured_gondola_gets_its_centre_of_mass(tmp_path_factory, tmp_path, capsys,
                                                    monkeypatch):
     """config.toml with the gondola as a ruler gives it: the centre of mass alone is added,
-    the cord spacing and pen offset kept; a level gondola draws worse."""
+    the cord spacing and pen offset kept; a level gondola is refused or draws worse."""
     tmp = tmp_path_factory.mktemp("measured")
     d = draw_pattern(tmp, tilted=True, gondola=MEASURED_GONDOLA)
     photo = tmp / "straight.jpg"
@@ -244,8 +244,8 @@ def test_a_measured_gondola_gets_its_centre_of_mass(tmp_path_factory, tmp_path, 
         if name == "level":
             _level_instead(monkeypatch)
         code, out, _ = _photo(capsys, w, photo)
-        assert code == 0
-        results[name] = draw_and_check(w, "after")
+        assert code == 0 or name == "level"       # a level gondola's marks may not fit
+        results[name] = draw_and_check(w, "after") if code == 0 else float("inf")
         gondola = tc.load_config(w["cfg"])["gondola"]
         assert (gondola["cord_spacing_mm"], gondola["pen_below_mm"]) == (40.0, 12.0)
         if name == "tilt":
