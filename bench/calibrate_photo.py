@@ -5,11 +5,14 @@ decoded through the TRUE geometry, are rendered by tests/support/phone_photo.py 
 JPEGs (straight on; 25 degrees off-axis with lens distortion and a strong light gradient;
 upright, stored on its side with an EXIF orientation). For each, `vplotter calibrate photo`
 runs with one tape distance (0.3 mm off): its wall time and peak resident size
-(resource.getrusage of the children, from a small process that runs it), then
+and CPU time (resource.getrusage of the children, from a small process that runs it: the
+CPU time does not grow when other work shares the machine, the wall time does), then
 the 300 mm test drawing is drawn and decoded through the true geometry (rigid match): how
-far it is off its true shape.
+far it is off its true shape. Two walls: the level one, and the same with a gondola that tilts
+(its centre of mass 30 mm below the pen; config.toml without a [gondola], so the photo route
+fits the cord spacing, the pen offset and the centre of mass with the rest).
 
-Run: python -m bench.calibrate_photo [--mp 12]
+Run: python -m bench.calibrate_photo [--mp 12] [--wall level|tilted|both]
 """
 
 from __future__ import annotations
@@ -32,7 +35,8 @@ from bench import test_support
 # the command runs in a grandchild forked from this small process: a child forked from the
 # bench itself would count the bench's own pages (the rendered photos) in its peak
 MEASURE = ("import resource, subprocess, sys; r = subprocess.run(sys.argv[1:]); "
-           "print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss, file=sys.stderr); "
+           "u = resource.getrusage(resource.RUSAGE_CHILDREN); "
+           "print(u.ru_maxrss, u.ru_utime + u.ru_stime, file=sys.stderr); "
            "sys.exit(r.returncode)")
 
 wall = test_support("wall")
@@ -56,16 +60,24 @@ def views(mp: float) -> dict:
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--mp", type=float, default=12.0, help="megapixels (default 12)")
+    ap.add_argument("--wall", choices=("level", "tilted", "both"), default="both")
     args = ap.parse_args()
     tmp = Path(tempfile.mkdtemp(prefix="photo"))
+    print("| wall | photo | pixels | time | CPU time | peak memory | test drawing off its shape |")
+    print("| --- | --- | --- | --- | --- | --- | --- |")
+    for tilted in {"level": [False], "tilted": [True], "both": [False, True]}[args.wall]:
+        run_wall(tmp / ("tilted" if tilted else "level"), tilted, args.mp)
+
+
+def run_wall(tmp: Path, tilted: bool, mp: float) -> None:
+    label = "tilted" if tilted else "level"
+    tmp.mkdir()
     os.environ["XDG_STATE_HOME"] = str(tmp / "state")
     with contextlib.redirect_stdout(io.StringIO()):
         (tmp / "pattern").mkdir()
-        drawn = wall.draw_pattern(tmp / "pattern")
+        drawn = wall.draw_pattern(tmp / "pattern", tilted=tilted)
     strokes = tc.drawn_polylines(drawn["dec"])
-    print("| photo | pixels | time | peak memory | test drawing off its shape |")
-    print("| --- | --- | --- | --- | --- |")
-    for i, (name, view) in enumerate(views(args.mp).items()):
+    for i, (name, view) in enumerate(views(mp).items()):
         here = tmp / f"w{i}"
         here.mkdir()
         os.environ["XDG_STATE_HOME"] = str(here / "state")
@@ -79,13 +91,15 @@ def main() -> None:
         t0 = time.perf_counter()
         r = subprocess.run([sys.executable, "-c", MEASURE, *cmd], capture_output=True, text=True)
         took = time.perf_counter() - t0
-        *err, rss = r.stderr.strip().splitlines()
+        *err, last = r.stderr.strip().splitlines()
         if r.returncode:
-            print(f"| {name} | failed: {' '.join(err)} | | | |")
+            print(f"| {label} | {name} | failed: {' '.join(err)} | | | | |")
             continue
+        rss, cpu = last.split()
         with contextlib.redirect_stdout(io.StringIO()):
             off = wall.draw_and_check(w, "after")
-        print(f"| {name} | {view.size[0]} x {view.size[1]} | {took:.1f} s | "
+        print(f"| {label} | {name} | {view.size[0]} x {view.size[1]} | {took:.1f} s | "
+              f"{float(cpu):.1f} s | "
               f"{int(rss) / 1024:.0f} MB | {off:.3f} mm |", flush=True)
 
 

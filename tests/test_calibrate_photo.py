@@ -178,6 +178,85 @@ def test_a_heic_photo_without_pillow_heif_says_how_to_get_it(wall, capsys, tmp_p
     assert "pip install pillow-heif" in err
 
 
+# ---------------------------------------------------------------- a gondola that tilts
+MEASURED_GONDOLA = "cord_spacing_mm = 40.0\npen_below_mm = 12.0\n"
+
+
+@pytest.fixture(scope="module")
+def tilted(tmp_path_factory):
+    """The pattern drawn on the wall whose gondola tilts (its centre of mass 30 mm below the
+    pen, cords 40 mm apart, the pen 12 mm below them), config.toml without a [gondola]; its
+    three photos."""
+    tmp = tmp_path_factory.mktemp("tilted")
+    d = draw_pattern(tmp, tilted=True)
+    strokes = tc.drawn_polylines(d["dec"])
+    d["photos"] = {}
+    for name, view in VIEWS.items():
+        d["photos"][name] = tmp / f"{name}.jpg"
+        pp.render(strokes, d["photos"][name], view, seed=len(name))
+    return d
+
+
+def _level_instead(monkeypatch):
+    """The photo route as if the photos could not tell the tilt: the level fit."""
+    from vplotter.commands import calibrate_photo
+
+    monkeypatch.setattr(calibrate_photo, "_told", lambda *a: False)
+
+
+@pytest.mark.parametrize("kind", list(VIEWS))
+def test_a_tilting_gondola_from_one_photo(tilted, tmp_path, capsys, monkeypatch, kind):
+    """Exactly `calibrate photo PHOTO --pattern pattern.csv --distance 1 16 MM` on a config
+    that says nothing about the gondola: the cord spacing, the pen offset and the centre of
+    mass fitted with the rest, written to config.toml, and the 300 mm test drawing within
+    0.5 mm of its true shape; the same photo fitted with a level gondola is refused (its marks
+    do not fit) or draws worse."""
+    w = new_wall(tmp_path, tilted)
+    code, out, _ = _photo(capsys, w, tilted["photos"][kind])
+    assert code == 0 and "cannot tell" not in out
+    after = draw_and_check(w, "after")
+    gondola = tc.load_config(w["cfg"])["gondola"]
+    assert 30.0 < gondola["cord_spacing_mm"] < 50.0 and 9.0 < gondola["pen_below_mm"] < 15.0
+    assert 15.0 < gondola["mass_below_pen_mm"] < 45.0                  # truly 40, 12, 30
+    (tmp_path / "level").mkdir()
+    w = new_wall(tmp_path / "level", tilted)
+    _level_instead(monkeypatch)
+    code, out, _ = _photo(capsys, w, tilted["photos"][kind])
+    level = draw_and_check(w, "after") if code == 0 else float("inf")
+    assert "photos cannot tell" in out
+    with capsys.disabled():
+        print(f"tilted wall, {kind}: {after:.3f} mm; with a level gondola {level:.3f} mm")
+    assert after < 0.5 and level > 2 * after
+
+
+def test_a_measured_gondola_gets_its_centre_of_mass(tmp_path_factory, tmp_path, capsys,
+                                                   monkeypatch):
+    """config.toml with the gondola as a ruler gives it: the centre of mass alone is added,
+    the cord spacing and pen offset kept; a level gondola is refused or draws worse."""
+    tmp = tmp_path_factory.mktemp("measured")
+    d = draw_pattern(tmp, tilted=True, gondola=MEASURED_GONDOLA)
+    photo = tmp / "straight.jpg"
+    pp.render(tc.drawn_polylines(d["dec"]), photo, VIEWS["straight"], seed=8)
+    results = {}
+    for name in ("tilt", "level"):
+        (tmp_path / name).mkdir()
+        w = new_wall(tmp_path / name, d)
+        if name == "level":
+            _level_instead(monkeypatch)
+        code, out, _ = _photo(capsys, w, photo)
+        assert code == 0 or name == "level"       # a level gondola's marks may not fit
+        results[name] = draw_and_check(w, "after") if code == 0 else float("inf")
+        gondola = tc.load_config(w["cfg"])["gondola"]
+        assert (gondola["cord_spacing_mm"], gondola["pen_below_mm"]) == (40.0, 12.0)
+        if name == "tilt":
+            assert 20.0 < gondola["mass_below_pen_mm"] < 40.0 and "cannot tell" not in out
+        else:
+            assert "mass_below_pen_mm" not in gondola and "photos cannot tell" in out
+    with capsys.disabled():
+        print(f"measured gondola: {results['tilt']:.3f} mm, level {results['level']:.3f} mm")
+    assert results["tilt"] < 0.5 and results["level"] > 2 * results["tilt"]
+
+
 # ---------------------------------------------------------------- the joint fit, the camera
 def test_the_joint_fit_finds_a_tilting_gondola():
     """A gondola whose centre of mass hangs 35 mm below the pen, seen 25 degrees off-axis
@@ -210,7 +289,6 @@ def test_the_joint_fit_finds_a_tilting_gondola():
     assert shape_error(level.machine) > 1.0 and level.rms_mm > 0.15
     assert shape_error(tilt.machine) < 0.4 and tilt.rms_mm < 0.05
     assert tilt.machine.mass_below_pen_mm == pytest.approx(35.0, abs=4 * tilt.sigma[-1] + 1)
-
 
 
 @given(st.floats(-0.25, 0.1), st.floats(-0.03, 0.05),

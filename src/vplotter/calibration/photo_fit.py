@@ -80,27 +80,29 @@ def _residuals(x, m0, keys, steps, photos, used, tapes):
     if len(tapes):
         a, b, mm = tapes[:, 0].astype(int), tapes[:, 1].astype(int), tapes[:, 2]
         out.append((np.hypot(*(pen[a] - pen[b]).T) - mm) / SIGMA_TAPE_MM)
-    return np.concatenate(out)
+    # a machine that cannot put the pen there (a gondola tipped over): a step not taken
+    return np.nan_to_num(np.concatenate(out), nan=1e6, posinf=1e6, neginf=-1e6)
 
 
-def _solve(m0, keys, steps, photos, used, tapes, x0):
+def _solve(m0, keys, steps, photos, used, tapes, x0, most=MOST_EVALUATIONS):
     from scipy.optimize import least_squares
 
     sol = least_squares(_residuals, x0, args=(m0, keys, steps, photos, used, tapes),
                         method="lm", x_scale="jac", diff_step=1e-5,
-                        max_nfev=MOST_EVALUATIONS * (len(x0) + 1))
+                        max_nfev=most * (len(x0) + 1))
     return sol
 
 
 def fit(m0: Machine, keys: tuple[str, ...], steps: np.ndarray, photos: list[Seen],
-        tapes: np.ndarray) -> Joint:
-    """tapes: rows (index a, index b, mm). The marks left out have used False."""
+        tapes: np.ndarray, most: int = MOST_EVALUATIONS) -> Joint:
+    """tapes: rows (index a, index b, mm). The marks left out have used False; `most`:
+    evaluations per parameter and solve."""
     nk = len(keys)
     x = np.concatenate([[getattr(m0, k) for k in keys]]
                        + [start_camera(m0, steps, s) for s in photos]).astype(float)
     used = [np.ones(len(s.marks), dtype=bool) for s in photos]
     for _ in range(MOST_LEFT_OUT + 1):
-        sol = _solve(m0, keys, steps, photos, used, tapes, x)
+        sol = _solve(m0, keys, steps, photos, used, tapes, x, most)
         x = sol.x
         res = _wall_residuals(x, m0, keys, steps, photos)
         dist = [np.hypot(*r.T) for r in res]

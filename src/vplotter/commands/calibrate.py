@@ -189,7 +189,7 @@ def _machine_from(cfg, reference):
 UNITS = {"anchor_distance_mm": ("mm", 3), "cord_spacing_mm": ("mm", 3), "ref_left_mm": ("mm", 3),
          "ref_right_mm": ("mm", 3), "left_circumference_mm": ("mm", 4),
          "right_circumference_mm": ("mm", 4), "stretch": ("", 5),
-         "mass_below_pen_mm": ("mm", 2)}
+         "mass_below_pen_mm": ("mm", 2), "pen_below_mm": ("mm", 3)}
 
 
 def calibrate_fit(args, cfg, command: str) -> int:
@@ -361,8 +361,10 @@ def _report(args, cfg, old, new, res, keys, measured, good, home, origin) -> Non
               "anchor_distance_mm was kept")
 
 
-def _config_text(path: Path, fit_spacing: bool, new, origin, fit_mass: bool = False) -> str:
-    """config.toml with the new values (comments and layout kept); refused if it would not
+def _config_text(path: Path, fit_spacing: bool, new, origin, fit_mass: bool = False,
+                 fit_gondola: bool = False) -> str:
+    """config.toml with the new values (comments and layout kept; `fit_gondola`: the cord
+    spacing and pen offset too, as `calibrate photo` fits them); refused if it would not
     load."""
     import tomllib
 
@@ -379,9 +381,12 @@ def _config_text(path: Path, fit_spacing: bool, new, origin, fit_mass: bool = Fa
     doc["motors"]["left_spool_circumference_mm"] = new.left_circumference_mm
     doc["motors"]["right_spool_circumference_mm"] = new.right_circumference_mm
     doc.setdefault("cords", tomlkit.table())["stretch"] = new.stretch
-    if fit_mass:
+    if fit_mass or fit_gondola:
         gondola = doc.setdefault("gondola", tomlkit.table())
-        gondola["mass_below_pen_mm"] = new.mass_below_pen_mm
+        for key in ("cord_spacing_mm", "pen_below_mm")[:2 * fit_gondola]:
+            gondola[key] = getattr(new, key)
+        if fit_mass:
+            gondola["mass_below_pen_mm"] = new.mass_below_pen_mm
     text = tomlkit.dumps(doc)
     config.from_dict(tomllib.loads(text), str(path))     # refuse a config that would not load
     return text

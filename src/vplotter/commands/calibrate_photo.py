@@ -10,10 +10,20 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 from vplotter.errors import ConfigError, InputError
 
 RMS_MAX_MM = 0.3            # a photo's marks agree far better: a different pattern, moved pen
 TAPE_MAX_MM = 3.0           # a tape distance this far off the photos: a wrong mark number
+# where the fit of a gondola config.toml does not describe starts: cords 30 mm apart, the
+# pen 10 mm below them (and the centre of mass fit.MASS_START_MM below the pen)
+GONDOLA_START_MM = (30.0, 10.0)
+# evaluations per parameter and solve for a fit with the tilt: a tilting gondola converges in
+# fewer; a level one runs its centre of mass off towards infinity (and the time with it)
+TILT_EVALUATIONS = 4        # (the fit without the tilt, to compare with, too)
+MASS_MAX_MM = 1000.0        # a centre of mass further below: the gondola barely turns
+TILT_GAIN = 0.8             # the marks' rms with the tilt below this share of it without
 
 
 def _distances(args, pat) -> list[tuple[int, int, float]]:
@@ -79,11 +89,9 @@ def _seen(args, photos, ids, page_xy):
 
 
 def calibrate_photo(args, cfg, command: str) -> int:
-    import dataclasses
-
     import numpy as np
 
-    from vplotter.calibration import fit, pattern, photo, photo_fit
+    from vplotter.calibration import pattern, photo
     from vplotter.commands import calibrate as cal
     from vplotter.machine import state
 
@@ -99,12 +107,10 @@ def calibrate_photo(args, cfg, command: str) -> int:
     reference = cal._reference(args.pattern, pat.reference, stored)
     old = cal._machine_from(cfg, reference)
     seen, pictures = _seen(args, photos, ids, page_xy)
-    fit_mass = bool(getattr(args, "fit_mass", False))      # `calibrate fit`'s, where it has it
-    keys = fit.names(args.fit_spacing, fit_mass)
-    if fit_mass and old.mass_below_pen_mm is None:
-        old = dataclasses.replace(old, mass_below_pen_mm=fit.MASS_START_MM)
     tape_rows = np.array([[index[a], index[b], d] for a, b, d in tapes], dtype=float)
-    res = photo_fit.fit(old, keys, steps, seen, tape_rows)
+    with np.errstate(all="ignore"):         # a fit trying a gondola that tips over
+        res, gondola = _fit(args, old, steps, seen, tape_rows)
+    keys = res.names
     if args.output:
         for i, ((ph, loc), r) in enumerate(zip(pictures, res.residual_mm)):
             out = _found_path(args.output, i)
@@ -116,11 +122,77 @@ def calibrate_photo(args, cfg, command: str) -> int:
     home, origin = cal._origin(cfg, reference, new)
     _report(cfg, photos, cal._machine_from(cfg, reference), new, res, ids, tapes, home, origin)
     path = Path(args.config)
-    text = cal._config_text(path, args.fit_spacing, new, origin)
+    text = cal._config_text(path, args.fit_spacing, new, origin,
+                            "mass_below_pen_mm" in keys, gondola)
     if args.dry_run:
         print(f"dry run: {path} and the stored position not changed")
         return 0
     return cal.store(command, path, text, stored, pat.reference, new, home, origin)
+
+
+def _fit(args, old, steps, seen, tape_rows):
+    """(the joint fit, whether it fitted the gondola's shape): where the gondola's tilt can
+    matter, the machine with its centre of mass; where config.toml does not say where the
+    cords hold the gondola (no [gondola]), with its cord spacing and pen offset too (the
+    marks of a photo tell them, thirty distances do not): first with the centre of mass only,
+    the gondola held at GONDOLA_START_MM, then all of it. Kept where the photos tell it;
+    else one line says so and the machine is fitted as `calibrate fit` fits it."""
+    import dataclasses
+
+    from vplotter.calibration import fit, photo_fit
+
+    level = fit.names(args.fit_spacing)
+    # to compare with: a level fit of a tilting gondola would take long to give up
+    base = photo_fit.fit(old, level, steps, seen, tape_rows, TILT_EVALUATIONS)
+    gondola = old.cord_spacing_mm == 0 and old.pen_below_mm == 0
+    keys = fit.names(args.fit_spacing, True)
+    start = dataclasses.replace(old, mass_below_pen_mm=(
+        fit.MASS_START_MM if old.mass_below_pen_mm is None else old.mass_below_pen_mm))
+    if gondola:
+        start = dataclasses.replace(start, cord_spacing_mm=GONDOLA_START_MM[0],
+                                    pen_below_mm=GONDOLA_START_MM[1])
+    tilt = None
+    try:
+        with np.errstate(all="ignore"):
+            tilt = photo_fit.fit(start, keys, steps, seen, tape_rows, TILT_EVALUATIONS)
+            if gondola and _told(tilt, base, False):    # a level gondola runs off before
+                keys = (("cord_spacing_mm",) * (not args.fit_spacing) + keys[:-1]
+                        + ("pen_below_mm",) + keys[-1:])
+                tilt = photo_fit.fit(tilt.machine, keys, steps, seen, tape_rows,
+                                     TILT_EVALUATIONS)
+    except (np.linalg.LinAlgError, ValueError):
+        tilt = None
+    if tilt is not None and _told(tilt, base, gondola):
+        return tilt, gondola
+    if tilt is None:
+        print("note: the photos cannot tell where the gondola's centre of mass is (the fit "
+              "with it did not converge): kept as config.toml has it")
+    elif gondola and "pen_below_mm" in tilt.names:
+        m, sig = tilt.machine, dict(zip(tilt.names, tilt.sigma))
+        print(f"note: the photos cannot tell how the gondola tilts (cord_spacing_mm "
+              f"{m.cord_spacing_mm:.1f} ± {sig['cord_spacing_mm']:.1f}, pen_below_mm "
+              f"{m.pen_below_mm:.1f} ± {sig['pen_below_mm']:.1f}, mass_below_pen_mm "
+              f"{m.mass_below_pen_mm:.1f} ± {sig['mass_below_pen_mm']:.1f} mm): kept as "
+              f"config.toml has it (level); measure where the cords hold it instead")
+    else:
+        print(fit.mass_untold(tilt, old.mass_below_pen_mm).replace("measurements", "photos"))
+    return photo_fit.fit(base.machine, level, steps, seen, tape_rows), False
+
+
+def _told(tilt, base, gondola: bool) -> bool:
+    """The fit with the tilt is kept: its marks fit clearly better than the fit without
+    (TILT_GAIN), its centre of mass is told (fit.mass_told) and, where the gondola was
+    fitted, its cord spacing is positive and told, its pen offset too."""
+    from vplotter.calibration import fit
+
+    if not (np.all(np.isfinite(tilt.sigma)) and tilt.rms_mm < TILT_GAIN * base.rms_mm
+            and fit.mass_told(tilt) and tilt.machine.mass_below_pen_mm < MASS_MAX_MM):
+        return False
+    if not gondola:
+        return True
+    sig = dict(zip(tilt.names, tilt.sigma))
+    m = tilt.machine
+    return bool(m.cord_spacing_mm > 4 * sig["cord_spacing_mm"] and sig["pen_below_mm"] < 5.0)
 
 
 def _check(args, res, tapes) -> None:

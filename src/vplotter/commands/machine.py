@@ -39,7 +39,8 @@ def add_calibrate(p) -> None:
                    help="with `fit`: fit [gondola] cord_spacing_mm instead of the anchor distance")
     p.add_argument("--fit-mass", action="store_true",
                    help="with `fit`: fit the gondola's centre of mass ([gondola] "
-                        "mass_below_pen_mm: the gondola tilts)")
+                        "mass_below_pen_mm: the gondola tilts); `photo` fits it by default "
+                        "wherever the photos can tell it")
     add_machine_options(p)
 
 
