@@ -332,8 +332,6 @@ def _origin(cfg, reference, new):
 def _report(args, cfg, old, new, res, keys, measured, good, home, origin) -> None:
     """The old and new values, the residuals and how much straight lines bent before and
     bend now."""
-    from vplotter.calibration import fit
-
     print(f"{'parameter':<24}{'old':>12}{'new':>12}{'uncertainty':>14}")
     for k, sig in zip(keys, res.sigma):
         unit, dec = UNITS[k]
@@ -347,15 +345,7 @@ def _report(args, cfg, old, new, res, keys, measured, good, home, origin) -> Non
     for p, r, used in zip(measured, res.residual_mm, res.used):
         print(f"  {p.a:>3}-{p.b:<3} {p.distance_mm:9.2f} mm  {r:+7.2f}"
               f"{'' if used else '  (left out)'}")
-    pg = cfg.page
-    cx, cy = (pg.x_min_mm + pg.x_max_mm) / 2, (pg.y_min_mm + pg.y_max_mm) / 2
-    spread = _spread(new, res)
-    for label, a_g, b_g in (("horizontal", (cx - 150, cy), (cx + 150, cy)),
-                            ("vertical", (cx, cy - 150), (cx, cy + 150))):
-        before = fit.line_bend_mm(old, new, (cfg.origin.x_mm, cfg.origin.y_mm), a_g, b_g)
-        after = max(fit.line_bend_mm(new, t, origin, a_g, b_g) for t in spread)
-        print(f"a 300 mm {label} line through the page centre bends {before:.2f} mm with the old "
-              f"values, {after:.2f} mm with the new (within the fit's uncertainty)")
+    print_bends(cfg, old, new, res, origin)
     if args.fit_spacing:
         print("note: the drawing depends only on anchor_distance_mm - cord_spacing_mm; "
               "anchor_distance_mm was kept")
@@ -418,3 +408,20 @@ def _spread(m, res):
             out.append(dataclasses.replace(m, **{k: getattr(m, k) + d
                                                  for k, d in zip(res.names, step)}))
     return out
+
+
+def print_bends(cfg, old, new, res, origin) -> None:
+    """How much a 300 mm line through the page centre bends with the old values and with the
+    new (both routes, ruler and photo, report it)."""
+    from vplotter.calibration import fit
+
+    pg = cfg.page
+    cx, cy = (pg.x_min_mm + pg.x_max_mm) / 2, (pg.y_min_mm + pg.y_max_mm) / 2
+    spread = _spread(new, res)
+    for label, a_g, b_g in (("horizontal", (cx - 150, cy), (cx + 150, cy)),
+                            ("vertical", (cx, cy - 150), (cx, cy + 150))):
+        before = fit.line_bend_mm(old, new, (cfg.origin.x_mm, cfg.origin.y_mm), a_g, b_g)
+        after = max(fit.line_bend_mm(new, t, origin, a_g, b_g) for t in spread)
+        print(f"a 300 mm {label} line through the page centre bends {before:.2f} mm with the old "
+              f"values, {after:.2f} mm with the new (within the fit's uncertainty)")
+

@@ -215,7 +215,6 @@ def _report(cfg, photos, old, new, res, ids, tapes, home, origin) -> None:
     much straight lines bent before and bend now."""
     import numpy as np
 
-    from vplotter.calibration import fit
     from vplotter.commands import calibrate as cal
 
     print(f"{'parameter':<24}{'old':>12}{'new':>12}{'uncertainty':>14}")
@@ -239,15 +238,7 @@ def _report(cfg, photos, old, new, res, ids, tapes, home, origin) -> None:
     print(f"rms {res.rms_mm:.3f} mm over the marks")
     for (a, b, d), t in zip(tapes, res.tape_mm):
         print(f"distance {a}-{b}: measured {d:.2f} mm, the fit says {d + t:.2f} mm ({t:+.2f})")
-    pg = cfg.page
-    cx, cy = (pg.x_min_mm + pg.x_max_mm) / 2, (pg.y_min_mm + pg.y_max_mm) / 2
-    spread = cal._spread(new, res)
-    for label, a_g, b_g in (("horizontal", (cx - 150, cy), (cx + 150, cy)),
-                            ("vertical", (cx, cy - 150), (cx, cy + 150))):
-        before = fit.line_bend_mm(old, new, (cfg.origin.x_mm, cfg.origin.y_mm), a_g, b_g)
-        after = max(fit.line_bend_mm(new, t, origin, a_g, b_g) for t in spread)
-        print(f"a 300 mm {label} line through the page centre bends {before:.2f} mm with the old "
-              f"values, {after:.2f} mm with the new (within the fit's uncertainty)")
+    cal.print_bends(cfg, old, new, res, origin)
 
 
 def _axis_z(cam) -> float:

@@ -248,3 +248,26 @@ def answering():
         send({"error": error_line(e), "exit_code": exit_code(e), "kind": type(e).__name__})
         raise
     send({"result": None})
+
+
+def background(argv, held, command: str | None = None) -> tuple[int, str]:
+    """The command line again (less --detach, plus --detached) in a new process in its own
+    session (setsid: no terminal, no SIGHUP from it), its output to the log file; the lock
+    `held` passes to it (it inherits the open lock file). (its pid, the log's path)"""
+    import subprocess
+
+    from vplotter.machine import live
+
+    rest = [a for a in (argv if argv is not None else sys.argv[1:]) if a != "--detach"]
+    log = live.log_path()
+    log.parent.mkdir(parents=True, exist_ok=True)
+    env = dict(os.environ, VPLOTTER_LOCK_FD=str(held.fd))
+    try:
+        with open(log, "w", encoding="utf-8") as out:
+            child = subprocess.Popen([sys.executable, "-m", "vplotter", *rest, "--detached"],
+                                     stdin=subprocess.DEVNULL, stdout=out, stderr=subprocess.STDOUT,
+                                     env=env, pass_fds=(held.fd,), start_new_session=True)
+        held.write_info(pid=child.pid, command=command)
+    finally:
+        held.hand_over()
+    return child.pid, str(log)

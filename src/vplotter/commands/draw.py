@@ -243,29 +243,13 @@ def _lateness(args, s) -> None:
 
 
 def _detach(args, argv, s, message: str) -> DrawStarted:
-    """Go on in a new process in its own session (setsid: no terminal, no SIGHUP from it),
-    output to the log file; the lock passes to it (it inherits the open lock file)."""
-    import os
-    import subprocess
+    """Go on in a new process (commands/common.background); the pins and the lock pass to it."""
+    from vplotter.commands.common import background
 
-    from vplotter.machine import live
-
-    rest = [a for a in (argv if argv is not None else sys.argv[1:]) if a != "--detach"]
-    held = s.hand_over_pins()
-    log = live.log_path()
-    log.parent.mkdir(parents=True, exist_ok=True)
-    env = dict(os.environ, VPLOTTER_LOCK_FD=str(held.fd))
-    try:
-        with open(log, "w", encoding="utf-8") as out:
-            child = subprocess.Popen([sys.executable, "-m", "vplotter", *rest, "--detached"],
-                                     stdin=subprocess.DEVNULL, stdout=out, stderr=subprocess.STDOUT,
-                                     env=env, pass_fds=(held.fd,), start_new_session=True)
-        held.write_info(pid=child.pid)
-    finally:
-        held.hand_over()
-    say(f"drawing in the background: pid {child.pid}; its output goes to {log}")
+    pid, log = background(argv, s.hand_over_pins())
+    say(f"drawing in the background: pid {pid}; its output goes to {log}")
     say("follow it: vplotter status --watch (or vplotter log -f); pause it: vplotter stop")
-    return DrawStarted(child.pid, str(log), message)
+    return DrawStarted(pid, log, message)
 
 
 def _ordered(prep) -> list[str]:

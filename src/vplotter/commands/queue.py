@@ -395,25 +395,11 @@ def _paper(cfg, job: dict, detached: bool) -> None:
 
 
 def _detach(argv, held) -> QueueStarted:
-    """`queue run` in a new process in its own session, its output to the log; the lock
-    passes to it (as `draw --detach` does)."""
-    import subprocess
+    """`queue run` in a new process (commands/common.background, as `draw --detach`)."""
+    from vplotter.commands.common import background
 
-    from vplotter.machine import live
-
-    rest = [a for a in (argv if argv is not None else sys.argv[1:]) if a != "--detach"]
-    log = live.log_path()
-    log.parent.mkdir(parents=True, exist_ok=True)
-    env = dict(os.environ, VPLOTTER_LOCK_FD=str(held.fd))
-    try:
-        with open(log, "w", encoding="utf-8") as out:
-            child = subprocess.Popen([sys.executable, "-m", "vplotter", *rest, "--detached"],
-                                     stdin=subprocess.DEVNULL, stdout=out, stderr=subprocess.STDOUT,
-                                     env=env, pass_fds=(held.fd,), start_new_session=True)
-        held.write_info(pid=child.pid, command="vplotter queue run")
-    finally:
-        held.hand_over()
-    msg = f"drawing the queue in the background: pid {child.pid}; its output goes to {log}"
+    pid, log = background(argv, held, "vplotter queue run")
+    msg = f"drawing the queue in the background: pid {pid}; its output goes to {log}"
     say(msg)
     say("follow it: vplotter status --watch (or vplotter log -f); pause it: vplotter stop")
-    return QueueStarted(child.pid, str(log), msg)
+    return QueueStarted(pid, log, msg)
