@@ -315,3 +315,14 @@ def test_project_and_back(yaw, pitch, roll, distance, k1):
     assert np.allclose(camera.apply(h, wall), px, atol=1e-6)
     again = camera.from_homography(h, (999.5, 749.5), 1800.0)
     assert np.allclose(camera.project(again, (999.5, 749.5), wall), px, atol=1e-5)
+
+
+def test_fine_noise_is_no_pattern_though_some_holes_fall_on_a_grid(wall, capsys, tmp_path):
+    """Pixel noise has thousands of mark-like holes, and some always lie near a grid's
+    points (9 of 16 in this one): that is chance, not a pattern partly hidden."""
+    noise = tmp_path / "noise.png"
+    pixels = np.random.default_rng(2).uniform(0, 255, (1500, 2000)).astype(np.uint8)
+    Image.fromarray(pixels).save(noise)
+    err = _bad(capsys, wall, noise)
+    assert "no calibration pattern found" in err and "in the pattern's grid" in err
+    assert "Warning" not in err

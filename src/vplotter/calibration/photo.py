@@ -52,9 +52,13 @@ def locate(photo: Photo, ids: list[int], page_xy: np.ndarray) -> Located:
     mark was); an InputError where no pattern is seen at all."""
     cands = photo_marks.find(photo.small, photo.scale)
     num = photo_identify.number(cands, ids, page_xy) if len(cands.xy) else None
-    if num is None or len(num.found) < max(4, len(ids) // 2):
+    # a few marks matched among many more mark-like shapes off the grid: a texture's holes
+    # that happened to lie near a grid (a photo of noise), not a pattern partly hidden
+    chance = num is not None and len(num.found) < len(ids) and num.extra > 2 * len(num.found)
+    if num is None or len(num.found) < max(4, len(ids) // 2) or chance:
         what = ("nothing like a mark" if not len(cands.xy) else
-                f"{len(cands.xy)} closed shapes, none of them the pattern's" if num is None
+                f"{len(cands.xy)} closed shapes, none of them the pattern's"
+                if num is None or not num.found
                 else f"{len(cands.xy)} closed shapes, only {len(num.found)} in the pattern's "
                      f"grid")
         raise InputError(f"{photo.name}: error: no calibration pattern found ({what}; mark 1 "

@@ -61,9 +61,10 @@ def _spacing(g: np.ndarray) -> float:
 def _local_scale(h, g):
     """Pixels per page mm of the map h at the page points g."""
     e = 1.0
-    p = cam.apply(h, g)
-    px = cam.apply(h, g + [e, 0]) - p
-    py = cam.apply(h, g + [0, e]) - p
+    with np.errstate(invalid="ignore", divide="ignore"):   # a degenerate map: NaN, no match
+        p = cam.apply(h, g)
+        px = cam.apply(h, g + [e, 0]) - p
+        py = cam.apply(h, g + [0, e]) - p
     return np.sqrt(np.abs(px[:, 0] * py[:, 1] - px[:, 1] * py[:, 0])) / e
 
 
