@@ -326,3 +326,15 @@ def test_fine_noise_is_no_pattern_though_some_holes_fall_on_a_grid(wall, capsys,
     err = _bad(capsys, wall, noise)
     assert "no calibration pattern found" in err and "in the pattern's grid" in err
     assert "Warning" not in err
+
+
+def test_a_heic_photo_is_calibrated_like_its_jpeg(wall, drawn, capsys, tmp_path):
+    """HEIC as an iPhone saves it, decoded by pillow-heif (libheif): the same fit as the JPEG."""
+    pillow_heif = pytest.importorskip("pillow_heif")
+    heic = tmp_path / "IMG_0002.HEIC"
+    with Image.open(drawn["photos"]["straight"]) as im:
+        pillow_heif.from_pillow(im).save(str(heic), quality=90)
+    assert heic.read_bytes()[4:12] == b"ftypheic"
+    code, out, _ = _photo(capsys, wall, heic)
+    assert code == 0 and "IMG_0002.HEIC: 16 marks" in out
+    assert draw_and_check(wall, "after") < 0.5
