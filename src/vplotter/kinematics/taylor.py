@@ -1,6 +1,6 @@
 """Second-order Taylor arithmetic on (value, first, second derivative) triples of arrays: the
 exact derivatives of the V-plotter's cords along a straight line (kinematics/vplotter.py and
-the tilting gondola, kinematics/tilt.py)."""
+the tilting gondola, kinematics/tilt.py, and the sagging cords, kinematics/sag.py)."""
 
 from __future__ import annotations
 
@@ -42,3 +42,14 @@ def cos_sin(a, c=None, s=None):
     d1, d2 = a[1], a[2]
     sq = d1 * d1
     return (c, -s * d1, -c * sq - s * d2), (s, c * d1, -s * sq + c * d2)
+
+
+def sinh(a):
+    sh, ch = np.sinh(a[0]), np.cosh(a[0])
+    return (sh, ch * a[1], sh * a[1] * a[1] + ch * a[2])
+
+
+def asinh(a):
+    """asinh: f' = 1 / sqrt(1 + a^2), f'' = -a / (1 + a^2)^(3/2)."""
+    inv = 1.0 / np.sqrt(1.0 + a[0] * a[0])
+    return (np.arcsinh(a[0]), a[1] * inv, (a[2] - a[0] * a[1] * a[1] * inv * inv) * inv)

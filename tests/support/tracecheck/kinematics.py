@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import sag
 from .config import merge_config
 
 
@@ -68,7 +69,7 @@ def _forces(c: dict, x, y, phi):
     cos, sin = np.cos(phi), np.sin(phi)
     lx, ly = _turned(-s / 2.0, -h, cos, sin)
     rx, ry = _turned(s / 2.0, -h, cos, sin)
-    gx, gy = _turned(0.0, _mass(c), cos, sin)
+    gx, gy = _turned(0.0, _mass(c) or 0.0, cos, sin)
     # the cords' points on the wall, the cords' angles towards their anchors
     Lx, Ly, Rx, Ry = x + lx, y + ly, x + rx, y + ry
     aL = np.arctan2(-Ly, -Lx)
@@ -148,11 +149,39 @@ def _tilted_forward(c: dict, a, b):
     return x, y
 
 
+def _straight(c: dict, x, y):
+    """(H, V_L, phi) of straight cords holding the gondola with its pen at machine (x, y):
+    the first guess of the sagging cords' balance (tracecheck/sag.py)."""
+    D, s, h, _ = _models(c)
+    x = np.clip(np.ravel(np.asarray(x, dtype=float)), s / 2.0 + 1.0, D - s / 2.0 - 1.0)
+    y = np.maximum(np.ravel(np.asarray(y, dtype=float)), h + 1.0)
+    phi = np.zeros(x.shape)
+    if _mass(c) is not None:
+        phi = _bisect(lambda p: _forces(c, x, y, p)[0], x.shape)
+    _, TL, _, _, _ = _forces(c, x, y, phi)
+    lx, ly = _turned(-s / 2.0, -h, np.cos(phi), np.sin(phi))
+    angle = np.arctan2(y + ly, x + lx)          # the left cord below the horizontal
+    return TL * np.cos(angle), TL * np.sin(angle), phi
+
+
+def _sagging(c: dict, x, y, inverse: bool, a=None, b=None):
+    shape = np.shape(x)
+    first = _straight(c, x, y)
+    if inverse:
+        out = sag.inverse(c, np.ravel(x), np.ravel(y), first)
+    else:
+        out = sag.forward(c, np.ravel(a), np.ravel(b), first)
+    return tuple(np.reshape(v, shape) for v in out)
+
+
 def inverse_kinematics(cfg: dict, X, Y):
     """Cord lengths paid out (left, right) in mm for G-code point(s) ``(X, Y)``."""
     c = merge_config(cfg)
     x = c["origin"]["x_mm"] + np.asarray(X, dtype=float)
     y = c["origin"]["y_mm"] - np.asarray(Y, dtype=float)
+    if sag.ratio(c):
+        x, y = np.broadcast_arrays(x, y)
+        return _sagging(c, x, y, True)
     if _mass(c) is not None:
         return _tilted_cords(c, x, y)
     return _machine_cords(c, x, y)
@@ -167,6 +196,15 @@ def forward_kinematics(cfg: dict, left, right):
     there.  Cord pairs that do not form a triangle with the anchor line give NaN.
     """
     c = merge_config(cfg)
+    if sag.ratio(c):
+        # first the pen on straight cords of these lengths, then the cords sag
+        left, right = np.broadcast_arrays(np.asarray(left, dtype=float),
+                                          np.asarray(right, dtype=float))
+        X, Y = forward_kinematics({**c, "cords": {**c["cords"], "mass_g_per_m": 0.0}},
+                                  left, right)
+        x, y = _sagging(c, c["origin"]["x_mm"] + X, c["origin"]["y_mm"] - Y, False,
+                        left, right)
+        return x - c["origin"]["x_mm"], c["origin"]["y_mm"] - y
     if _mass(c) is not None:
         x, y = _tilted_forward(c, left, right)
         return x - c["origin"]["x_mm"], c["origin"]["y_mm"] - y
