@@ -31,6 +31,7 @@ from vplotter.kinematics.tilt import tensions
 STEPS = 40           # Newton steps at most (the balance, and the pen from the cords)
 TOL = 1e-10          # they stop after a step below this (relative in H, rad, mm): then ~1e-16
 INSIDE_MM = 1.0     # forward: a pen this far at least inside the anchors and below them
+WARM_MM = 5.0       # balance(): the last balance is the first guess for points this near
 PHI_STEP = 0.2       # rad: a Newton step of the turn goes no further
 
 
@@ -145,6 +146,18 @@ class Sag:
                 break
         return phi, H
 
+    def balance(self, xy) -> tuple:
+        """solve() at the points xy (N, 2), from the balance solved last where these points
+        are that one's moved by less than WARM_MM (the step solver's Newton iterates)."""
+        last = self.__dict__.get("_last")
+        if (last is not None and last[0].shape == xy.shape
+                and np.abs(last[0] - xy).max(initial=0.0) < WARM_MM):
+            state = self.solve(xy[:, 0], xy[:, 1], last[1])
+        else:
+            state = self.solve(xy[:, 0], xy[:, 1])
+        self._last = (xy.copy(), state)
+        return state
+
     def tension(self, xy) -> np.ndarray:
         """(N, 2) tensions at the gondola's ends of the cords, in units of its weight."""
         xy = np.asarray(xy, dtype=float)
@@ -156,7 +169,7 @@ class Sag:
     def inverse(self, xy) -> np.ndarray:
         m = np.asarray(xy, dtype=float)
         flat = m.reshape(-1, 2)
-        state = self.solve(flat[:, 0], flat[:, 1])
+        state = self.balance(flat)
         _, q, _ = self._eval(_const(flat[:, 0]), _const(flat[:, 1]), self._unknowns(state))
         return np.stack([np.broadcast_to(a[0], flat[:, 0].shape) for a in q],
                         axis=-1).reshape(m.shape)
@@ -167,7 +180,7 @@ class Sag:
         xy = np.asarray(xy, dtype=float)
         e = np.asarray(e, dtype=float)
         x, y = xy[:, 0], xy[:, 1]
-        state = self.solve(x, y) if state is None else state
+        state = self.balance(xy) if state is None else state
         X, Y = (x, e[:, 0], 0.0), (y, e[:, 1], 0.0)
         J, _, dq, _ = _partials_of(self, x, y, state)
         fs, _, _ = self._eval(X, Y, self._unknowns(state))

@@ -155,12 +155,9 @@ def _straight(c: dict, x, y):
     D, s, h, _ = _models(c)
     x = np.clip(np.ravel(np.asarray(x, dtype=float)), s / 2.0 + 1.0, D - s / 2.0 - 1.0)
     y = np.maximum(np.ravel(np.asarray(y, dtype=float)), h + 1.0)
-    phi = np.zeros(x.shape)
-    if _mass(c) is not None:
-        phi = _bisect(lambda p: _forces(c, x, y, p)[0], x.shape)
+    phi = np.zeros(x.shape)                     # a tilting gondola: Newton turns it
     _, TL, _, _, _ = _forces(c, x, y, phi)
-    lx, ly = _turned(-s / 2.0, -h, np.cos(phi), np.sin(phi))
-    angle = np.arctan2(y + ly, x + lx)          # the left cord below the horizontal
+    angle = np.arctan2(y - h, x - s / 2.0)      # the left cord below the horizontal
     return TL * np.cos(angle), TL * np.sin(angle), phi
 
 
@@ -200,8 +197,9 @@ def forward_kinematics(cfg: dict, left, right):
         # first the pen on straight cords of these lengths, then the cords sag
         left, right = np.broadcast_arrays(np.asarray(left, dtype=float),
                                           np.asarray(right, dtype=float))
-        X, Y = forward_kinematics({**c, "cords": {**c["cords"], "mass_g_per_m": 0.0}},
-                                  left, right)
+        straight = {**c, "cords": {"stretch": 0.0},
+                    "gondola": {k: v for k, v in c["gondola"].items() if k != "mass_below_pen_mm"}}
+        X, Y = forward_kinematics(straight, left, right)
         x, y = _sagging(c, c["origin"]["x_mm"] + X, c["origin"]["y_mm"] - Y, False,
                         left, right)
         return x - c["origin"]["x_mm"], c["origin"]["y_mm"] - y

@@ -48,24 +48,43 @@ def _tilts(c: dict) -> bool:
 
 
 def _newton(fun, u):
-    """u (N, k) where fun(u) (N, k) vanishes: Newton steps, central-difference Jacobian."""
+    """u (N, k) where fun(u, rows) (len(rows), k) vanishes, the rows of u being `rows` of the
+    points: Newton steps (central-difference Jacobian) on the rows still moving, each step
+    halved until the residual shrinks (a first guess far off: the sagged cords' pen is well
+    above the straight cords')."""
     u = u.copy()
     k = u.shape[1]
+    rows = np.arange(len(u))
+    f = fun(u, rows)
     for _ in range(STEPS):
-        f = fun(u)
-        jac = np.empty(u.shape + (k,))
+        v = u[rows]
+        jac = np.empty(v.shape + (k,))
         for j in range(k):
-            d = DIFF * np.maximum(np.abs(u[:, j]), 1e-3)
-            up, dn = u.copy(), u.copy()
+            d = DIFF * np.maximum(np.abs(v[:, j]), 1e-3)
+            up, dn = v.copy(), v.copy()
             up[:, j] += d
             dn[:, j] -= d
-            jac[:, :, j] = (fun(up) - fun(dn)) / (2.0 * d)[:, None]
+            jac[:, :, j] = (fun(up, rows) - fun(dn, rows)) / (2.0 * d)[:, None]
         with np.errstate(all="ignore"):
-            step = np.linalg.solve(jac, f[:, :, None])[:, :, 0]
-        step = np.where(np.isfinite(step), step, 0.0)
-        u -= step
-        u[:, 0] = np.maximum(u[:, 0], 1e-9)          # H > 0
-        if not np.abs(step).max(initial=0.0) > 1e-13:
+            det = np.linalg.det(np.nan_to_num(jac))
+            bad = ~(np.abs(det) > 0) | ~np.isfinite(jac).all(axis=(1, 2))
+            jac[bad] = np.eye(k)                     # a point without a balance: left NaN
+            step = np.linalg.solve(jac, np.nan_to_num(f)[:, :, None])[:, :, 0]
+            step[bad] = np.nan
+            norm = np.abs(f).max(axis=1)
+            t = np.ones(len(v))
+            for _ in range(30):
+                new = v - t[:, None] * step
+                new[:, 0] = np.maximum(new[:, 0], 1e-9)          # H > 0
+                fn = fun(new, rows)
+                worse = ~(np.abs(fn).max(axis=1) < norm) & (norm > 1e-12) & ~bad
+                if not worse.any():
+                    break
+                t = np.where(worse, t / 2.0, t)
+        u[rows] = new
+        moving = np.abs(new - v).max(axis=1) > 1e-13
+        rows, f = rows[moving], fn[moving]
+        if not len(rows):
             break
     return u
 
@@ -95,19 +114,20 @@ def inverse(c: dict, x, y, first):
     k = float(c.get("cords", {}).get("stretch", 0.0))
     tilt = _tilts(c)
 
-    def cords(u):
+    def cords(u, rows):
         H, vl = u[:, 0], u[:, 1]
         phi = u[:, 2] if tilt else 0.0
         (lx, ly), (rx, ry), _ = _body(c, phi)
-        ll = _length(mu, H, vl, x + lx)
-        lr = _length(mu, H, 1.0 - vl, D - x - rx)
-        res = [_reach(mu, H, vl, ll)[1] - (y + ly), _reach(mu, H, 1.0 - vl, lr)[1] - (y + ry)]
+        xr, yr = x[rows], y[rows]
+        ll = _length(mu, H, vl, xr + lx)
+        lr = _length(mu, H, 1.0 - vl, D - xr - rx)
+        res = [_reach(mu, H, vl, ll)[1] - (yr + ly), _reach(mu, H, 1.0 - vl, lr)[1] - (yr + ry)]
         if tilt:
             res.append(_torque(c, phi, H, vl, 1.0 - vl) / 100.0)
         return np.column_stack(res), ll, lr, H, vl
 
-    u = _newton(lambda u_: cords(u_)[0], np.column_stack(first[:2 + tilt]))
-    _, ll, lr, H, vl = cords(u)
+    u = _newton(lambda u_, rows: cords(u_, rows)[0], np.column_stack(first[:2 + tilt]))
+    _, ll, lr, H, vl = cords(u, np.arange(len(u)))
     return ll / (1.0 + k * np.hypot(H, vl)), lr / (1.0 + k * np.hypot(H, 1.0 - vl))
 
 
@@ -118,13 +138,13 @@ def forward(c: dict, a, b, first):
     k = float(c.get("cords", {}).get("stretch", 0.0))
     tilt = _tilts(c)
 
-    def points(u):
+    def points(u, rows):
         H, vl = u[:, 0], u[:, 1]
         vr = 1.0 - vl
         phi = u[:, 2] if tilt else 0.0
         # the gondola's points below the anchors, where the cords end
-        al, ul = _reach(mu, H, vl, a * (1.0 + k * np.hypot(H, vl)))
-        ar, ur = _reach(mu, H, vr, b * (1.0 + k * np.hypot(H, vr)))
+        al, ul = _reach(mu, H, vl, a[rows] * (1.0 + k * np.hypot(H, vl)))
+        ar, ur = _reach(mu, H, vr, b[rows] * (1.0 + k * np.hypot(H, vr)))
         (lx, ly), (rx, ry), _ = _body(c, phi)
         # the gondola holds them rx - lx across and ry - ly down from one another
         res = [(D - ar) - al - (rx - lx), ur - ul - (ry - ly)]
@@ -132,6 +152,6 @@ def forward(c: dict, a, b, first):
             res.append(_torque(c, phi, H, vl, vr) / 100.0)
         return np.column_stack(res), al - lx, ul - ly
 
-    u = _newton(lambda u_: points(u_)[0], np.column_stack(first[:2 + tilt]))
-    _, x, y = points(u)
+    u = _newton(lambda u_, rows: points(u_, rows)[0], np.column_stack(first[:2 + tilt]))
+    _, x, y = points(u, np.arange(len(u)))
     return x, y
