@@ -29,7 +29,8 @@ from vplotter.kinematics import taylor as tl
 from vplotter.kinematics.tilt import tensions
 
 STEPS = 40           # Newton steps at most (the balance, and the pen from the cords)
-TOL = 1e-10          # they stop after a step below this (relative in H, rad, mm): then ~1e-16
+TOL = 1e-10          # forward stops after a step below this (mm)
+TOL_BALANCE = 1e-7   # the balance after a step below this (relative in H, rad): then ~1e-14
 INSIDE_MM = 1.0     # forward: a pen this far at least inside the anchors and below them
 WARM_MM = 5.0       # balance(): the last balance is the first guess for points this near
 PHI_STEP = 0.2       # rad: a Newton step of the turn goes no further
@@ -141,7 +142,7 @@ class Sag:
             size = np.abs(step[-1]) / hr
             if pr is not None:
                 size = np.maximum(size, np.abs(step[0]))
-            rows = rows[size > TOL]          # NaN: a point without a balance, left as it is
+            rows = rows[size > TOL_BALANCE]  # NaN: a point without a balance, left as it is
             if not len(rows):
                 break
         return phi, H
@@ -174,17 +175,21 @@ class Sag:
         return np.stack([np.broadcast_to(a[0], flat[:, 0].shape) for a in q],
                         axis=-1).reshape(m.shape)
 
-    def jets(self, xy, e, state=None):
+    def jets(self, xy, e, state=None, order=2):
         """Motor coordinates (N, 2) at xy with their first and second derivatives along the
-        unit directions e; `state`: solve(xy) when known."""
+        unit directions e (order 1: the first only); `state`: solve(xy) when known."""
         xy = np.asarray(xy, dtype=float)
         e = np.asarray(e, dtype=float)
         x, y = xy[:, 0], xy[:, 1]
         state = self.balance(xy) if state is None else state
         X, Y = (x, e[:, 0], 0.0), (y, e[:, 1], 0.0)
         J, _, dq, _ = _partials_of(self, x, y, state)
-        fs, _, _ = self._eval(X, Y, self._unknowns(state))
+        fs, qs, _ = self._eval(X, Y, self._unknowns(state))
         u1 = [-v for v in _solve(J, [f[1] for f in fs])]
+        if order == 1:
+            k = [qs[m][1] + sum(dq[j][m] * u1[j] for j in range(len(u1))) for m in (0, 1)]
+            return (np.stack([np.broadcast_to(qs[m][0], x.shape) for m in (0, 1)], axis=-1),
+                    np.stack(k, axis=-1))
         zero = [0.0] * len(u1)
         fd, q, _ = self._eval(X, Y, self._unknowns(state, d1=u1, d2=zero))
         u2 = [-v for v in _solve(J, [f[2] for f in fd])]

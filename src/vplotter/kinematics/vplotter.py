@@ -307,7 +307,8 @@ class TwoCord:
         sign = np.where(rising, 1.0, -1.0)
 
         def f(s_):
-            v, k, _ = self._jets(start + dirn * s_[:, None], dirn)
+            p = start + dirn * s_[:, None]
+            v, k = self.sag.jets(p, dirn, order=1) if self.sag else self._jets(p, dirn)[:2]
             return sign * (v[:, motor] - q), sign * k[:, motor]
 
         return _bracketed(f, np.zeros(len(q)), None, TOL_MM, np.maximum(s, 0.0))
