@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from vplotter.kinematics import taylor as tl
+from vplotter.kinematics import taylor as _taylor
 from vplotter.kinematics.tilt import tensions
 
 STEPS = 40           # Newton steps at most (the balance, and the pen from the cords)
@@ -36,12 +36,15 @@ WARM_MM = 5.0       # balance(): the last balance is the first guess for points 
 PHI_STEP = 0.2       # rad: a Newton step of the turn goes no further
 
 
+_first = _taylor.First
+
+
 def _const(v):
-    return (v, 0.0, 0.0)
+    return (v, 0.0)
 
 
 def _shift(a, k):
-    return (a[0] + k, a[1], a[2])
+    return (a[0] + k, *a[1:])
 
 
 class Sag:
@@ -61,6 +64,7 @@ class Sag:
         """The balance (vertical; torque when tilting), the motor coordinates and the pulls
         V as triples, for triples of the pen's x, y and the unknowns U ([H] or [phi, H])."""
         H = U[-1]
+        tl = _taylor if len(H) == 3 else _first
         C, S = tl.cos_sin(U[0]) if len(U) == 2 else (None, None)
         mu = self.mu
         q, pull = [], []
@@ -94,13 +98,13 @@ class Sag:
         return balance, q, pull
 
     def _unknowns(self, state, k=None, d1=None, d2=None):
-        """The unknowns as triples: constant, or moving along unknown k (d1 = 1), or with
-        the derivatives d1, d2 (lists)."""
+        """The unknowns as pairs: constant, or moving along unknown k (d/dk = 1); or as
+        triples with the derivatives d1, d2 (lists)."""
         phi, H = state
         vals = [H] if phi is None else [phi, H]
         if d1 is not None:
             return [(v, a, b) for v, a, b in zip(vals, d1, d2)]
-        return [(v, 1.0 if i == k else 0.0, 0.0) for i, v in enumerate(vals)]
+        return [(v, 1.0 if i == k else 0.0) for i, v in enumerate(vals)]
 
     # ------------------------------------------------------------------ the balance
     def _floor(self, x, y, phi):
@@ -182,16 +186,16 @@ class Sag:
         e = np.asarray(e, dtype=float)
         x, y = xy[:, 0], xy[:, 1]
         state = self.balance(xy) if state is None else state
-        X, Y = (x, e[:, 0], 0.0), (y, e[:, 1], 0.0)
         J, _, dq, _ = _partials_of(self, x, y, state)
-        fs, qs, _ = self._eval(X, Y, self._unknowns(state))
+        fs, qs, _ = self._eval((x, e[:, 0]), (y, e[:, 1]), self._unknowns(state))
         u1 = [-v for v in _solve(J, [f[1] for f in fs])]
         if order == 1:
             k = [qs[m][1] + sum(dq[j][m] * u1[j] for j in range(len(u1))) for m in (0, 1)]
             return (np.stack([np.broadcast_to(qs[m][0], x.shape) for m in (0, 1)], axis=-1),
                     np.stack(k, axis=-1))
         zero = [0.0] * len(u1)
-        fd, q, _ = self._eval(X, Y, self._unknowns(state, d1=u1, d2=zero))
+        fd, q, _ = self._eval((x, e[:, 0], 0.0), (y, e[:, 1], 0.0),
+                              self._unknowns(state, d1=u1, d2=zero))
         u2 = [-v for v in _solve(J, [f[2] for f in fd])]
         # the unknowns' second derivatives enter the cords' linearly
         out = []
@@ -207,7 +211,7 @@ class Sag:
         q = [np.broadcast_to(a[0], x.shape) for a in cols[0][1]]
         out = []
         for ex, ey in ((1.0, 0.0), (0.0, 1.0)):
-            fs, qs, _ = self._eval((x, ex, 0.0), (y, ey, 0.0), self._unknowns(state))
+            fs, qs, _ = self._eval((x, ex), (y, ey), self._unknowns(state))
             u1 = [-v for v in _solve(J, [f[1] for f in fs])]
             out.append(np.stack([qs[m][1] + sum(dq[k][m] * u1[k] for k in range(len(u1)))
                                  for m in (0, 1)], axis=-1))

@@ -53,3 +53,47 @@ def asinh(a):
     """asinh: f' = 1 / sqrt(1 + a^2), f'' = -a / (1 + a^2)^(3/2)."""
     inv = 1.0 / np.sqrt(1.0 + a[0] * a[0])
     return (np.arcsinh(a[0]), a[1] * inv, (a[2] - a[0] * a[1] * a[1] * inv * inv) * inv)
+
+
+class First:
+    """The same arithmetic on (value, first derivative) pairs, where no second derivative is
+    needed (kinematics/sag.py's Newton steps and Jacobians): half the work."""
+
+    @staticmethod
+    def add(a, b):
+        return (a[0] + b[0], a[1] + b[1])
+
+    @staticmethod
+    def sub(a, b):
+        return (a[0] - b[0], a[1] - b[1])
+
+    @staticmethod
+    def scale(a, k):
+        return (a[0] * k, a[1] * k)
+
+    @staticmethod
+    def mul(a, b):
+        return (a[0] * b[0], a[1] * b[0] + a[0] * b[1])
+
+    @staticmethod
+    def div(a, b):
+        q = a[0] / b[0]
+        return (q, (a[1] - q * b[1]) / b[0])
+
+    @staticmethod
+    def sqrt(a):
+        r = np.sqrt(a[0])
+        return (r, a[1] / (2.0 * r))
+
+    @staticmethod
+    def sinh(a):
+        return (np.sinh(a[0]), np.cosh(a[0]) * a[1])
+
+    @staticmethod
+    def asinh(a):
+        return (np.arcsinh(a[0]), a[1] / np.sqrt(1.0 + a[0] * a[0]))
+
+    @staticmethod
+    def cos_sin(a):
+        c, s = np.cos(a[0]), np.sin(a[0])
+        return (c, -s * a[1]), (s, c * a[1])
