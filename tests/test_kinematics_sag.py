@@ -143,11 +143,18 @@ def test_extrema_and_crossing(name, x, y, a, d, frac):
             assert kin.inverse(a0 + e * s)[0, m] == pytest.approx(target, abs=1e-6)
 
 
-def test_the_step_solver_on_pieces():
+NEAR_ANCHOR = TwoCord(354.693, 175.2091, 416.8164, stretch=0.00521, sag_per_mm=MU)
+
+
+@pytest.mark.parametrize("kin, path", [
+    (MODELS["tilt+stretch"], [[-150.0, 250.0], [-100.0, 200.0], [-100.0, 120.0], [-140.0, 100.0]]),
+    # a line ending 30 mm left of below the right anchor: a first guess from the straight cord
+    # would land beyond its end, where the left cord goes slack
+    (NEAR_ANCHOR, [[-150.0, 25.0], [150.0, 25.0]]),
+], ids=["tilt+stretch", "near an anchor"])
+def test_the_step_solver_on_pieces(kin, path):
     """Steps along several pieces at once (as the schedule gives them): each within 1e-6 mm."""
-    kin = MODELS["tilt+stretch"]
-    verts = kin.to_machine(np.array([[-150.0, 250.0], [-100.0, 200.0], [-100.0, 120.0],
-                                     [-140.0, 100.0]]))
+    verts = kin.to_machine(np.array(path))
     seg = np.diff(verts, axis=0)
     e = seg / np.hypot(*seg.T)[:, None]
     q = kin.inverse(verts)

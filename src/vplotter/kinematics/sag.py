@@ -251,6 +251,39 @@ class Sag:
         return p
 
 
+def crossing(kin, p0, e, motor, piece, q, rising, bracketed, tol) -> np.ndarray:
+    """TwoCord.crossing with sagging cords: bracketed Newton steps on the exact cord
+    (`bracketed`: vplotter._bracketed), from where the cord's parabola at the piece's start
+    (value, slope, bend) reaches q, inside the piece where its end is known (the next piece
+    starts there): beyond it a cord may come near straight below its anchor, where the other
+    cord goes slack and the balance is wild."""
+    sag = kin.sag
+    n = len(p0)
+    d = np.full(n, np.inf)
+    if n > 1:
+        gap = p0[1:] - p0[:-1]
+        along = gap[:, 0] * e[:-1, 0] + gap[:, 1] * e[:-1, 1]
+        off = np.hypot(gap[:, 0] - along * e[:-1, 0], gap[:, 1] - along * e[:-1, 1])
+        d[:-1] = np.where((off <= 1e-9 * (1.0 + np.abs(along))) & (along >= 0), along, np.inf)
+    v0, k0, b0 = (a[:, motor] for a in sag.jets(p0, e))
+    sign = np.where(rising, 1.0, -1.0)
+    c = sign * (v0[piece] - q)               # <= 0: the steps lie ahead
+    b = sign * k0[piece]
+    a = sign * b0[piece] / 2.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = -2.0 * c / (b + np.sqrt(np.maximum(b * b - 4.0 * a * c, 0.0)))
+    hi = d[piece] + 1e-9
+    s = np.clip(np.nan_to_num(s, nan=0.0, posinf=np.inf), 0.0, hi)
+    s = np.where(np.isfinite(s), s, 0.0)
+    start, dirn = p0[piece], e[piece]
+
+    def f(s_):
+        v, k = sag.jets(start + dirn * s_[:, None], dirn, order=1)
+        return sign * (v[:, motor] - q), sign * k[:, motor]
+
+    return bracketed(f, np.zeros(len(q)), hi, tol, s)
+
+
 def _partials_of(sag: Sag, x, y, state):
     """The balance's Jacobian in the unknowns (J[row][col]) at pens (x, y), the balance's
     values, the motor coordinates' derivatives in the unknowns (dq[col][motor]) and the

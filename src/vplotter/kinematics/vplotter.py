@@ -31,6 +31,7 @@ from vplotter.kinematics.taylor import sqrt as _sqrt
 from vplotter.kinematics.taylor import sub as _sub
 from vplotter.kinematics import tilt_steps
 from vplotter.kinematics.sag import Sag
+from vplotter.kinematics.sag import crossing as sag_crossing
 from vplotter.kinematics.tilt import Gondola, cord_jets, cords_value, tensions
 
 NEWTON_STEPS = 40          # at most; they stop when every row is within TOL_MM
@@ -278,12 +279,14 @@ class TwoCord:
                  q: np.ndarray, rising: np.ndarray) -> np.ndarray:
         """Distance s along p0[piece] + s e[piece] at which motor coordinate `motor` reaches q.
         Each piece starts on the near side of its steps' q and the motor runs one way on it."""
-        if self.gondola is not None and FAST_TILT and self.sag is None:
+        if self.sag is not None:
+            return sag_crossing(self, p0, e, motor, piece, q, rising, _bracketed, TOL_MM)
+        if self.gondola is not None and FAST_TILT:
             return tilt_steps.crossing(self, p0, e, motor, piece, q, rising, self._exact_crossing)
         return self._exact_crossing(p0, e, motor, piece, q, rising)
 
     def _exact_crossing(self, p0, e, motor, piece, q, rising) -> np.ndarray:
-        """crossing() by bracketed Newton steps on the exact cords (stretch, tilt, sag)."""
+        """crossing() by bracketed Newton steps on the exact cords (stretch, tilt)."""
         if self.gondola is not None:          # the steps it gets are few: solve per step
             p0, e, piece = p0[piece], e[piece], np.arange(len(piece))
         rel = p0 - self.anchors[motor] if self.gondola is None else self._rel(p0)[:, motor]
@@ -293,12 +296,8 @@ class TwoCord:
         if self.plain:
             root = np.sqrt(np.maximum(c + q * q, 0.0))
             return np.where(rising, root - b, -b - root)
-        # stretch: first guess where the cord, stretched as at the piece start, reaches q
-        # (sag: longer by what it sags there) ...
-        if self.sag is not None:
-            g = q + (np.hypot(rel[:, 0], rel[:, 1]) - self.inverse(p0)[:, motor])[piece]
-        else:
-            g = q * (1.0 + self.stretch * self.tension(p0)[:, motor])[piece]
+        # stretch: first guess where the cord, stretched as at the piece start, reaches q ...
+        g = q * (1.0 + self.stretch * self.tension(p0)[:, motor])[piece]
         root = np.sqrt(np.maximum(c + g * g, 0.0))
         s = np.where(rising, root - b, -b - root)
         # ... then Newton on sign * (q(s) - target), which rises through zero on the piece from
@@ -307,8 +306,7 @@ class TwoCord:
         sign = np.where(rising, 1.0, -1.0)
 
         def f(s_):
-            p = start + dirn * s_[:, None]
-            v, k = self.sag.jets(p, dirn, order=1) if self.sag else self._jets(p, dirn)[:2]
+            v, k, _ = self._jets(start + dirn * s_[:, None], dirn)
             return sign * (v[:, motor] - q), sign * k[:, motor]
 
         return _bracketed(f, np.zeros(len(q)), None, TOL_MM, np.maximum(s, 0.0))
