@@ -144,6 +144,7 @@ def test_extrema_and_crossing(name, x, y, a, d, frac):
 
 
 NEAR_ANCHOR = TwoCord(354.693, 175.2091, 416.8164, stretch=0.00521, sag_per_mm=MU)
+NEAR_ANCHOR_2 = TwoCord(388.6432, 196.6448, 414.0284, stretch=0.00301, sag_per_mm=MU)
 
 
 @pytest.mark.parametrize("kin, path", [
@@ -151,7 +152,8 @@ NEAR_ANCHOR = TwoCord(354.693, 175.2091, 416.8164, stretch=0.00521, sag_per_mm=M
     # a line ending 30 mm left of below the right anchor: a first guess from the straight cord
     # would land beyond its end, where the left cord goes slack
     (NEAR_ANCHOR, [[-150.0, 25.0], [150.0, 25.0]]),
-], ids=["tilt+stretch", "near an anchor"])
+    (NEAR_ANCHOR_2, [[-150.0, 25.0], [150.0, 25.0]]),
+], ids=["tilt+stretch", "near an anchor", "near an anchor, one piece"])
 def test_the_step_solver_on_pieces(kin, path):
     """Steps along several pieces at once (as the schedule gives them): each within 1e-6 mm."""
     verts = kin.to_machine(np.array(path))

@@ -58,6 +58,7 @@ class Sag:
         self.stretch = float(stretch)
         self.gondola = gondola
         self.v = ((-half, -float(pen_below_mm)), (half, -float(pen_below_mm)))
+        self._last = None          # (points, balance) of the last balance() call
 
     # ------------------------------------------------------------------ one evaluation
     def _eval(self, X, Y, U):
@@ -154,7 +155,7 @@ class Sag:
     def balance(self, xy) -> tuple:
         """solve() at the points xy (N, 2), from the balance solved last where these points
         are that one's moved by less than WARM_MM (the step solver's Newton iterates)."""
-        last = self.__dict__.get("_last")
+        last = self._last
         if (last is not None and last[0].shape == xy.shape
                 and np.abs(last[0] - xy).max(initial=0.0) < WARM_MM):
             state = self.solve(xy[:, 0], xy[:, 1], last[1])
@@ -253,10 +254,12 @@ class Sag:
 
 def crossing(kin, p0, e, motor, piece, q, rising, bracketed, tol) -> np.ndarray:
     """TwoCord.crossing with sagging cords: bracketed Newton steps on the exact cord
-    (`bracketed`: vplotter._bracketed), from where the cord's parabola at the piece's start
-    (value, slope, bend) reaches q, inside the piece where its end is known (the next piece
-    starts there): beyond it a cord may come near straight below its anchor, where the other
-    cord goes slack and the balance is wild."""
+    (`bracketed`: vplotter._bracketed) from a first guess that does not run far past the
+    step: beyond a piece's end the pen may come near straight below an anchor, where the other
+    cord goes slack and the balance is wild (or none: NaN, taken as past the step). The guess:
+    where the cord's tangent at the piece's start reaches q, or its parabola (value, slope,
+    bend) where that comes sooner (a cord rising), and no further than the piece's end where
+    that is known (the next piece starts there)."""
     sag = kin.sag
     n = len(p0)
     d = np.full(n, np.inf)
@@ -269,7 +272,7 @@ def crossing(kin, p0, e, motor, piece, q, rising, bracketed, tol) -> np.ndarray:
     sign = np.where(rising, 1.0, -1.0)
     c = sign * (v0[piece] - q)               # <= 0: the steps lie ahead
     b = sign * k0[piece]
-    a = sign * b0[piece] / 2.0
+    a = np.maximum(sign * b0[piece] / 2.0, 0.0)     # the parabola only where it is sooner
     with np.errstate(divide="ignore", invalid="ignore"):
         s = -2.0 * c / (b + np.sqrt(np.maximum(b * b - 4.0 * a * c, 0.0)))
     hi = d[piece] + 1e-9
@@ -279,7 +282,8 @@ def crossing(kin, p0, e, motor, piece, q, rising, bracketed, tol) -> np.ndarray:
 
     def f(s_):
         v, k = sag.jets(start + dirn * s_[:, None], dirn, order=1)
-        return sign * (v[:, motor] - q), sign * k[:, motor]
+        v = sign * (v[:, motor] - q)
+        return np.where(np.isnan(v), np.inf, v), sign * k[:, motor]
 
     return bracketed(f, np.zeros(len(q)), hi, tol, s)
 

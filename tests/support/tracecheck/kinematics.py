@@ -9,6 +9,7 @@ their torque about the centre of mass is summed; ``phi`` is where that torque va
 by bisection (the stable balance: the torque changes sign there).  Forward: for each trial
 ``phi`` the pen is where the two circles about the turned gondola's anchors meet, and the
 bisection runs on the torque there; with stretch, the tensions are iterated outside.
+Cords that sag (``[cords] mass_g_per_m``): :mod:`.sag`, started from the straight cords.
 """
 
 from __future__ import annotations
