@@ -19,6 +19,9 @@ here: kinematics/vplotter.py keeps its own models then).
 Along a line p0 + s e the unknowns' derivatives follow by implicit differentiation of the
 balance (J u' = -F_s, J u'' = -F_ss(u') with J the balance's Jacobian in the unknowns), and
 every cord with them by Taylor arithmetic (taylor.py): the planner's slopes and bends are exact.
+The step solver (crossing) is the exact one: bracketed Newton steps on the cord, the balance
+solved at each (from the one before). Near straight below an anchor the other cord goes slack
+and hangs in a loop (H -> 0): the model holds there but is wild; no page should reach it.
 """
 
 from __future__ import annotations
@@ -31,8 +34,8 @@ from vplotter.kinematics.tilt import tensions
 STEPS = 40           # Newton steps at most (the balance, and the pen from the cords)
 TOL = 1e-10          # forward stops after a step below this (mm)
 TOL_BALANCE = 1e-7   # the balance after a step below this (relative in H, rad): then ~1e-14
-INSIDE_MM = 1.0     # forward: a pen this far at least inside the anchors and below them
-WARM_MM = 5.0       # balance(): the last balance is the first guess for points this near
+INSIDE_MM = 1.0      # forward: a pen this far at least inside the anchors and below them
+WARM_MM = 5.0        # balance(): the last balance is the first guess for points this near
 PHI_STEP = 0.2       # rad: a Newton step of the turn goes no further
 
 
