@@ -7,7 +7,10 @@ by bracketed Newton steps; the tilting gondola ([gondola] mass_below_pen_mm) sol
 once per sub-piece of 3 mm, a planned window at a time, and each step in closed form on an
 osculating level model (kinematics/tilt_steps.py). Each tilt row is printed beside the same
 model without tilt, and the last column says how much slower tilt makes it (CPU time, the
-best of 5 runs, 3 on the large file). Run: python -m bench.models_speed [--car-only]
+best of 5 runs, 3 on the large file). Sagging cords ([cords] mass_g_per_m, kinematics/sag.py)
+solve their balance at every Newton step of every step's crossing (the exact step solver):
+those rows are printed beside the same machine without sag. Run:
+python -m bench.models_speed [--car-only] [--sag] (--sag: only the rows sag is compared with)
 """
 
 from __future__ import annotations
@@ -55,10 +58,24 @@ def table(path: str, runs: int) -> None:
             base, gondola=config.Gondola(40.0, 15.0, 30.0), cords=config.Cords(0.004),
             motors=dataclasses.replace(base.motors, left_spool_circumference_mm=25.3,
                                        right_spool_circumference_mm=24.7)),
+        "sag (18 g/m cords, 200 g gondola)": dataclasses.replace(
+            base, gondola=config.Gondola(0.0, 0.0, None, 200.0), cords=config.Cords(0.0, 18.0)),
+        "all of them, tilting, sag": dataclasses.replace(
+            base, gondola=config.Gondola(40.0, 15.0, 30.0, 200.0), cords=config.Cords(0.004, 18.0),
+            motors=dataclasses.replace(base.motors, left_spool_circumference_mm=25.3,
+                                       right_spool_circumference_mm=24.7)),
     }
     without = {"gondola, tilting (mass 30 mm below the pen)": "gondola 40 mm, pen 15 mm below",
-               "all of them, tilting": "all of them"}
-    print("| model | steps | planning CPU | steps / CPU s | plot time | tilt costs |")
+               "all of them, tilting": "all of them",
+               "sag (18 g/m cords, 200 g gondola)": "plain",
+               "all of them, tilting, sag": "all of them, tilting"}
+    if "--sag" in sys.argv:
+        models = {k: v for k, v in models.items()
+                  if k in without.values() or k.startswith(("sag", "all of them, tilting, sag"))}
+        models = {k: models[k] for k in ("plain", "sag (18 g/m cords, 200 g gondola)",
+                                         "all of them", "all of them, tilting",
+                                         "all of them, tilting, sag")}
+    print("| model | steps | planning CPU | steps / CPU s | plot time | tilt / sag costs |")
     print("| --- | --- | --- | --- | --- | --- |")
     cpu_of = {}
     for name, cfg in models.items():

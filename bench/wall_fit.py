@@ -12,7 +12,11 @@ Then the same on walls whose gondola tilts (its centre of mass `mass` mm below t
 person has measured the gondola's cord spacing and pen offset with a ruler into config.toml):
 the ruler route with `calibrate fit --fit-mass`, and with the gondola taken as level.
 
-Run: python -m bench.wall_fit [--tilted]   (--tilted: only the tilted walls)
+And on walls whose cords sag (a GT2 belt of 7.5 g/m or ball chain of 18 g/m on a 200 g
+gondola; config.toml says so: [cords] mass_g_per_m, [gondola] mass_g): `calibrate fit` with
+the sag in config.toml, and with mass_g_per_m set to 0 (the cords taken as straight).
+
+Run: python -m bench.wall_fit [--tilted | --sag]   (only the tilted / sagging walls)
 """
 
 from __future__ import annotations
@@ -45,6 +49,14 @@ TILTED = [  # as WALLS, and the centre of mass below the pen
 ]
 
 
+SAGGING = [  # as WALLS, and (the cords' g per m, the gondola's g)
+    dict(d=6.0, sp=40.0, pb=12.0, circ=(1.015, 0.988), k=0.003, off=(5.0, -4.0), sag=(7.5, 200.0)),
+    dict(d=6.0, sp=40.0, pb=12.0, circ=(1.015, 0.988), k=0.003, off=(5.0, -4.0),
+         sag=(18.0, 200.0)),
+    dict(d=-8.0, sp=60.0, pb=20.0, circ=(0.98, 1.02), k=0.005, off=(-6.0, 7.0), sag=(18.0, 200.0)),
+]
+
+
 def one(wall: dict, seed: int, typo: int | None, fits=((),)):
     tf.TRUE_ANCHOR_MM = 422.5 + wall["d"]
     tf.TRUE_SPACING_MM, tf.TRUE_PEN_BELOW_MM = wall["sp"], wall["pb"]
@@ -59,11 +71,16 @@ def one(wall: dict, seed: int, typo: int | None, fits=((),)):
     afters = []
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(io.StringIO()):
         (tmp / "pattern").mkdir()
-        pat = tf.draw_pattern(tmp / "pattern", tilted="mass" in wall, gondola=gondola)
+        pat = tf.draw_pattern(tmp / "pattern", tilted="mass" in wall, gondola=gondola,
+                              sag=wall.get("sag"))
         for i, extra in enumerate(fits):
             os.environ["XDG_STATE_HOME"] = str(tmp / f"state{i}")
             (tmp / f"w{i}").mkdir()
             w = tf.new_wall(tmp / f"w{i}", pat)
+            if extra == ("straight",):          # the cords taken as straight
+                extra = ()
+                text = w["cfg"].read_text()
+                w["cfg"].write_text(re.sub(r"mass_g_per_m = \S+", "mass_g_per_m = 0", text))
             if i == 0:
                 before = tf.draw_and_check(w, "before")
             tf.measure(w["csv"], w["dots"], seed=seed, typo=typo)
@@ -85,9 +102,24 @@ def tilted() -> None:
               f"{fitted} | {level:.3f} mm |", flush=True)
 
 
+def sagging() -> None:
+    print("| wall | as wall | cords / gondola | before | after, sag in config.toml | "
+          "after, cords taken as straight |")
+    print("| --- | --- | --- | --- | --- | --- |")
+    for i, w in enumerate(SAGGING):
+        before, (after, straight), _, _, _ = one(w, 100 + i, None, ((), ("straight",)))
+        straight = ("refused (the measurements do not fit together)" if straight != straight
+                    else f"{straight:.3f} mm")
+        print(f"| S{i + 1} | {1 if w['d'] == 6.0 else 2} | {w['sag'][0]:g} g/m / "
+              f"{w['sag'][1]:g} g | {before:.2f} mm | {after:.3f} mm | {straight} |", flush=True)
+
+
 def main() -> None:
     if "--tilted" in sys.argv[1:]:
         tilted()
+        return
+    if "--sag" in sys.argv[1:]:
+        sagging()
         return
     print("| wall | anchor | spacing / pen below | circumferences | stretch | reference off | "
           "before | after | after, one typo (named) |")

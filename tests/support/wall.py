@@ -50,21 +50,27 @@ TRUE_STRETCH = 0.003
 TRUE_MASS_BELOW_MM = None         # the gondola's centre of mass below the pen (None: level)
 TILTED_MASS_BELOW_MM = 30.0       # the tilted wall's (draw_pattern(tmp, tilted=True))
 REF_OFF_MM = (5.0, -4.0)          # where the pen really was at `calibrate --at 0 0` (machine)
+TRUE_SAG = None                   # (cords' g per m, gondola's g): cords that sag (None: straight)
+SAG_WALL = (18.0, 200.0)          # the sagging wall's (draw_pattern(tmp, sag=SAG_WALL))
 
 
-def true_config(mass_below_mm: float | None = None) -> dict:
+def true_config(mass_below_mm: float | None = None, sag: tuple | None = None) -> dict:
     # G-code X0 Y0 of this config is where the pen really was at the reference
     gondola = {"cord_spacing_mm": TRUE_SPACING_MM, "pen_below_mm": TRUE_PEN_BELOW_MM}
     mass = TRUE_MASS_BELOW_MM if mass_below_mm is None else mass_below_mm
     if mass is not None:
         gondola["mass_below_pen_mm"] = mass
+    cords = {"stretch": TRUE_STRETCH}
+    sag = TRUE_SAG if sag is None else sag
+    if sag is not None:
+        cords["mass_g_per_m"], gondola["mass_g"] = sag
     return tc.load_config({
         "machine": {"anchor_distance_mm": TRUE_ANCHOR_MM},
         "origin": {"x_mm": 211.25 + REF_OFF_MM[0], "y_mm": 430.0 + REF_OFF_MM[1]},
         "motors": {"left_spool_circumference_mm": TRUE_CIRC_MM[0],
                    "right_spool_circumference_mm": TRUE_CIRC_MM[1]},
         "gondola": gondola,
-        "cords": {"stretch": TRUE_STRETCH},
+        "cords": cords,
     })
 
 
@@ -137,11 +143,14 @@ def rigid_error(dec, gfile) -> float:
     return float(max(there, back))
 
 
-def draw_pattern(tmp, tilted: bool = False, gondola: str = "") -> dict:
+def draw_pattern(tmp, tilted: bool = False, gondola: str = "", sag: tuple | None = None) -> dict:
     """`calibrate --at 0 0` and the pattern drawn on the fake machine, in folder `tmp`: the
     files, the stored position, and the dots decoded through the true geometry (`tilted`: a
     gondola whose centre of mass is TILTED_MASS_BELOW_MM below the pen; `gondola`: keys of
-    a [gondola] section the person measured and added to config.toml)."""
+    a [gondola] section the person measured and added to config.toml; `sag`: cords that sag,
+    (g per m, the gondola's g), written in config.toml too)."""
+    if sag is not None:
+        gondola += f"mass_g = {sag[1]:g}\n\n[cords]\nmass_g_per_m = {sag[0]:g}\n"
     saved = os.environ.get("XDG_STATE_HOME")
     os.environ["XDG_STATE_HOME"] = str(tmp / "state")
     try:
@@ -159,7 +168,7 @@ def draw_pattern(tmp, tilted: bool = False, gondola: str = "") -> dict:
             del os.environ["XDG_STATE_HOME"]
         else:
             os.environ["XDG_STATE_HOME"] = saved
-    true_cfg = true_config(TILTED_MASS_BELOW_MM if tilted else None)
+    true_cfg = true_config(TILTED_MASS_BELOW_MM if tilted else None, sag)
     dec = tc.decode(tc.read_trace(trace), true_cfg, (0.0, 0.0))
     pts, idx = dots(dec)
     return {"csv": csv_path.read_text(), "state": stored, "dec": dec, "pts": pts, "idx": idx,

@@ -47,11 +47,13 @@ class Machine:
     steps_per_rev: int
     # the gondola's centre of mass below the pen (None: the gondola stays level)
     mass_below_pen_mm: float | None = None
+    # the cords' mass per mm over the gondola's (their sag; kept, not fitted: 0 straight cords)
+    sag_per_mm: float = 0.0
 
     def kin(self, origin=(0.0, 0.0)) -> TwoCord:
         return TwoCord(self.anchor_distance_mm, origin[0], origin[1], self.cord_spacing_mm,
                        self.pen_below_mm, self.stretch,
-                       mass_below_pen_mm=self.mass_below_pen_mm)
+                       mass_below_pen_mm=self.mass_below_pen_mm, sag_per_mm=self.sag_per_mm)
 
     def cords(self, steps) -> np.ndarray:
         n = np.asarray(steps, dtype=float)

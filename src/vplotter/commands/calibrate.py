@@ -183,7 +183,8 @@ def _machine_from(cfg, reference):
     left, right = m.circumferences_mm
     return fit.Machine(cfg.machine.anchor_distance_mm, reference[0], reference[1], left, right,
                        cfg.cords.stretch, cfg.gondola.cord_spacing_mm, cfg.gondola.pen_below_mm,
-                       m.steps_per_rev, cfg.gondola.mass_below_pen_mm)
+                       m.steps_per_rev, cfg.gondola.mass_below_pen_mm,
+                       cfg.cords.sag_per_mm(cfg.gondola))
 
 
 UNITS = {"anchor_distance_mm": ("mm", 3), "cord_spacing_mm": ("mm", 3), "ref_left_mm": ("mm", 3),

@@ -256,6 +256,10 @@ def _check_geometry(cfg: Config) -> None:
         raise ConfigError(f"{path}: [gondola] mass_below_pen_mm = {mass:g} puts the centre of "
                           f"mass above the line through the cords' points (pen_below_mm = "
                           f"{cfg.gondola.pen_below_mm:g}): the gondola would tip over")
+    if cfg.cords.mass_g_per_m and cfg.gondola.mass_g is None:
+        raise ConfigError(f"{path}: [cords] mass_g_per_m = {cfg.cords.mass_g_per_m:g} needs "
+                          f"[gondola] mass_g (the gondola's mass in grams with its pen): the "
+                          f"cords sag by their mass over the gondola's")
     # The whole page must hang below the anchor line (the cords' ends: pen_below_mm above it).
     top = cfg.origin.y_mm - pg.y_max_mm - cfg.gondola.pen_below_mm
     if top <= 0:

@@ -155,9 +155,14 @@ DESCRIPTIONS: dict[str, str] = {
                                  "tilts as the cords pull unevenly and the kinematics follow "
                                  "it (`calibrate fit --fit-mass` fits it); unset: the gondola "
                                  "is taken to stay level.",
+    "gondola.mass_g": "The gondola's mass in grams with its pen (and any weight added): with "
+                      "`[cords] mass_g_per_m` it says how far the cords sag.",
     # [cords]
     "cords.stretch": "The cords' elastic strain when one cord alone carries the gondola's "
                      "whole weight (`calibrate fit` fits it).",
+    "cords.mass_g_per_m": "The cords' mass in grams per metre: heavy cords (bead chain, a GT2 "
+                          "belt) sag in a catenary and the kinematics follow it (needs "
+                          "`[gondola] mass_g`); 0: straight cords.",
     # [gcode]
     "gcode.pen": "How files move the pen: `auto` (the first Z word or `M280 P<m280_servo>` "
                  "decides, else M3/M5), `z`, `m3` or `m280`.",

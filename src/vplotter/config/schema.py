@@ -96,8 +96,10 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "cord_spacing_mm": ("float", 0.0, 0.0, 1e4),
         "pen_below_mm": ("float", 0.0, -1e4, 1e4),
         "mass_below_pen_mm": ("float", UNSET, -1e3, 1e4),
+        "mass_g": ("float+", UNSET, 0.0, 1e5),
     },
-    "cords": {"stretch": ("float", 0.0, 0.0, 0.5)},
+    "cords": {"stretch": ("float", 0.0, 0.0, 0.5),
+              "mass_g_per_m": ("float", 0.0, 0.0, 1e4)},
     "gcode": {
         "pen": ("str", "auto", ("auto", "z", "m3", "m280"), None),
         "z_down_below_mm": ("float", 0.0, -1e4, 1e4),

@@ -161,11 +161,20 @@ class Gondola:
     # the centre of mass below the pen, on the gondola's symmetry line (negative: above);
     # None: the gondola stays level (the plain model)
     mass_below_pen_mm: float | None = None
+    mass_g: float | None = None     # the gondola's mass with its pen (the cords' sag needs it)
 
 
 @dataclass(frozen=True)
 class Cords:
     stretch: float             # strain of a cord that alone carries the gondola's weight
+    mass_g_per_m: float = 0.0  # the cords' mass per metre (0: they do not sag)
+
+    def sag_per_mm(self, gondola: Gondola) -> float:
+        """The cords' mass per mm over the gondola's mass (1/mm): all of the sag's physics;
+        0 where the cords have no mass."""
+        if not self.mass_g_per_m:
+            return 0.0
+        return self.mass_g_per_m / 1000.0 / gondola.mass_g
 
 
 @dataclass(frozen=True)

@@ -38,4 +38,5 @@ def from_config(cfg: Config):
 
     return TwoCord(cfg.machine.anchor_distance_mm, cfg.origin.x_mm, cfg.origin.y_mm,
                    cfg.gondola.cord_spacing_mm, cfg.gondola.pen_below_mm, cfg.cords.stretch,
-                   mass_below_pen_mm=cfg.gondola.mass_below_pen_mm)
+                   mass_below_pen_mm=cfg.gondola.mass_below_pen_mm,
+                   sag_per_mm=cfg.cords.sag_per_mm(cfg.gondola))

@@ -9,6 +9,8 @@ Models (each one off by default, and then the formulas are exactly the plain one
   `pen_below_mm` below the line through them; the gondola does not tilt. A cord's geometric
   length is then the distance from the pen to a shifted anchor E (the anchor moved by
   (+-spacing/2, pen_below)): left = |p - E_left|, right = |p - E_right|.
+- sag (kinematics/sag.py): heavy cords hang as catenaries; level or tilting gondola, with or
+  without stretch.
 - stretch: the cords stretch in proportion to their tension. From the static balance of the
   gondola's weight W (two cords, weight straight down) a cord of geometric length g carries
   t = T / W (t_left = -x_R g_L / C, t_right = x_L g_R / C with r = p - E and C = r_L x r_R);
@@ -28,6 +30,8 @@ from vplotter.kinematics.taylor import scale as _scale
 from vplotter.kinematics.taylor import sqrt as _sqrt
 from vplotter.kinematics.taylor import sub as _sub
 from vplotter.kinematics import tilt_steps
+from vplotter.kinematics.sag import Sag
+from vplotter.kinematics.sag import crossing as sag_crossing
 from vplotter.kinematics.tilt import Gondola, cord_jets, cords_value, tensions
 
 NEWTON_STEPS = 40          # at most; they stop when every row is within TOL_MM
@@ -40,7 +44,7 @@ class TwoCord:
 
     def __init__(self, anchor_distance_mm: float, origin_x_mm: float, origin_y_mm: float,
                  cord_spacing_mm: float = 0.0, pen_below_mm: float = 0.0, stretch: float = 0.0,
-                 mass_below_pen_mm: float | None = None):
+                 mass_below_pen_mm: float | None = None, sag_per_mm: float = 0.0):
         self.d_mm = float(anchor_distance_mm)
         self.origin = np.array([origin_x_mm, origin_y_mm], dtype=float)
         self.spacing_mm = float(cord_spacing_mm)
@@ -53,8 +57,13 @@ class TwoCord:
         self.mass_below_pen_mm = None if mass_below_pen_mm is None else float(mass_below_pen_mm)
         self.gondola = None if mass_below_pen_mm is None else Gondola(
             self.d_mm, self.spacing_mm, self.pen_below_mm, self.mass_below_pen_mm)
-        # the closed forms hold: a level gondola and cords that do not stretch
-        self.plain = self.stretch == 0.0 and self.gondola is None
+        # the cords' mass per mm over the gondola's (0: straight cords)
+        self.sag_per_mm = float(sag_per_mm)
+        self.sag = None if self.sag_per_mm == 0.0 else Sag(
+            self.d_mm, self.spacing_mm, self.pen_below_mm, self.sag_per_mm, self.stretch,
+            self.gondola)
+        # the closed forms hold: a level gondola and cords that neither stretch nor sag
+        self.plain = self.stretch == 0.0 and self.gondola is None and self.sag is None
 
     def to_machine(self, xy_gcode: np.ndarray) -> np.ndarray:
         g = np.asarray(xy_gcode, dtype=float)
@@ -89,6 +98,8 @@ class TwoCord:
     def inverse(self, xy: np.ndarray) -> np.ndarray:
         if self.plain:
             return self._geometric(xy)
+        if self.sag is not None:
+            return self.sag.inverse(xy)
         m = np.asarray(xy, dtype=float)
         if self.gondola is not None:
             flat = m.reshape(-1, 2)
@@ -106,6 +117,8 @@ class TwoCord:
         p = self._triangulate(c)
         if self.plain:
             return p
+        if self.sag is not None:
+            return self.sag.forward(c.reshape(-1, 2), p.reshape(-1, 2)).reshape(c.shape)
         # Newton on q(p) = c (with a tilting gondola, its angle phi the third unknown, held
         # in balance at every step); the Jacobian rows are the slopes along x and y
         flat_c = c.reshape(-1, 2)
@@ -146,6 +159,8 @@ class TwoCord:
         `state`: the tilted gondola's balance at xy (Gondola.solve), when known."""
         xy = np.asarray(xy, dtype=float)
         e = np.asarray(e, dtype=float)
+        if self.sag is not None:
+            return self.sag.jets(xy, e)
         if self.gondola is not None:
             if state is None:
                 state = tilt_steps.balance(self, xy)
@@ -168,6 +183,8 @@ class TwoCord:
 
     def tension(self, xy: np.ndarray) -> np.ndarray:
         """(N, 2) cord tensions in units of the gondola's weight."""
+        if self.sag is not None:
+            return self.sag.tension(xy)
         if self.gondola is not None:
             xy = np.asarray(xy, dtype=float)
             return tensions(self.gondola.cords(xy[:, 0], xy[:, 1])[0])
@@ -193,7 +210,7 @@ class TwoCord:
         return np.stack(ks, axis=-1), np.stack(gs, axis=-1)
 
     def slope(self, xy: np.ndarray, e: np.ndarray) -> np.ndarray:
-        if self.gondola is not None and self.stretch == 0.0:
+        if self.gondola is not None and self.stretch == 0.0 and self.sag is None:
             xy = np.asarray(xy, dtype=float)
             return self.gondola.slopes(xy, np.asarray(e, dtype=float),
                                        tilt_steps.balance(self, xy))
@@ -262,6 +279,8 @@ class TwoCord:
                  q: np.ndarray, rising: np.ndarray) -> np.ndarray:
         """Distance s along p0[piece] + s e[piece] at which motor coordinate `motor` reaches q.
         Each piece starts on the near side of its steps' q and the motor runs one way on it."""
+        if self.sag is not None:
+            return sag_crossing(self, p0, e, motor, piece, q, rising, _bracketed, TOL_MM)
         if self.gondola is not None and FAST_TILT:
             return tilt_steps.crossing(self, p0, e, motor, piece, q, rising, self._exact_crossing)
         return self._exact_crossing(p0, e, motor, piece, q, rising)

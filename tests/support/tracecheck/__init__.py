@@ -17,6 +17,7 @@ Modules (each imports only the ones above it, none imports vplotter):
 * :mod:`.polar` - step/dir drivers and the polar plotter (motor names and pins,
   STEP/DIR decoding and timing, polar kinematics, the table's rotation and reach),
 * :mod:`.config` - the machine config (defaults, TOML, drive tables, steps per mm),
+* :mod:`.sag` - cords that sag (catenaries shot from the gondola; ``[cords] mass_g_per_m``),
 * :mod:`.kinematics` - V-plotter kinematics (cords <-> pen position),
 * :mod:`.trace` - the trace CSV and its format contract,
 * :mod:`.decoder` - coil patterns, step/dir edges and the pen pin into steps and pen points,
@@ -35,7 +36,8 @@ Conventions used throughout
   ``y = origin.y_mm - Y``.  All positions returned by this package are in
   G-code coordinates (mm) unless stated otherwise.
 * Cords: ``left = hypot(x, y)``, ``right = hypot(D - x, y)`` with the default models;
-  ``[gondola]`` (cord spacing, pen below) and ``[cords] stretch`` change them (see
+  ``[gondola]`` (cord spacing, pen below, the tilt), ``[cords] stretch`` and the cords' sag
+  (``[cords] mass_g_per_m`` with ``[gondola] mass_g``) change them (see
   :func:`inverse_kinematics`), ``[motors] left_/right_spool_circumference_mm`` the steps per
   mm of each motor.
 * Motors are named ``"left"`` and ``"right"`` (``"rotary"`` and ``"linear"`` on the polar

@@ -9,12 +9,14 @@ their torque about the centre of mass is summed; ``phi`` is where that torque va
 by bisection (the stable balance: the torque changes sign there).  Forward: for each trial
 ``phi`` the pen is where the two circles about the turned gondola's anchors meet, and the
 bisection runs on the torque there; with stretch, the tensions are iterated outside.
+Cords that sag (``[cords] mass_g_per_m``): :mod:`.sag`, started from the straight cords.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from . import sag
 from .config import merge_config
 
 
@@ -68,7 +70,7 @@ def _forces(c: dict, x, y, phi):
     cos, sin = np.cos(phi), np.sin(phi)
     lx, ly = _turned(-s / 2.0, -h, cos, sin)
     rx, ry = _turned(s / 2.0, -h, cos, sin)
-    gx, gy = _turned(0.0, _mass(c), cos, sin)
+    gx, gy = _turned(0.0, _mass(c) or 0.0, cos, sin)
     # the cords' points on the wall, the cords' angles towards their anchors
     Lx, Ly, Rx, Ry = x + lx, y + ly, x + rx, y + ry
     aL = np.arctan2(-Ly, -Lx)
@@ -148,11 +150,36 @@ def _tilted_forward(c: dict, a, b):
     return x, y
 
 
+def _straight(c: dict, x, y):
+    """(H, V_L, phi) of straight cords holding the gondola with its pen at machine (x, y):
+    the first guess of the sagging cords' balance (tracecheck/sag.py)."""
+    D, s, h, _ = _models(c)
+    x = np.clip(np.ravel(np.asarray(x, dtype=float)), s / 2.0 + 1.0, D - s / 2.0 - 1.0)
+    y = np.maximum(np.ravel(np.asarray(y, dtype=float)), h + 1.0)
+    phi = np.zeros(x.shape)                     # a tilting gondola: Newton turns it
+    _, TL, _, _, _ = _forces(c, x, y, phi)
+    angle = np.arctan2(y - h, x - s / 2.0)      # the left cord below the horizontal
+    return TL * np.cos(angle), TL * np.sin(angle), phi
+
+
+def _sagging(c: dict, x, y, inverse: bool, a=None, b=None):
+    shape = np.shape(x)
+    first = _straight(c, x, y)
+    if inverse:
+        out = sag.inverse(c, np.ravel(x), np.ravel(y), first)
+    else:
+        out = sag.forward(c, np.ravel(a), np.ravel(b), first)
+    return tuple(np.reshape(v, shape) for v in out)
+
+
 def inverse_kinematics(cfg: dict, X, Y):
     """Cord lengths paid out (left, right) in mm for G-code point(s) ``(X, Y)``."""
     c = merge_config(cfg)
     x = c["origin"]["x_mm"] + np.asarray(X, dtype=float)
     y = c["origin"]["y_mm"] - np.asarray(Y, dtype=float)
+    if sag.ratio(c):
+        x, y = np.broadcast_arrays(x, y)
+        return _sagging(c, x, y, True)
     if _mass(c) is not None:
         return _tilted_cords(c, x, y)
     return _machine_cords(c, x, y)
@@ -167,6 +194,16 @@ def forward_kinematics(cfg: dict, left, right):
     there.  Cord pairs that do not form a triangle with the anchor line give NaN.
     """
     c = merge_config(cfg)
+    if sag.ratio(c):
+        # first the pen on straight cords of these lengths, then the cords sag
+        left, right = np.broadcast_arrays(np.asarray(left, dtype=float),
+                                          np.asarray(right, dtype=float))
+        straight = {**c, "cords": {"stretch": 0.0},
+                    "gondola": {k: v for k, v in c["gondola"].items() if k != "mass_below_pen_mm"}}
+        X, Y = forward_kinematics(straight, left, right)
+        x, y = _sagging(c, c["origin"]["x_mm"] + X, c["origin"]["y_mm"] - Y, False,
+                        left, right)
+        return x - c["origin"]["x_mm"], c["origin"]["y_mm"] - y
     if _mass(c) is not None:
         x, y = _tilted_forward(c, left, right)
         return x - c["origin"]["x_mm"], c["origin"]["y_mm"] - y
