@@ -28,7 +28,7 @@ from vplotter.kinematics.taylor import scale as _scale
 from vplotter.kinematics.taylor import sqrt as _sqrt
 from vplotter.kinematics.taylor import sub as _sub
 from vplotter.kinematics import tilt_steps
-from vplotter.kinematics.tilt import Gondola, cord_jets, cords_value, tensions
+from vplotter.kinematics.tilt import Gondola, cords_value, tensions
 
 NEWTON_STEPS = 40          # at most; they stop when every row is within TOL_MM
 TOL_MM = 1e-10
@@ -147,10 +147,7 @@ class TwoCord:
         xy = np.asarray(xy, dtype=float)
         e = np.asarray(e, dtype=float)
         if self.gondola is not None:
-            if state is None:
-                state = tilt_steps.balance(self, xy)
-            r, _ = self.gondola.jets(xy, e, state)
-            ql, qr = cord_jets(r, self.stretch)
+            ql, qr = tilt_steps.jets(self, xy, e, state)
             return tuple(np.stack((a, b), axis=-1) for a, b in zip(ql, qr))
         zero = np.zeros(len(xy))
         xl = (xy[:, 0] - self.anchors[0, 0], e[:, 0], zero)
