@@ -31,6 +31,7 @@ from vplotter.kinematics.tilt import cord_jets
 SUB_MM = 3.0
 END_MARGIN, END_MARGIN_MM = 0.03, 1.0     # a piece whose end is not known: past its last step
 WINDOWS = 2                               # windows kept (the last ones the planner planned)
+NEAR_MM = 10.0                            # a few points solved this close: their phi a guess
 
 
 @dataclass
@@ -105,7 +106,8 @@ def remember(kin, xy: np.ndarray, state: tuple) -> None:
 def balance(kin, xy: np.ndarray) -> tuple:
     """Gondola.solve at the points xy (N, 2), reusing what the machine solved last: the same
     points, a window's vertices less the last or the first (the starts and the ends of its
-    pieces), or the points of the last solve moved on by one (one new point solved)."""
+    pieces), or the points of the last solve moved on by one (one new point solved); else
+    solved, from a guess where _guess has one."""
     n = len(xy)
     seen = getattr(kin, "_tilt_solves", [])
     for m, st in reversed([*seen, *((w.verts, w.state) for w in _windows(kin))]):
@@ -128,10 +130,28 @@ def balance(kin, xy: np.ndarray) -> tuple:
             st = tuple(_joined(v, w) for v, w in zip(st, new))
             break
     else:
-        st = kin.gondola.solve(xy[:, 0], xy[:, 1])
+        st = kin.gondola.solve(xy[:, 0], xy[:, 1], _guess(kin, xy, seen))
     if n > 2:
         kin._tilt_solves = [*seen[-2:], (xy.copy(), st)]
+    else:
+        kin._tilt_near = (xy.copy(), st[0])
     return st
+
+
+def _guess(kin, xy, seen):
+    """A first guess of phi at the points xy: at the middles of the pieces of the last solve,
+    the mean of its ends; else near the points of the last few (the steps of a search along a
+    piece), theirs; else None (Newton from zero)."""
+    n = len(xy)
+    if seen and len(seen[-1][0]) == n + 1:
+        m, st = seen[-1]
+        mid = 0.5 * (m[:-1] + m[1:])
+        if np.abs(mid - xy).max() <= 1e-9 * (1.0 + np.abs(xy).max()):
+            return 0.5 * (st[0][:-1] + st[0][1:])
+    near = kin.__dict__.get("_tilt_near")
+    if near is not None and near[0].shape == xy.shape and np.abs(near[0] - xy).max() < NEAR_MM:
+        return near[1]
+    return None
 
 
 def jets(kin, xy: np.ndarray, e: np.ndarray, state=None) -> tuple:
