@@ -7,7 +7,9 @@ by bracketed Newton steps; the tilting gondola ([gondola] mass_below_pen_mm) sol
 once per sub-piece of 3 mm, a planned window at a time, and each step in closed form on an
 osculating level model (kinematics/tilt_steps.py). Each tilt row is printed beside the same
 model without tilt, and the last column says how much slower tilt makes it (CPU time, the
-best of 5 runs, 3 on the large file). Run: python -m bench.models_speed [--car-only]
+best of 5 runs, 3 on the large file; the runs are interleaved, one of each model in turn, so
+that a busy machine slows every model alike; --tilt: only the four models the tilt rows
+compare). Run: python -m bench.models_speed [--car-only] [--tilt] [--runs N]
 """
 
 from __future__ import annotations
@@ -31,12 +33,13 @@ def main() -> None:
     files = [os.path.join(ROOT, "gcode_samples", "car.ngc")]
     if "--car-only" not in sys.argv:
         files.append(samples.gcodetools_file(os.path.join(tempfile.mkdtemp(), "gcodetools.ngc")))
+    runs = int(sys.argv[sys.argv.index("--runs") + 1]) if "--runs" in sys.argv else None
     for path in files:
         print(f"\n{os.path.basename(path)}:\n")
-        table(path, 5 if path == files[0] else 3)
+        table(path, runs or (5 if path == files[0] else 3), "--tilt" in sys.argv)
 
 
-def table(path: str, runs: int) -> None:
+def table(path: str, runs: int, tilt_only: bool = False) -> None:
     base = config.load(os.path.join(ROOT, "config.toml"))
     models = {
         "plain": base,
@@ -58,27 +61,35 @@ def table(path: str, runs: int) -> None:
     }
     without = {"gondola, tilting (mass 30 mm below the pen)": "gondola 40 mm, pen 15 mm below",
                "all of them, tilting": "all of them"}
+    if tilt_only:
+        models = {k: v for k, v in models.items() if k in without or k in without.values()}
     print("| model | steps | planning CPU | steps / CPU s | plot time | tilt costs |")
     print("| --- | --- | --- | --- | --- | --- |")
-    cpu_of = {}
-    for name, cfg in models.items():
-        kin = kinematics.from_config(cfg)
-        cords = kin.inverse(kin.to_machine(np.zeros((1, 2))))[0]
-        best = None
-        for _ in range(runs):
-            summary = pipeline.Summary()
-            t0 = time.process_time()
-            for _rows in pipeline.stream(cfg, gcode.read(path, warn=lambda m: None), (0, 0),
-                                         cords, path, summary=summary):
-                pass
-            cpu = time.process_time() - t0
-            best = cpu if best is None else min(best, cpu)
+    best: dict = {}
+    summaries: dict = {}
+    for _ in range(runs):                    # each round runs every model once, in turn
+        for name, cfg in models.items():
+            cpu, summaries[name] = _run(cfg, path)
+            best[name] = min(cpu, best.get(name, cpu))
+    for name in models:
+        summary, cpu = summaries[name], best[name]
         steps = int(summary.steps.sum())
-        cpu_of[name] = best
-        slower = (f"{(best / cpu_of[without[name]] - 1) * 100:+.0f} % on \"{without[name]}\""
+        slower = (f"{(cpu / best[without[name]] - 1) * 100:+.0f} % on \"{without[name]}\""
                   if name in without else "")
-        print(f"| {name} | {steps:,} | {best:.3f} s | {steps / best / 1e6:.1f} M | "
+        print(f"| {name} | {steps:,} | {cpu:.3f} s | {steps / cpu / 1e6:.1f} M | "
               f"{summary.time_s:.1f} s | {slower} |")
+
+
+def _run(cfg, path: str) -> tuple:
+    """CPU time of one dry run (parse, plan, schedule), and its summary."""
+    kin = kinematics.from_config(cfg)
+    cords = kin.inverse(kin.to_machine(np.zeros((1, 2))))[0]
+    summary = pipeline.Summary()
+    t0 = time.process_time()
+    for _rows in pipeline.stream(cfg, gcode.read(path, warn=lambda m: None), (0, 0), cords,
+                                 path, summary=summary):
+        pass
+    return time.process_time() - t0, summary
 
 
 if __name__ == "__main__":
