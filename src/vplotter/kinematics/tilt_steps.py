@@ -6,18 +6,22 @@ times the closed form per step. Instead each piece is cut into sub-pieces of at 
 SUB_MM, and at both ends of each the balance, the cord and its first two derivatives along
 the piece are solved exactly (once per sub-piece, not per step). On a sub-piece the cord is
 then the cord of a level gondola hanging from a virtual anchor, |w + t f| plus a constant,
-osculating the true cord (same value, slope and bend) at the end where the cord turns least
-(so a turning point at a piece's end, where the planner cuts pieces, is the model's own);
-each step's target gives t in closed form, and a quadratic correction in t, exact at the
-sub-piece's other end, takes up the rest. Cord error: below 1e-5 mm (a step is 6e-3 mm).
+with the true cord's value and slope at the end where the cord turns least (so a turning
+point at a piece's end, where the planner cuts pieces, is the model's own) and through its
+value at the other end (where the tilted cord bends the other way than a level one's, the
+same model of minus the cord); each step's target gives t in closed form,
+s = s0 + s1 sqrt((q + kappa)^2 - h): four numbers per sub-piece, seven operations per step.
+Cord error: below 1e-5 mm (a step is 6e-3 mm; 3.4e-6 mm at most on the samples).
 Sub-pieces the model cannot take (no bend where the cord barely moves) fall back to the
 exact solve.
 
 The sub-pieces are laid out a planned window at a time where the machine knows the window
 (`TwoCord.inverse` keeps the last windows' vertices and balances: the planner asks for the
-cords at every vertex of a window before it cuts it into blocks): one vectorised pass for all
-its blocks, each block's call then only finds its steps' sub-pieces. A block the machine does
-not know (another caller) is laid out on its own.
+cords at every vertex of a window before it cuts it into blocks, then for their derivatives
+along the pieces at the pieces' starts and ends, which the layout takes): one vectorised
+pass for all its blocks, each block's call then only finds its steps' sub-pieces (steps
+counted per sub-piece, the models repeated). A block the machine does not know (another
+caller) is laid out on its own.
 """
 
 from __future__ import annotations
@@ -27,19 +31,18 @@ from dataclasses import dataclass
 import numpy as np
 
 from vplotter.kinematics.tilt import cord_jets
+from vplotter.kinematics.tilt_kept import windows, balance, jets, remember  # noqa: F401
 
 SUB_MM = 3.0
 END_MARGIN, END_MARGIN_MM = 0.03, 1.0     # a piece whose end is not known: past its last step
-WINDOWS = 2                               # windows kept (the last ones the planner planned)
-NEAR_MM = 10.0                            # a few points solved this close: their phi a guess
 
 
 @dataclass
 class Layout:
     """The sub-pieces of consecutive pieces: piece p has points first[p] .. first[p + 1] - 1
-    (k[p] + 1 of them, t along the piece), its sub-pieces sub0[p] .. sub0[p] + k[p] - 1; per
-    motor the cord at each point, each sub-piece's model (7 rows) and whether the model fails,
-    and per piece whether the cord rises / falls anywhere along it."""
+    (k[p] + 1 of them, t along the piece), its sub-pieces sub0[p] .. sub0[p + 1] - 1; per
+    motor the cord at each point, each sub-piece's model (4 rows: _models) and whether the
+    model fails."""
 
     k: np.ndarray
     first: np.ndarray
@@ -60,124 +63,6 @@ class Layout:
     iown: np.ndarray | None = None
     iupq: tuple = ()
     big: tuple = ()
-
-
-@dataclass
-class Window:
-    """A planned window's vertices (a copy), their balance (Gondola.solve), its pieces'
-    directions, and its layout once a block asked for it."""
-
-    verts: np.ndarray
-    state: tuple
-    e: np.ndarray | None = None
-    d: np.ndarray | None = None
-    lay: Layout | None = None
-    jets0: tuple | None = None      # (e, r, qj) of jets() at the pieces' starts
-    jets1: tuple | None = None      # and at their ends
-    cursor: int = 0
-    at: int = 0
-
-
-_WINDOWS: list = []     # (machine, Window): the planner and the schedule have each a machine
-
-
-def _machine(kin) -> tuple:
-    g = kin.gondola
-    return (g.d_mm, g.v, g.a, kin.stretch)
-
-
-def _windows(kin) -> list:
-    key = kin.__dict__.get("_tilt_key")
-    if key is None:
-        key = kin._tilt_key = _machine(kin)
-    return [w for m, w in _WINDOWS if m == key]
-
-
-def remember(kin, xy: np.ndarray, state: tuple) -> None:
-    """Keep the balance at a window's vertices (from `inverse`) for its blocks' steps."""
-    key = _machine(kin)
-    mine = [i for i, (m, _) in enumerate(_WINDOWS) if m == key]
-    for i in reversed(mine[:len(mine) - WINDOWS + 1]):
-        del _WINDOWS[i]
-    _WINDOWS.append((key, Window(xy.copy(), state)))
-    del _WINDOWS[:-4 * WINDOWS]
-
-
-def balance(kin, xy: np.ndarray) -> tuple:
-    """Gondola.solve at the points xy (N, 2), reusing what the machine solved last: the same
-    points, a window's vertices less the last or the first (the starts and the ends of its
-    pieces), or the points of the last solve moved on by one (one new point solved); else
-    solved, from a guess where _guess has one."""
-    n = len(xy)
-    seen = getattr(kin, "_tilt_solves", [])
-    for m, st in reversed([*seen, *((w.verts, w.state) for w in _windows(kin))]):
-        if len(m) == n + 1:
-            for a in (0, 1):
-                if np.array_equal(m[a:a + n], xy):
-                    return tuple(_cut(v, a, a + n) for v in st)
-        elif len(m) == n and n > 1 and np.array_equal(m, xy):
-            return st
-        elif len(m) == n and n > 1 and np.array_equal(m[1:], xy[:-1]):
-            new = kin.gondola.solve(xy[-1:, 0], xy[-1:, 1])
-            st = tuple(_joined(_cut(v, 1, n), w) for v, w in zip(st, new))
-            break
-        elif len(m) == n - 1 and n > 2 and np.array_equal(m, xy[1:]):
-            new = kin.gondola.solve(xy[:1, 0], xy[:1, 1])
-            st = tuple(_joined(w, v) for v, w in zip(st, new))
-            break
-        elif len(m) == n - 1 and n > 2 and np.array_equal(m, xy[:-1]):
-            new = kin.gondola.solve(xy[-1:, 0], xy[-1:, 1])
-            st = tuple(_joined(v, w) for v, w in zip(st, new))
-            break
-    else:
-        st = kin.gondola.solve(xy[:, 0], xy[:, 1], _guess(kin, xy, seen))
-    if n > 2:
-        kin._tilt_solves = [*seen[-2:], (xy.copy(), st)]
-    else:
-        kin._tilt_near = (xy.copy(), st[0])
-    return st
-
-
-def _guess(kin, xy, seen):
-    """A first guess of phi at the points xy: at the middles of the pieces of the last solve,
-    the mean of its ends; else near the points of the last few (the steps of a search along a
-    piece), theirs; else None (Newton from zero)."""
-    n = len(xy)
-    if seen and len(seen[-1][0]) == n + 1:
-        m, st = seen[-1]
-        mid = 0.5 * (m[:-1] + m[1:])
-        if np.abs(mid - xy).max() <= 1e-9 * (1.0 + np.abs(xy).max()):
-            return 0.5 * (st[0][:-1] + st[0][1:])
-    near = kin.__dict__.get("_tilt_near")
-    if near is not None and near[0].shape == xy.shape and np.abs(near[0] - xy).max() < NEAR_MM:
-        return near[1]
-    return None
-
-
-def jets(kin, xy: np.ndarray, e: np.ndarray, state=None) -> tuple:
-    """The motor coordinates' triples at the points xy (N, 2) along e (TwoCord._jets of the
-    tilting gondola). The planner asks for them at the starts and the ends of the pieces of
-    the window it plans: they are kept with the window, for its layout."""
-    if state is None:
-        state = balance(kin, xy)
-    r, _ = kin.gondola.jets(xy, e, state)
-    qj = cord_jets(r, kin.stretch)
-    mine = _windows(kin) if len(xy) > 2 else ()
-    if mine and len(mine[-1].verts) == len(xy) + 1:
-        w = mine[-1]
-        for a, name in ((0, "jets0"), (1, "jets1")):
-            if np.array_equal(w.verts[a:a + len(xy)], xy):
-                setattr(w, name, (e.copy(), r, qj))
-                break
-    return qj
-
-
-def _joined(a, b):
-    return tuple(map(np.concatenate, zip(a, b))) if isinstance(a, tuple) else np.r_[a, b]
-
-
-def _cut(v, a, b):
-    return tuple(x[a:b] for x in v) if isinstance(v, tuple) else v[a:b]
 
 
 def _ends(kin, p0, e, motor, piece, q, rising):
@@ -212,7 +97,7 @@ def _window(kin, p0, e, motor=0):
     """(layout, offset of the block's first piece in it) when the block is a run of pieces
     of a window the machine knows, else None."""
     n = len(p0)
-    for w in reversed(_windows(kin)):
+    for w in reversed(windows(kin)):
         m = len(w.verts)
         if n > m - 1:
             continue
@@ -224,8 +109,9 @@ def _window(kin, p0, e, motor=0):
         # the block asked last (the other motor's call) or the next one, else a search
         i = -1
         for c in ((w.at, w.cursor) if motor else (w.cursor, w.at)):
-            if (c + n <= m - 1 and np.array_equal(w.verts[c:c + n], p0)
-                    and np.array_equal(w.e[c:c + n], e)):
+            # (the same directions as the last call's: the schedule's other motor)
+            if (c + n <= m - 1 and (w.verts[c:c + n] == p0).all()
+                    and ((e is w.asked and c == w.at) or (w.e[c:c + n] == e).all())):
                 i = c
                 break
         if i < 0:
@@ -240,7 +126,7 @@ def _window(kin, p0, e, motor=0):
             ok = w.d > 0
             w.lay = _lay(kin, w.verts[:-1], np.where(ok[:, None], w.e, 0.0),
                          np.where(ok, w.d, 0.0), w.state, (w.jets0, w.jets1))
-        w.at, w.cursor = i, i + n
+        w.at, w.cursor, w.asked = i, i + n, e
         return w.lay, i
     return None
 
