@@ -7,10 +7,12 @@ by bracketed Newton steps; the tilting gondola ([gondola] mass_below_pen_mm) sol
 once per sub-piece of 3 mm, a planned window at a time, and each step in closed form on an
 osculating level model (kinematics/tilt_steps.py). Each tilt row is printed beside the same
 model without tilt, and the last column says how much slower tilt makes it (CPU time, the
-best of 5 runs, 3 on the large file). Sagging cords ([cords] mass_g_per_m, kinematics/sag.py)
-solve their balance at every Newton step of every step's crossing (the exact step solver):
-those rows are printed beside the same machine without sag. Run:
-python -m bench.models_speed [--car-only] [--sag] (--sag: only the rows sag is compared with)
+best of 5 runs, 3 on the large file; the runs are interleaved, one of each model in turn, so
+that a busy machine slows every model alike). Sagging cords ([cords] mass_g_per_m,
+kinematics/sag.py) solve their balance at every Newton step of every step's crossing (the exact
+step solver): those rows are printed beside the same machine without sag. Run:
+python -m bench.models_speed [--car-only] [--tilt | --sag] [--runs N] (--tilt, --sag: only the
+rows that compare tilt, or sag, and what they are compared with)
 """
 
 from __future__ import annotations
@@ -34,12 +36,13 @@ def main() -> None:
     files = [os.path.join(ROOT, "gcode_samples", "car.ngc")]
     if "--car-only" not in sys.argv:
         files.append(samples.gcodetools_file(os.path.join(tempfile.mkdtemp(), "gcodetools.ngc")))
+    runs = int(sys.argv[sys.argv.index("--runs") + 1]) if "--runs" in sys.argv else None
     for path in files:
         print(f"\n{os.path.basename(path)}:\n")
-        table(path, 5 if path == files[0] else 3)
+        table(path, runs or (5 if path == files[0] else 3), "--tilt" in sys.argv)
 
 
-def table(path: str, runs: int) -> None:
+def table(path: str, runs: int, tilt_only: bool = False) -> None:
     base = config.load(os.path.join(ROOT, "config.toml"))
     models = {
         "plain": base,
@@ -70,32 +73,40 @@ def table(path: str, runs: int) -> None:
                "sag (18 g/m cords, 200 g gondola)": "plain",
                "all of them, tilting, sag": "all of them, tilting"}
     if "--sag" in sys.argv:
-        models = {k: v for k, v in models.items()
-                  if k in without.values() or k.startswith(("sag", "all of them, tilting, sag"))}
         models = {k: models[k] for k in ("plain", "sag (18 g/m cords, 200 g gondola)",
                                          "all of them", "all of them, tilting",
                                          "all of them, tilting, sag")}
+    elif tilt_only:
+        tilt = ("gondola, tilting (mass 30 mm below the pen)", "all of them, tilting")
+        models = {k: v for k, v in models.items()
+                  if k in tilt or k in (without[t] for t in tilt)}
     print("| model | steps | planning CPU | steps / CPU s | plot time | tilt / sag costs |")
     print("| --- | --- | --- | --- | --- | --- |")
-    cpu_of = {}
-    for name, cfg in models.items():
-        kin = kinematics.from_config(cfg)
-        cords = kin.inverse(kin.to_machine(np.zeros((1, 2))))[0]
-        best = None
-        for _ in range(runs):
-            summary = pipeline.Summary()
-            t0 = time.process_time()
-            for _rows in pipeline.stream(cfg, gcode.read(path, warn=lambda m: None), (0, 0),
-                                         cords, path, summary=summary):
-                pass
-            cpu = time.process_time() - t0
-            best = cpu if best is None else min(best, cpu)
+    best: dict = {}
+    summaries: dict = {}
+    for _ in range(runs):                    # each round runs every model once, in turn
+        for name, cfg in models.items():
+            cpu, summaries[name] = _run(cfg, path)
+            best[name] = min(cpu, best.get(name, cpu))
+    for name in models:
+        summary, cpu = summaries[name], best[name]
         steps = int(summary.steps.sum())
-        cpu_of[name] = best
-        slower = (f"{(best / cpu_of[without[name]] - 1) * 100:+.0f} % on \"{without[name]}\""
+        slower = (f"{(cpu / best[without[name]] - 1) * 100:+.0f} % on \"{without[name]}\""
                   if name in without else "")
-        print(f"| {name} | {steps:,} | {best:.3f} s | {steps / best / 1e6:.1f} M | "
+        print(f"| {name} | {steps:,} | {cpu:.3f} s | {steps / cpu / 1e6:.1f} M | "
               f"{summary.time_s:.1f} s | {slower} |")
+
+
+def _run(cfg, path: str) -> tuple:
+    """CPU time of one dry run (parse, plan, schedule), and its summary."""
+    kin = kinematics.from_config(cfg)
+    cords = kin.inverse(kin.to_machine(np.zeros((1, 2))))[0]
+    summary = pipeline.Summary()
+    t0 = time.process_time()
+    for _rows in pipeline.stream(cfg, gcode.read(path, warn=lambda m: None), (0, 0), cords,
+                                 path, summary=summary):
+        pass
+    return time.process_time() - t0, summary
 
 
 if __name__ == "__main__":

@@ -169,42 +169,39 @@ class Gondola:
             out.append((rx * dx + ry * dy) / np.sqrt(rx * rx + ry * ry))
         return np.stack(out, axis=-1)
 
-    def _r_jets(self, X, Y, C, S):
-        """The cords r_m and the balance F as triples, for triples of x, y, cos and sin."""
-        out = []
-        for (vx, vy), ax in zip(self.v, (0.0, self.d_mm)):
-            px = tl.sub(tl.scale(C, vx), tl.scale(S, vy))
-            py = tl.add(tl.scale(S, vx), tl.scale(C, vy))
-            rx = tl.sub(tl.scale(X, -1.0), px)
-            rx = (rx[0] + ax, rx[1], rx[2])
-            out.append((rx, tl.sub(tl.scale(Y, -1.0), py)))
-        k = []
-        for (axx, ayy), (rx, ry) in zip(self.a, out):
-            gx = tl.sub(tl.scale(C, axx), tl.scale(S, ayy))
-            gy = tl.add(tl.scale(S, axx), tl.scale(C, ayy))
-            k.append(tl.sub(tl.mul(gx, ry), tl.mul(gy, rx)))
-        f = tl.sub(tl.mul(k[0], out[1][0]), tl.mul(k[1], out[0][0]))
-        return out, f
-
     def jets(self, xy, e, state=None, phi=None):
         """The cords r_m along p(s) = xy + s e at s = 0 as triples (value, d/ds, d2/ds2):
         ((rLx, rLy), (rRx, rRy)), with phi's own triple; `state`: solve(xy) when known,
         `phi`: a first guess for it."""
         x, y = xy[:, 0], xy[:, 1]
-        phi, c, s, df, fx, fy, _ = self.solve(x, y, phi) if state is None else state
+        phi, c, s, df, fx, fy, r = self.solve(x, y, phi) if state is None else state
         ex, ey = e[:, 0], e[:, 1]
-        zero = np.zeros(len(x))
         p1 = -(fx * ex + fy * ey) / df
-        X, Y = (x, ex, zero), (y, ey, zero)
-        C, S = tl.cos_sin((phi, p1, zero), c, s)
-        r, f = self._r_jets(X, Y, C, S)
-        p2 = -f[2] / df
-        # phi'' enters the second derivatives of the cords linearly: d r_m / d phi = -d(R v_m)
-        out = []
-        for (vx, vy), (rx, ry) in zip(self.v, r):
-            dx = s * vx + c * vy                  # -d(R v)_x = (R v)_y
-            dy = -(c * vx - s * vy)               # -d(R v)_y = -(R v)_x
-            out.append(((rx[0], rx[1], rx[2] + dx * p2), (ry[0], ry[1], ry[2] + dy * p2)))
+        sq = p1 * p1
+        # with phi'' = 0 first: a body vector turns as (R w)' = phi' J R w, (R w)'' = -phi'^2
+        # R w (J (x, y) = (-y, x)), and r_m = A_m - p - R v_m; then F'' gives phi''
+        cords, ks = [], []
+        for (ax, ay), rx0, ry0, anchor in zip(self.a, r[::2], r[1::2], (0.0, self.d_mm)):
+            px, py = anchor - x - rx0, -y - ry0                  # R v_m
+            rx = (rx0, p1 * py - ex, sq * px)
+            ry = (ry0, -ey - p1 * px, sq * py)
+            gx, gy = c * ax - s * ay, s * ax + c * ay            # R a_m
+            g1x, g1y = -p1 * gy, p1 * gx
+            # k = gx ry - gy rx as a triple
+            k0 = gx * ry0 - gy * rx0
+            k1 = g1x * ry0 + gx * ry[1] - g1y * rx0 - gy * rx[1]
+            k2 = (2.0 * (g1x * ry[1] - g1y * rx[1]) + gx * ry[2] - gy * rx[2]
+                  - sq * (gx * ry0 - gy * rx0))
+            cords.append((px, py, rx, ry))
+            ks.append((k0, k1, k2))
+        (kl0, kl1, kl2), (kr0, kr1, kr2) = ks
+        rxl, rxr = cords[0][2], cords[1][2]
+        f2 = (kl2 * rxr[0] + 2.0 * kl1 * rxr[1] + kl0 * rxr[2]
+              - kr2 * rxl[0] - 2.0 * kr1 * rxl[1] - kr0 * rxl[2])
+        p2 = -f2 / df
+        # phi'' enters the second derivatives of the cords linearly: d r_m / d phi = -J R v_m
+        out = [((rx[0], rx[1], rx[2] + p2 * py), (ry[0], ry[1], ry[2] - p2 * px))
+               for px, py, rx, ry in cords]
         return out, (phi, p1, p2)
 
 
@@ -212,8 +209,7 @@ def cord_jets(r, stretch: float):
     """Motor coordinates (value, d/ds, d2/ds2) of the left and right cord from the cords'
     triples; with stretch, the tilted force balance gives the tensions."""
     (lx, ly), (rx, ry) = r
-    gl = tl.sqrt(tl.add(tl.mul(lx, lx), tl.mul(ly, ly)))
-    gr = tl.sqrt(tl.add(tl.mul(rx, rx), tl.mul(ry, ry)))
+    gl, gr = _length(lx, ly), _length(rx, ry)
     if stretch == 0.0:
         return gl, gr
     cross = tl.sub(tl.mul(lx, ry), tl.mul(ly, rx))
@@ -221,6 +217,13 @@ def cord_jets(r, stretch: float):
     ql = tl.div(tl.mul(gl, cross), tl.add(cross, tl.scale(tl.mul(rx, gl), stretch)))
     qr = tl.div(tl.mul(gr, cross), tl.sub(cross, tl.scale(tl.mul(lx, gr), stretch)))
     return ql, qr
+
+
+def _length(x, y):
+    """|(x, y)| as a triple from the triples x and y."""
+    g = np.sqrt(x[0] * x[0] + y[0] * y[0])
+    g1 = (x[0] * x[1] + y[0] * y[1]) / g
+    return g, g1, (x[1] * x[1] + y[1] * y[1] + x[0] * x[2] + y[0] * y[2] - g1 * g1) / g
 
 
 def cords_value(r, stretch: float) -> np.ndarray:

@@ -6,18 +6,22 @@ times the closed form per step. Instead each piece is cut into sub-pieces of at 
 SUB_MM, and at both ends of each the balance, the cord and its first two derivatives along
 the piece are solved exactly (once per sub-piece, not per step). On a sub-piece the cord is
 then the cord of a level gondola hanging from a virtual anchor, |w + t f| plus a constant,
-osculating the true cord (same value, slope and bend) at the end where the cord turns least
-(so a turning point at a piece's end, where the planner cuts pieces, is the model's own);
-each step's target gives t in closed form, and a quadratic correction in t, exact at the
-sub-piece's other end, takes up the rest. Cord error: below 1e-5 mm (a step is 6e-3 mm).
+with the true cord's value and slope at the end where the cord turns least (so a turning
+point at a piece's end, where the planner cuts pieces, is the model's own) and through its
+value at the other end (where the tilted cord bends the other way than a level one's, the
+same model of minus the cord); each step's target gives t in closed form,
+s = s0 + s1 sqrt((q + kappa)^2 - h): four numbers per sub-piece, seven operations per step.
+Cord error: below 1e-5 mm (a step is 6e-3 mm; 3.4e-6 mm at most on the samples).
 Sub-pieces the model cannot take (no bend where the cord barely moves) fall back to the
 exact solve.
 
 The sub-pieces are laid out a planned window at a time where the machine knows the window
 (`TwoCord.inverse` keeps the last windows' vertices and balances: the planner asks for the
-cords at every vertex of a window before it cuts it into blocks): one vectorised pass for all
-its blocks, each block's call then only finds its steps' sub-pieces. A block the machine does
-not know (another caller) is laid out on its own.
+cords at every vertex of a window before it cuts it into blocks, then for their derivatives
+along the pieces at the pieces' starts and ends, which the layout takes): one vectorised
+pass for all its blocks, each block's call then only finds its steps' sub-pieces (steps
+counted per sub-piece, the models repeated). A block the machine does not know (another
+caller) is laid out on its own.
 """
 
 from __future__ import annotations
@@ -27,18 +31,18 @@ from dataclasses import dataclass
 import numpy as np
 
 from vplotter.kinematics.tilt import cord_jets
+from vplotter.kinematics.tilt_kept import windows, balance, jets, remember  # noqa: F401
 
 SUB_MM = 3.0
 END_MARGIN, END_MARGIN_MM = 0.03, 1.0     # a piece whose end is not known: past its last step
-WINDOWS = 2                               # windows kept (the last ones the planner planned)
 
 
 @dataclass
 class Layout:
     """The sub-pieces of consecutive pieces: piece p has points first[p] .. first[p + 1] - 1
-    (k[p] + 1 of them, t along the piece), its sub-pieces sub0[p] .. sub0[p] + k[p] - 1; per
-    motor the cord at each point, each sub-piece's model (7 rows) and whether the model fails,
-    and per piece whether the cord rises / falls anywhere along it."""
+    (k[p] + 1 of them, t along the piece), its sub-pieces sub0[p] .. sub0[p + 1] - 1; per
+    motor the cord at each point, each sub-piece's model (4 rows: _models) and whether the
+    model fails."""
 
     k: np.ndarray
     first: np.ndarray
@@ -46,93 +50,19 @@ class Layout:
     q: tuple
     model: tuple
     bad: tuple
-    up: tuple
-    down: tuple
     inner: np.ndarray     # the points inside a piece (neither end)
     owner: np.ndarray     # each point's piece
-    end: tuple = ()       # per motor the cord at each piece's end
-    badp: tuple = ()      # per motor: a sub-piece of the piece fails
+    top: tuple = ()       # per motor the most rising steps may reach on each piece (its
+    bottom: tuple = ()    # end, -inf where the cord falls), the least falling steps may
+    badc: tuple = ()      # per motor the pieces before each with a sub-piece that fails
     longs: np.ndarray | None = None   # pieces with k > 1 before each piece (n + 1)
-    spread: tuple = ()    # per motor the most the cord moves from each piece's start
-
-
-@dataclass
-class Window:
-    """A planned window's vertices (a copy), their balance (Gondola.solve), its pieces'
-    directions, and its layout once a block asked for it."""
-
-    verts: np.ndarray
-    state: tuple
-    e: np.ndarray | None = None
-    d: np.ndarray | None = None
-    lay: Layout | None = None
-    cursor: int = 0
-    at: int = 0
-
-
-_WINDOWS: list = []     # (machine, Window): the planner and the schedule have each a machine
-
-
-def _machine(kin) -> tuple:
-    g = kin.gondola
-    return (g.d_mm, g.v, g.a, kin.stretch)
-
-
-def _windows(kin) -> list:
-    key = kin.__dict__.get("_tilt_key")
-    if key is None:
-        key = kin._tilt_key = _machine(kin)
-    return [w for m, w in _WINDOWS if m == key]
-
-
-def remember(kin, xy: np.ndarray, state: tuple) -> None:
-    """Keep the balance at a window's vertices (from `inverse`) for its blocks' steps."""
-    key = _machine(kin)
-    mine = [i for i, (m, _) in enumerate(_WINDOWS) if m == key]
-    for i in reversed(mine[:len(mine) - WINDOWS + 1]):
-        del _WINDOWS[i]
-    _WINDOWS.append((key, Window(xy.copy(), state)))
-    del _WINDOWS[:-4 * WINDOWS]
-
-
-def balance(kin, xy: np.ndarray) -> tuple:
-    """Gondola.solve at the points xy (N, 2), reusing what the machine solved last: the same
-    points, a window's vertices less the last or the first (the starts and the ends of its
-    pieces), or the points of the last solve moved on by one (one new point solved)."""
-    n = len(xy)
-    seen = getattr(kin, "_tilt_solves", [])
-    for m, st in reversed([*seen, *((w.verts, w.state) for w in _windows(kin))]):
-        if len(m) == n + 1:
-            for a in (0, 1):
-                if np.array_equal(m[a:a + n], xy):
-                    return tuple(_cut(v, a, a + n) for v in st)
-        elif len(m) == n and n > 1 and np.array_equal(m, xy):
-            return st
-        elif len(m) == n and n > 1 and np.array_equal(m[1:], xy[:-1]):
-            new = kin.gondola.solve(xy[-1:, 0], xy[-1:, 1])
-            st = tuple(_joined(_cut(v, 1, n), w) for v, w in zip(st, new))
-            break
-        elif len(m) == n - 1 and n > 2 and np.array_equal(m, xy[1:]):
-            new = kin.gondola.solve(xy[:1, 0], xy[:1, 1])
-            st = tuple(_joined(w, v) for v, w in zip(st, new))
-            break
-        elif len(m) == n - 1 and n > 2 and np.array_equal(m, xy[:-1]):
-            new = kin.gondola.solve(xy[-1:, 0], xy[-1:, 1])
-            st = tuple(_joined(v, w) for v, w in zip(st, new))
-            break
-    else:
-        st = kin.gondola.solve(xy[:, 0], xy[:, 1])
-    if n > 2:
-        kin._tilt_solves = [*seen[-2:], (xy.copy(), st)]
-    return st
-
-
-def _joined(a, b):
-    return tuple(map(np.concatenate, zip(a, b))) if isinstance(a, tuple) else np.r_[a, b]
-
-
-def _cut(v, a, b):
-    return tuple(x[a:b] for x in v) if isinstance(v, tuple) else v[a:b]
+    # the inner points in order: the sub-piece each starts, its piece, and per motor its
+    # cord signed the way the cord goes along the piece (+-q: rising along the piece), and
+    # a power of two above twice any |q| (piece * big + signed q orders the steps)
+    isub: np.ndarray | None = None
+    iown: np.ndarray | None = None
+    iupq: tuple = ()
+    big: tuple = ()
 
 
 def _ends(kin, p0, e, motor, piece, q, rising):
@@ -167,7 +97,7 @@ def _window(kin, p0, e, motor=0):
     """(layout, offset of the block's first piece in it) when the block is a run of pieces
     of a window the machine knows, else None."""
     n = len(p0)
-    for w in reversed(_windows(kin)):
+    for w in reversed(windows(kin)):
         m = len(w.verts)
         if n > m - 1:
             continue
@@ -179,8 +109,9 @@ def _window(kin, p0, e, motor=0):
         # the block asked last (the other motor's call) or the next one, else a search
         i = -1
         for c in ((w.at, w.cursor) if motor else (w.cursor, w.at)):
-            if (c + n <= m - 1 and np.array_equal(w.verts[c:c + n], p0)
-                    and np.array_equal(w.e[c:c + n], e)):
+            # (the same directions as the last call's: the schedule's other motor)
+            if (c + n <= m - 1 and (w.verts[c:c + n] == p0).all()
+                    and ((e is w.asked and c == w.at) or (w.e[c:c + n] == e).all())):
                 i = c
                 break
         if i < 0:
@@ -194,8 +125,8 @@ def _window(kin, p0, e, motor=0):
         if w.lay is None:
             ok = w.d > 0
             w.lay = _lay(kin, w.verts[:-1], np.where(ok[:, None], w.e, 0.0),
-                         np.where(ok, w.d, 0.0), w.state)
-        w.at, w.cursor = i, i + n
+                         np.where(ok, w.d, 0.0), w.state, (w.jets0, w.jets1))
+        w.at, w.cursor, w.asked = i, i + n, e
         return w.lay, i
     return None
 
@@ -204,7 +135,7 @@ def crossing(kin, p0, e, motor, piece, q, rising, exact) -> np.ndarray:
     """As TwoCord.crossing; `exact(p0, e, motor, piece, q, rising)` the exact solver."""
     if not len(q):
         return np.zeros(0)
-    if np.any(piece[1:] < piece[:-1]):
+    if (piece[1:] < piece[:-1]).any():
         return exact(p0, e, motor, piece, q, rising)
     found = _window(kin, p0, e, motor)
     if found is None:
@@ -212,44 +143,61 @@ def crossing(kin, p0, e, motor, piece, q, rising, exact) -> np.ndarray:
     else:
         lay, i = found
     n = len(p0)
-    qv = lay.q[motor]
+    ends = np.searchsorted(piece, np.arange(n + 1))       # each piece's steps: ends[p]:ends[p+1]
+    lo, hi = lay.sub0[i], lay.sub0[i + n]                  # the block's sub-pieces
     if lay.longs[i + n] > lay.longs[i]:
-        k = lay.k[i:i + n]
-        fst = lay.first[i:i + n + 1]
-        q0 = qv[fst[:-1]]
-        span = 2.0 * lay.spread[motor][i:i + n].max() + 1.0
-        pts = fst[0] + np.flatnonzero(lay.inner[fst[0]:fst[-1]])
-        own = lay.owner[pts] - i
-        up = np.sign(qv[fst[1:] - 1] - q0)
-        key_in = own * span + up[own] * (qv[pts] - q0[own])
-        key = piece * span + np.where(rising, 1.0, -1.0) * (q - q0[piece])
-        # the inner ends before the step's, less those of the pieces before (k - 1 each)
-        idx = np.searchsorted(key_in, key) + piece + lay.sub0[i]
+        count = _counts(lay, motor, i, n, piece, q, rising, ends)
+        if count is None:
+            return exact(p0, e, motor, piece, q, rising)
     else:
-        idx = piece + lay.sub0[i]
-    sx, d0, a, b_a, sg_a, kappa, c2 = np.take(lay.model[motor], idx, axis=1)   # C order
-    g = q + kappa
-    u = sg_a * np.sqrt(np.maximum(d0 + a * g * g, 0.0)) - b_a
-    s = sx + u + c2 * u * u
-    slow = _slow(lay, motor, i, n, piece, q, rising, idx)
+        count = np.diff(ends)                              # one sub-piece per piece
+    s0, s1, kappa, h = np.repeat(lay.model[motor][:, lo:hi], count, axis=1)
+    s = q + kappa                        # s = s0 + s1 sqrt((q + kappa)^2 - h), in place
+    s *= s
+    s -= h
+    np.maximum(s, 0.0, out=s)
+    np.sqrt(s, out=s)
+    s *= s1
+    s += s0
+    slow = _slow(lay, motor, i, n, piece, q, rising, ends, lo, hi, count)
     if slow is not None:
         s[slow] = exact(p0, e, motor, piece[slow], q[slow], rising[slow])
     return s
 
 
-def _slow(lay, motor, i, n, piece, q, rising, idx):
+def _counts(lay, motor, i, n, piece, q, rising, ends):
+    """The number of steps on each of the block's sub-pieces (pieces i .. i + n - 1 of the
+    layout), from where its inner points fall among the steps; None when the steps do not
+    run one way along each piece (not the schedule's)."""
+    big = lay.big[motor]
+    # the steps in order along the pieces: piece by piece, each one the way its cord goes
+    key = np.where(rising, q, -q)
+    key += piece * big
+    if (key[1:] < key[:-1]).any():
+        return None
+    a, b = lay.sub0[i] - i, lay.sub0[i + n] - i - n      # the block's inner points
+    ikey = (lay.iown[a:b] - i) * big
+    ikey += lay.iupq[motor][a:b]
+    pos = np.searchsorted(key, ikey, side="right")
+    bounds = np.empty(lay.sub0[i + n] - lay.sub0[i] + 1, dtype=np.intp)
+    bounds[lay.sub0[i:i + n] - lay.sub0[i]] = ends[:-1]
+    bounds[lay.isub[a:b] - lay.sub0[i]] = pos
+    bounds[-1] = ends[-1]
+    np.maximum.accumulate(bounds, out=bounds)     # (a piece whose cord turns: see _slow)
+    return np.diff(bounds)
+
+
+def _slow(lay, motor, i, n, piece, q, rising, ends, lo, hi, count):
     """The steps the model cannot take (None: none): on a sub-piece it fails on, or on a piece
     whose cord turns against its steps or ends short of its last step."""
-    count = np.bincount(piece, minlength=n)
-    last = np.cumsum(count) - 1
-    rl = rising[last]
-    ql, end = q[last], lay.end[motor][i:i + n]
-    turn = np.where(rl, (end < ql) | lay.down[motor][i:i + n], (end > ql) | lay.up[motor][i:i + n])
-    turn &= count > 0
-    if not (turn | lay.badp[motor][i:i + n]).any():
+    last = ends[1:] - 1
+    ql = q[last]
+    turn = np.where(rising[last], ql > lay.top[motor][i:i + n], ql < lay.bottom[motor][i:i + n])
+    turn &= last >= ends[:-1]                   # (the pieces with steps)
+    if not turn.any() and lay.badc[motor][i + n] == lay.badc[motor][i]:
         return None
-    bad = lay.bad[motor]
-    slow = np.flatnonzero(turn[piece] | bad[idx])
+    bad = np.repeat(lay.bad[motor][lo:hi], count)
+    slow = np.flatnonzero(turn[piece] | bad)
     return slow if len(slow) else None
 
 
@@ -266,10 +214,11 @@ def _block_layout(kin, p0, e, motor, piece, q, rising):
     return lay
 
 
-def _lay(kin, p0, e, d, ends=None) -> Layout:
+def _lay(kin, p0, e, d, ends=None, known=(None, None)) -> Layout:
     """The sub-pieces of pieces p0 + t e, 0 <= t <= d, and the cords' triples at their ends;
     ends: the balance at the pieces' starts and the last one's end (Gondola.solve), when
-    known (then only the points inside the pieces are solved)."""
+    known (then only the points inside the pieces are solved); known: jets()'s (e, r, qj)
+    at the pieces' starts and ends, when it kept them."""
     n = len(p0)
     k = np.maximum(1, np.ceil(d / SUB_MM - 1e-9)).astype(np.int64)
     first = np.concatenate(([0], np.cumsum(k + 1)))
@@ -279,14 +228,18 @@ def _lay(kin, p0, e, d, ends=None) -> Layout:
     t = d[owner] * frac
     pts = p0[owner] + t[:, None] * e[owner]
     inner = (j > 0) & (j < k[owner])
-    state = None
-    if ends is not None:
-        vert = owner + (j > 0)                      # the vertex at each end point
-        phi = ends[0]
-        guess = phi[owner] + (phi[owner + 1] - phi[owner]) * frac
-        state = _merged(kin.gondola, pts, inner, guess, ends, vert)
-    r, _ = kin.gondola.jets(pts, e[owner], state)
-    qj = cord_jets(r, kin.stretch)
+    r = _vertex_jets(kin, pts, e, owner, inner, frac, ends, first, known)
+    if r is None:
+        state = None
+        if ends is not None:
+            vert = owner + (j > 0)                      # the vertex at each end point
+            phi = ends[0]
+            guess = phi[owner] + (phi[owner + 1] - phi[owner]) * frac
+            state = _merged(kin.gondola, pts, inner, guess, ends, vert)
+        r, _ = kin.gondola.jets(pts, e[owner], state)
+        qj = cord_jets(r, kin.stretch)
+    else:
+        r, qj = r
     start = np.flatnonzero(j < k[owner])
     models, bads, ups, downs = [], [], [], []
     for m in (0, 1):
@@ -299,17 +252,41 @@ def _lay(kin, p0, e, d, ends=None) -> Layout:
         downs.append(np.bincount(owner[start], dq < 0, minlength=n) > 0)
     q = (qj[0][0], qj[1][0])
     ends = first[1:] - 1
-    badp = tuple(np.bincount(owner[start], b, minlength=n) > 0 for b in bads)
-    return Layout(k, first, first[:-1] - np.arange(n), q, tuple(models), tuple(bads),
-                  tuple(ups), tuple(downs), inner, owner, (q[0][ends], q[1][ends]), badp,
-                  np.concatenate(([0], np.cumsum(k > 1))),
-                  tuple(_spread(v, first, owner, n) for v in q))
+    badc = tuple(np.concatenate(([0], np.cumsum(np.bincount(owner[start], b, minlength=n) > 0)))
+                 for b in bads)
+    top = tuple(np.where(dn, -np.inf, v[ends]) for v, dn in zip(q, downs))
+    bottom = tuple(np.where(u, np.inf, v[ends]) for v, u in zip(q, ups))
+    ins = np.flatnonzero(inner)
+    iown = owner[ins]
+    iupq = tuple(np.where(v[ends] >= v[first[:-1]], 1.0, -1.0)[iown] * v[ins] for v in q)
+    big = tuple(2.0 ** np.ceil(np.log2(4.0 * np.abs(v).max(initial=1.0) + 16.0)) for v in q)
+    return Layout(k, first, first - np.arange(n + 1), q, tuple(models), tuple(bads),
+                  inner, owner, top, bottom, badc,
+                  np.concatenate(([0], np.cumsum(k > 1))), ins - iown, iown, iupq, big)
 
 
-def _spread(q, first, owner, n):
-    out = np.zeros(n)
-    np.maximum.at(out, owner, np.abs(q - q[first[:-1]][owner]))
-    return out
+def _vertex_jets(kin, pts, e, owner, inner, frac, ends, first, known):
+    """(r, qj) at the layout's points from the kept jets at the pieces' starts and ends, the
+    points inside the pieces solved; None if jets() did not keep them (along e)."""
+    if ends is None or not all(k is not None and np.array_equal(k[0], e) for k in known):
+        return None
+    at0, at1 = known[0][1:], known[1][1:]
+    ins = np.flatnonzero(inner)
+    own = owner[ins]
+    phi = ends[0]
+    state = kin.gondola.solve(pts[ins, 0], pts[ins, 1],
+                              phi[own] + (phi[own + 1] - phi[own]) * frac[ins])
+    r_in, _ = kin.gondola.jets(pts[ins], e[own], state)
+    idx = (first[:-1], first[1:] - 1, ins)
+
+    def put(a, b, c):
+        if isinstance(a, (tuple, list)):
+            return tuple(put(x, y, z) for x, y, z in zip(a, b, c))
+        out = np.empty(len(pts))
+        out[idx[0]], out[idx[1]], out[idx[2]] = a, b, c
+        return out
+
+    return put(at0[0], at1[0], r_in), put(at0[1], at1[1], cord_jets(r_in, kin.stretch))
 
 
 def _merged(gondola, pts, inner, guess, ends, vert) -> tuple:
@@ -332,37 +309,36 @@ def _put(known, new, vert, at):
 
 
 def _models(t, qj, rx, ry, start):
-    """Per sub-piece (points start and start + 1): the osculating level model at its end where
-    the cord turns least, and the correction that makes the other end exact."""
+    """Per sub-piece (points start and start + 1): the level model through both ends with the
+    true slope at the end where the cord turns least, as the rows (s0, s1, kappa, h) of
+    s = s0 + s1 sqrt((q + kappa)^2 - h); and whether it fails."""
     i0, i1 = start, start + 1
     slope = np.abs(qj[1])
     at = np.where(slope[i0] <= slope[i1], i0, i1)
     other = np.where(at == i0, i1, i0)
     wx, wy = -rx[0][at], -ry[0][at]
     nw = np.hypot(wx, wy)
-    hx, hy = wx / nw, wy / nw
-    # f: slope q' along w, and the perpendicular part that gives the bend q'' (f_perp^2 / |w|),
-    # on the side the true cord moves to
-    fpx, fpy = -rx[1][at], -ry[1][at]
-    side = np.where(fpx * -hy + fpy * hx >= 0, 1.0, -1.0)
-    perp = side * np.sqrt(np.maximum(qj[2][at] * nw, 0.0))
-    fx = qj[1][at] * hx - perp * hy
-    fy = qj[1][at] * hy + perp * hx
-    a = fx * fx + fy * fy
-    b = wx * fx + wy * fy
-    bad = ~(a > 1e-12)
-    a = np.where(bad, 1.0, a)
-    d0 = b * b - a * nw * nw
-    kappa = nw - qj[0][at]
-    sx = t[at]
-    inv_a = 1.0 / a
-    # the other end: where the model puts its cord, and the correction that moves it there
-    sg = np.where(qj[0][i1] >= qj[0][i0], 1.0, -1.0)
-    g = qj[0][other] + kappa
-    u = (sg * np.sqrt(np.maximum(d0 + a * g * g, 0.0)) - b) * inv_a
-    want = t[other] - sx
+    u1 = t[other] - t[at]
+    # the model of the cord (of minus the cord where it bends the other way, sigma = -1):
+    # |w + u f| - kappa, f = k w/|w| + perp (w/|w| turned), k the true slope, perp as large
+    # as takes it through the other end
+    sigma = np.where(qj[0][other] - qj[0][at] >= u1 * qj[1][at], 1.0, -1.0)
+    k = sigma * qj[1][at]
+    kappa = nw - sigma * qj[0][at]
+    reach, along = sigma * qj[0][other] + kappa, nw + u1 * k
     with np.errstate(divide="ignore", invalid="ignore"):
-        c2 = np.where(np.abs(u) > 1e-12, (want - u) / (u * u), 0.0)
-    bad |= ~np.isfinite(c2) | (np.abs(c2 * u) > 0.5)
-    # the steps on a sub-piece go the way its cord goes (else the piece turns: see _slow)
-    return (sx, d0, a, b * inv_a, sg * inv_a, kappa, c2), bad
+        perp2 = np.maximum((reach - along) * (reach + along), 0.0) / (u1 * u1)
+        a = k * k + perp2
+        bad = ~(a > 1e-12)
+        a = np.where(bad, 1.0, a)
+        # u = (sg sqrt(a g^2 - perp^2 |w|^2) - k |w|) / a, g = sigma q + kappa: the root on
+        # the side the model's cord goes; scaled to be exact at the other end (rounding)
+        sg = np.where(qj[0][i1] >= qj[0][i0], sigma, -sigma)
+        h = perp2 * nw * nw / a
+        s1 = sg / np.sqrt(a)
+        b = k * nw / a
+        u = s1 * np.sqrt(np.maximum(reach * reach - h, 0.0)) - b
+        scale = np.where(np.abs(u) > 1e-12, u1 / u, 1.0)
+        bad |= ~np.isfinite(scale) | (np.abs(scale - 1.0) > 0.5)
+        scale = np.where(bad, 1.0, scale)
+    return (t[at] - scale * b, scale * s1, sigma * kappa, h), bad

@@ -162,10 +162,7 @@ class TwoCord:
         if self.sag is not None:
             return self.sag.jets(xy, e)
         if self.gondola is not None:
-            if state is None:
-                state = tilt_steps.balance(self, xy)
-            r, _ = self.gondola.jets(xy, e, state)
-            ql, qr = cord_jets(r, self.stretch)
+            ql, qr = tilt_steps.jets(self, xy, e, state)
             return tuple(np.stack((a, b), axis=-1) for a, b in zip(ql, qr))
         zero = np.zeros(len(xy))
         xl = (xy[:, 0] - self.anchors[0, 0], e[:, 0], zero)
@@ -257,20 +254,26 @@ class TwoCord:
             same = np.abs(ends[:-1] - p0[1:]).max(axis=1) <= 1e-9
             ends[:-1][same] = p0[1:][same]
         k1 = self.slope(ends, e)
-        for m in (0, 1):
-            rows = np.flatnonzero(k0[:, m] * k1[:, m] < 0)
+        # the rows of both motors at once with the tilting gondola (each iterate solves the
+        # balance for both cords); one motor at a time otherwise
+        turn = k0 * k1 < 0
+        groups = ([turn] if self.gondola is not None
+                  else [turn & [True, False], turn & [False, True]])
+        for group in groups:
+            rows, m = np.nonzero(group)
             if not len(rows):
                 continue
             sign = np.where(k1[rows, m] > 0, 1.0, -1.0)      # sign * slope rises through zero
+            at = np.arange(len(rows))
 
-            def f(s, rows=rows, m=m, sign=sign):
+            def f(s, rows=rows, m=m, sign=sign, at=at):
                 _, k, b = self._jets(p0[rows] + e[rows] * s[:, None], e[rows])
-                return sign * k[:, m], sign * b[:, m]
+                return sign * k[at, m], sign * b[at, m]
 
             # first guess: where the level gondola's cord turns (the foot of the perpendicular
             # from its shifted anchor), inside the piece
             a = self.anchors[m]
-            s0 = -((p0[rows, 0] - a[0]) * e[rows, 0] + (p0[rows, 1] - a[1]) * e[rows, 1])
+            s0 = -((p0[rows, 0] - a[:, 0]) * e[rows, 0] + (p0[rows, 1] - a[:, 1]) * e[rows, 1])
             s0 = np.clip(s0, 0.0, d[rows]) if self.gondola is not None else None
             out[rows, m] = _bracketed(f, np.zeros(len(rows)), d[rows].astype(float), TOL_MM, s0)
         return out

@@ -1,0 +1,137 @@
+"""What the tilting gondola's machine keeps between calls (kinematics/tilt_steps.py lays out
+and solves steps with it): the planned windows' vertices and balances (`remember`), the
+balance reused between the planner's calls (`balance`: the same points, moved on by one, or
+a first guess of phi), and the cords' derivatives the planner asks for at the starts and the
+ends of a window's pieces (`jets`), which the window's layout takes.
+
+The planner and the schedule have each a machine: the windows are kept here, by machine."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from vplotter.kinematics.tilt import cord_jets
+
+WINDOWS = 2                               # windows kept (the last ones the planner planned)
+NEAR_MM = 10.0                            # a few points solved this close: their phi a guess
+
+
+@dataclass
+class Window:
+    """A planned window's vertices (a copy), their balance (Gondola.solve), its pieces'
+    directions, and its layout once a block asked for it."""
+
+    verts: np.ndarray
+    state: tuple
+    e: np.ndarray | None = None
+    d: np.ndarray | None = None
+    lay: object | None = None       # its tilt_steps.Layout
+    jets0: tuple | None = None      # (e, r, qj) of jets() at the pieces' starts
+    jets1: tuple | None = None      # and at their ends
+    cursor: int = 0
+    at: int = 0
+    asked: np.ndarray | None = None     # the directions of the last call (the same object)
+
+
+_WINDOWS: list = []     # (machine, Window): the planner and the schedule have each a machine
+
+
+def _machine(kin) -> tuple:
+    g = kin.gondola
+    return (g.d_mm, g.v, g.a, kin.stretch)
+
+
+def windows(kin) -> list:
+    key = kin.__dict__.get("_tilt_key")
+    if key is None:
+        key = kin._tilt_key = _machine(kin)
+    return [w for m, w in _WINDOWS if m == key]
+
+
+def remember(kin, xy: np.ndarray, state: tuple) -> None:
+    """Keep the balance at a window's vertices (from `inverse`) for its blocks' steps."""
+    key = _machine(kin)
+    mine = [i for i, (m, _) in enumerate(_WINDOWS) if m == key]
+    for i in reversed(mine[:len(mine) - WINDOWS + 1]):
+        del _WINDOWS[i]
+    _WINDOWS.append((key, Window(xy.copy(), state)))
+    del _WINDOWS[:-4 * WINDOWS]
+
+
+def balance(kin, xy: np.ndarray) -> tuple:
+    """Gondola.solve at the points xy (N, 2), reusing what the machine solved last: the same
+    points, a window's vertices less the last or the first (the starts and the ends of its
+    pieces), or the points of the last solve moved on by one (one new point solved); else
+    solved, from a guess where _guess has one."""
+    n = len(xy)
+    seen = getattr(kin, "_tilt_solves", [])
+    for m, st in reversed([*seen, *((w.verts, w.state) for w in windows(kin))]):
+        if len(m) == n + 1:
+            for a in (0, 1):
+                if np.array_equal(m[a:a + n], xy):
+                    return tuple(_cut(v, a, a + n) for v in st)
+        elif len(m) == n and n > 1 and np.array_equal(m, xy):
+            return st
+        elif len(m) == n and n > 1 and np.array_equal(m[1:], xy[:-1]):
+            new = kin.gondola.solve(xy[-1:, 0], xy[-1:, 1])
+            st = tuple(_joined(_cut(v, 1, n), w) for v, w in zip(st, new))
+            break
+        elif len(m) == n - 1 and n > 2 and np.array_equal(m, xy[1:]):
+            new = kin.gondola.solve(xy[:1, 0], xy[:1, 1])
+            st = tuple(_joined(w, v) for v, w in zip(st, new))
+            break
+        elif len(m) == n - 1 and n > 2 and np.array_equal(m, xy[:-1]):
+            new = kin.gondola.solve(xy[-1:, 0], xy[-1:, 1])
+            st = tuple(_joined(v, w) for v, w in zip(st, new))
+            break
+    else:
+        st = kin.gondola.solve(xy[:, 0], xy[:, 1], _guess(kin, xy, seen))
+    if n > 2:
+        kin._tilt_solves = [*seen[-2:], (xy.copy(), st)]
+    else:
+        kin._tilt_near = (xy.copy(), st[0])
+    return st
+
+
+def _guess(kin, xy, seen):
+    """A first guess of phi at the points xy: at the middles of the pieces of the last solve,
+    the mean of its ends; else near the points of the last few (the steps of a search along a
+    piece), theirs; else None (Newton from zero)."""
+    n = len(xy)
+    if seen and len(seen[-1][0]) == n + 1:
+        m, st = seen[-1]
+        mid = 0.5 * (m[:-1] + m[1:])
+        if np.abs(mid - xy).max() <= 1e-9 * (1.0 + np.abs(xy).max()):
+            return 0.5 * (st[0][:-1] + st[0][1:])
+    near = kin.__dict__.get("_tilt_near")
+    if near is not None and near[0].shape == xy.shape and np.abs(near[0] - xy).max() < NEAR_MM:
+        return near[1]
+    return None
+
+
+def jets(kin, xy: np.ndarray, e: np.ndarray, state=None) -> tuple:
+    """The motor coordinates' triples at the points xy (N, 2) along e (TwoCord._jets of the
+    tilting gondola). The planner asks for them at the starts and the ends of the pieces of
+    the window it plans: they are kept with the window, for its layout."""
+    if state is None:
+        state = balance(kin, xy)
+    r, _ = kin.gondola.jets(xy, e, state)
+    qj = cord_jets(r, kin.stretch)
+    mine = windows(kin) if len(xy) > 2 else ()
+    if mine and len(mine[-1].verts) == len(xy) + 1:
+        w = mine[-1]
+        for a, name in ((0, "jets0"), (1, "jets1")):
+            if np.array_equal(w.verts[a:a + len(xy)], xy):
+                setattr(w, name, (e.copy(), r, qj))
+                break
+    return qj
+
+
+def _joined(a, b):
+    return tuple(map(np.concatenate, zip(a, b))) if isinstance(a, tuple) else np.r_[a, b]
+
+
+def _cut(v, a, b):
+    return tuple(x[a:b] for x in v) if isinstance(v, tuple) else v[a:b]
