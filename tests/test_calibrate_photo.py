@@ -210,7 +210,9 @@ def test_a_tilting_gondola_from_one_photo(tilted, tmp_path, capsys, monkeypatch,
     that says nothing about the gondola: the cord spacing, the pen offset and the centre of
     mass fitted with the rest, written to config.toml, and the 300 mm test drawing within
     0.5 mm of its true shape; the same photo fitted with a level gondola is refused (its marks
-    do not fit) or draws worse."""
+    do not fit) or draws worse. That last is a property of the wall (its tilt matters), not of
+    the view, so it is checked on one view (oblique: its level fit gives up at once, the
+    straight photo's takes 10 s of fitting to refuse)."""
     w = new_wall(tmp_path, tilted)
     code, out, _ = _photo(capsys, w, tilted["photos"][kind])
     assert code == 0 and "cannot tell" not in out
@@ -218,6 +220,9 @@ def test_a_tilting_gondola_from_one_photo(tilted, tmp_path, capsys, monkeypatch,
     gondola = tc.load_config(w["cfg"])["gondola"]
     assert 30.0 < gondola["cord_spacing_mm"] < 50.0 and 9.0 < gondola["pen_below_mm"] < 15.0
     assert 15.0 < gondola["mass_below_pen_mm"] < 45.0                  # truly 40, 12, 30
+    assert after < 0.5
+    if kind != "oblique":
+        return
     (tmp_path / "level").mkdir()
     w = new_wall(tmp_path / "level", tilted)
     _level_instead(monkeypatch)
