@@ -145,9 +145,10 @@ def test_another_pattern(wall, capsys, tmp_path):
 
 def test_marks_that_do_not_fit_the_machine_are_refused(wall, drawn, capsys, tmp_path):
     """Every mark moved by about a millimetre (the pen knocked between the marks, or a photo
-    of another drawing): no machine puts the dots there, the fit is not trusted."""
+    of another drawing): no machine puts the dots there, the fit is not trusted. (Seeds 1 to
+    5 and 7 are all refused so, 0.6 to 1.2 mm off; 5's fits give up soonest: 3 s, not 15.)"""
     dots = np.array(list(wall["dots"].values()))
-    shift = np.random.default_rng(7).normal(0, 1.0, (len(dots), 2))
+    shift = np.random.default_rng(5).normal(0, 1.0, (len(dots), 2))
     moved = []
     for p in drawn["strokes"]:
         near = int(np.argmin(np.hypot(*(dots - p.mean(axis=0)).T)))
