@@ -145,9 +145,10 @@ def test_another_pattern(wall, capsys, tmp_path):
 
 def test_marks_that_do_not_fit_the_machine_are_refused(wall, drawn, capsys, tmp_path):
     """Every mark moved by about a millimetre (the pen knocked between the marks, or a photo
-    of another drawing): no machine puts the dots there, the fit is not trusted."""
+    of another drawing): no machine puts the dots there, the fit is not trusted. (Seeds 1 to
+    5 and 7 are all refused so, 0.6 to 1.2 mm off; 5's fits give up soonest: 3 s, not 15.)"""
     dots = np.array(list(wall["dots"].values()))
-    shift = np.random.default_rng(7).normal(0, 1.0, (len(dots), 2))
+    shift = np.random.default_rng(5).normal(0, 1.0, (len(dots), 2))
     moved = []
     for p in drawn["strokes"]:
         near = int(np.argmin(np.hypot(*(dots - p.mean(axis=0)).T)))
@@ -210,7 +211,9 @@ def test_a_tilting_gondola_from_one_photo(tilted, tmp_path, capsys, monkeypatch,
     that says nothing about the gondola: the cord spacing, the pen offset and the centre of
     mass fitted with the rest, written to config.toml, and the 300 mm test drawing within
     0.5 mm of its true shape; the same photo fitted with a level gondola is refused (its marks
-    do not fit) or draws worse."""
+    do not fit) or draws worse. That last is a property of the wall (its tilt matters), not of
+    the view, so it is checked on one view (oblique: its level fit gives up at once, the
+    straight photo's takes 10 s of fitting to refuse)."""
     w = new_wall(tmp_path, tilted)
     code, out, _ = _photo(capsys, w, tilted["photos"][kind])
     assert code == 0 and "cannot tell" not in out
@@ -218,6 +221,9 @@ def test_a_tilting_gondola_from_one_photo(tilted, tmp_path, capsys, monkeypatch,
     gondola = tc.load_config(w["cfg"])["gondola"]
     assert 30.0 < gondola["cord_spacing_mm"] < 50.0 and 9.0 < gondola["pen_below_mm"] < 15.0
     assert 15.0 < gondola["mass_below_pen_mm"] < 45.0                  # truly 40, 12, 30
+    assert after < 0.5
+    if kind != "oblique":
+        return
     (tmp_path / "level").mkdir()
     w = new_wall(tmp_path / "level", tilted)
     _level_instead(monkeypatch)
@@ -232,11 +238,12 @@ def test_a_tilting_gondola_from_one_photo(tilted, tmp_path, capsys, monkeypatch,
 def test_a_measured_gondola_gets_its_centre_of_mass(tmp_path_factory, tmp_path, capsys,
                                                    monkeypatch):
     """config.toml with the gondola as a ruler gives it: the centre of mass alone is added,
-    the cord spacing and pen offset kept; a level gondola is refused or draws worse."""
+    the cord spacing and pen offset kept; a level gondola is refused or draws worse. (The
+    oblique view: the level fit of the straight one takes 11 s of fitting to refuse.)"""
     tmp = tmp_path_factory.mktemp("measured")
     d = draw_pattern(tmp, tilted=True, gondola=MEASURED_GONDOLA)
-    photo = tmp / "straight.jpg"
-    pp.render(tc.drawn_polylines(d["dec"]), photo, VIEWS["straight"], seed=8)
+    photo = tmp / "oblique.jpg"
+    pp.render(tc.drawn_polylines(d["dec"]), photo, VIEWS["oblique"], seed=8)
     results = {}
     for name in ("tilt", "level"):
         (tmp_path / name).mkdir()
@@ -333,7 +340,9 @@ def test_a_heic_photo_is_calibrated_like_its_jpeg(wall, drawn, capsys, tmp_path)
     pillow_heif = pytest.importorskip("pillow_heif")
     heic = tmp_path / "IMG_0002.HEIC"
     with Image.open(drawn["photos"]["straight"]) as im:
-        pillow_heif.from_pillow(im).save(str(heic), quality=90)
+        # x265's fastest preset: the same HEVC HEIC to decode, 1 s to encode instead of 8
+        pillow_heif.from_pillow(im).save(str(heic), quality=90,
+                                         enc_params={"preset": "ultrafast"})
     assert heic.read_bytes()[4:12] == b"ftypheic"
     code, out, _ = _photo(capsys, wall, heic)
     assert code == 0 and "IMG_0002.HEIC: 16 marks" in out

@@ -19,7 +19,7 @@ import pytest
 from vplotter.cli import main
 
 from support import REPO
-from support.web import DRAWING, Server, serve  # noqa: F401 - the server fixture
+from support.web import DRAWING, Server, events, serve  # noqa: F401 - the server fixture
 
 webdriver = pytest.importorskip("selenium.webdriver", reason="selenium is not installed "
                                 "(pip install selenium)")
@@ -32,16 +32,18 @@ pytestmark = pytest.mark.skipif(
     reason="no headless browser: apt-get install chromium chromium-driver")
 
 
-@pytest.fixture
-def browser(tmp_path):
+@pytest.fixture(scope="module")
+def chromium(tmp_path_factory):
+    """One headless chromium for this file's tests (it takes seconds to start)."""
     from selenium.common.exceptions import WebDriverException
     from selenium.webdriver.chrome.options import Options
     from selenium.webdriver.chrome.service import Service
 
     opts = Options()
     opts.binary_location = BROWSER
+    profile = tmp_path_factory.mktemp("chromium")
     for arg in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--disable-gpu",
-                f"--user-data-dir={tmp_path / 'chromium'}", f"--window-size={W},{H}"):
+                f"--user-data-dir={profile}", f"--window-size={W},{H}"):
         opts.add_argument(arg)
     opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
     try:
@@ -49,10 +51,22 @@ def browser(tmp_path):
     except WebDriverException as e:
         pytest.skip(f"chromium would not start: {str(e).splitlines()[0]}")
     drv.set_page_load_timeout(30)
-    drv.execute_cdp_cmd("Emulation.setDeviceMetricsOverride",     # a phone's screen
-                        {"width": W, "height": H, "deviceScaleFactor": 1, "mobile": True})
     yield drv
     drv.quit()
+
+
+@pytest.fixture
+def browser(chromium):
+    """The browser as a fresh one: a blank page, no cookies, no console lines, a phone's
+    screen."""
+    drv = chromium
+    drv.get("about:blank")
+    drv.execute_cdp_cmd("Network.clearBrowserCookies", {})
+    drv.execute_cdp_cmd("Emulation.setDeviceMetricsOverride",     # a phone's screen
+                        {"width": W, "height": H, "deviceScaleFactor": 1, "mobile": True})
+    drv.get_log("browser")                  # read: the next test sees only its own lines
+    yield drv
+    drv.get("about:blank")                  # the page and its event stream closed
 
 
 def wait_for(drv, what, timeout_s: float = 60.0):
@@ -210,7 +224,7 @@ def test_page_sets_the_position_tunes_the_pen_and_explains_an_unknown_position(
         serve, browser, tmp_path):  # noqa: F811
     from selenium.webdriver.common.by import By
 
-    server = serve()
+    server = serve(speed=4)                 # nothing here watches the pace of a move
     server.upload("walk.ngc", DRAWING.encode())
     browser.get(server.url)
     wait_for(browser, lambda d: _field(d, "where").text == "position unknown: set it under Position")
@@ -290,7 +304,7 @@ TWO_PENS = """<svg xmlns="http://www.w3.org/2000/svg" width="20mm" height="10mm"
 
 
 def test_page_prompts_for_each_pen_with_its_colour(serve, browser, tmp_path):  # noqa: F811
-    server = serve()
+    server = serve(speed=4)                 # the prompts are waits: the pace does not matter
     assert main(["--config", str(server.config), "calibrate", "--at", "0", "0"]) == 0
     assert server.upload("pens.svg", TWO_PENS.encode())[0] == 201
     browser.get(server.url)
@@ -313,6 +327,7 @@ def test_page_prompts_for_each_pen_with_its_colour(serve, browser, tmp_path):  #
     assert console_errors(browser) == []
 
 
+STEP = "G21 G90\nG01 Z-1 F600\nG01 X1 Y0\nG00 Z5\nM2\n"
 ZIGZAG = ("G21 G90\nG01 Z-1 F600\nG01 X2.5 Y0.5\nG01 X0.0 Y1.0\nG01 X2.5 Y1.5\n"
           "G01 X0.0 Y2.0\nG01 X2.5 Y2.5\nG01 X0.0 Y3.0\nG01 X2.5 Y3.5\nG01 X0.0 Y4.0\n"
           "G00 Z5\nM2\n")
@@ -326,10 +341,12 @@ def test_page_queue_runs_with_continue_and_the_drawing_grows_on_its_preview(
     browser.execute_cdp_cmd("Emulation.setDeviceMetricsOverride",
                             {"width": size[0], "height": size[1], "deviceScaleFactor": 1,
                              "mobile": size[0] < 600})
-    server = serve()
+    # twice the seed machine's pace: zig.ngc takes 3.5 s, some seven of the events (every
+    # 0.5 s) that grow the drawing; walk.ngc, the queue's second drawing, a millimetre
+    server = serve(speed=2)
     assert main(["--config", str(server.config), "calibrate", "--at", "0", "0"]) == 0
     assert server.upload("zig.ngc", ZIGZAG.encode())[0] == 201
-    assert server.upload("walk.ngc", DRAWING.encode())[0] == 201
+    assert server.upload("walk.ngc", STEP.encode())[0] == 201
     browser.get(server.url)
     wait_for(browser, lambda d: _field(d, "said").text == "Ready.")
     jobs = lambda: browser.execute_script(  # noqa: E731 - read at once: the list is redrawn
@@ -362,8 +379,7 @@ def test_page_queue_runs_with_continue_and_the_drawing_grows_on_its_preview(
     box = wait_for(browser, lambda d: _field(d, "live-box").is_displayed()
                    and _field(d, "live"))
     said, grown = set(), []
-    while True:
-        st = server.status()
+    for _, st in events(server, None, 60.0):           # the page read as each event comes
         said.add(_field(browser, "said").text)
         k = int(box.get_attribute("data-drawn") or 0)
         if not grown or k != grown[-1]:
@@ -409,7 +425,7 @@ def test_page_queue_runs_with_continue_and_the_drawing_grows_on_its_preview(
 
 
 def test_page_resumes_a_stopped_queue_job_by_running_the_queue(serve, browser):  # noqa: F811
-    server = serve()
+    server = serve(speed=2)                 # zig.ngc 3.5 s: stopped at a line past 3 of 10
     assert main(["--config", str(server.config), "calibrate", "--at", "0", "0"]) == 0
     assert server.upload("zig.ngc", ZIGZAG.encode())[0] == 201
     assert server.request("POST", "/api/queue", {"file": "zig.ngc"})[0] == 201

@@ -3,7 +3,8 @@ folder, list, move, remove, run in the background with `continue` at the paper c
 history; the token rules hold for every route; the CLI sees the same queue.
 
 Draws run in real time on gpiozero's MockFactory with a short pen settle time (as in
-test_web.py); the test waits on the event stream, never on sleeps."""
+test_web.py), on a machine four times the seed's pace; the test waits on the event stream,
+never on sleeps."""
 
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ from vplotter.cli import main
 
 
 def test_queue_over_http_add_move_remove_run_with_continue_and_history(serve, capsys):
-    server = serve()
+    server = serve(speed=4)                 # the queue's waits are events: the pace is not checked
     cfg = server.config
     assert main(["--config", str(cfg), "calibrate", "--at", "0", "0"]) == 0
     assert server.upload("a.ngc", DRAWING.encode())[0] == 201

@@ -1,7 +1,9 @@
 """`vplotter serve` in a subprocess, as a person runs it (test_web.py, test_web_page.py).
 
-- ``serve``: the fixture that starts servers (``serve(*extra, notify_url=None)``) on the seed
-  machine with gpiozero's MockFactory and a short pen settle time, and stops them afterwards;
+- ``serve``: the fixture that starts servers (``serve(*extra, notify_url=None, speed=1)``) on
+  the seed machine with gpiozero's MockFactory and a short pen settle time, and stops them
+  afterwards (``speed``: a machine that many times faster, for the tests that do not watch a
+  draw's pace: the queue's waits, the pen prompts, the position);
 - ``Server``: one server: its url and token, requests, uploads, status, the event stream;
 - ``events``: the server-sent events with their arrival times;
 - ``DRAWING``: a few millimetres to draw."""
@@ -29,10 +31,19 @@ G00 Z5
 M2
 """
 
-def web_config(src: Path, dst: Path, notify_url: str | None = None) -> Path:
+FASTER = ("max_step_rate", "draw_speed_mm_s", "travel_speed_mm_s")    # times speed
+FASTER_SQUARED = ("max_accel",)                                       # times speed squared
+
+
+def web_config(src: Path, dst: Path, notify_url: str | None = None, speed: float = 1) -> Path:
     text = src.read_text()
     text = text.replace('backend = "lgpio"', 'backend = "gpiozero"')
     text = re.sub(r"(?m)^settle_s = .*$", "settle_s = 0.05", text)
+    if speed != 1:          # the same moves, `speed` times as fast (the same plan, in less time)
+        for keys, power in ((FASTER, 1), (FASTER_SQUARED, 2)):
+            for key in keys:
+                text = re.sub(rf"(?m)^({key} = )([\d.]+)",
+                              lambda m: f"{m.group(1)}{float(m.group(2)) * speed ** power:g}", text)
     if notify_url:
         text += f'\n[notify]\nurl = "{notify_url}"\ntimeout_s = 5\n'
     dst.write_text(text)
@@ -118,8 +129,8 @@ class Server:
 def serve(tmp_path, config_path):
     made: list[Server] = []
 
-    def start(*extra, notify_url=None):
-        cfg = web_config(config_path, tmp_path / "web.toml", notify_url)
+    def start(*extra, notify_url=None, speed=1):
+        cfg = web_config(config_path, tmp_path / "web.toml", notify_url, speed)
         s = Server(cfg, tmp_path / "uploads", *extra)
         made.append(s)
         return s
