@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 
 from support import tracecheck as tc
 from support.cli import run
+from support import kin_props as props
 from vplotter import config
 from vplotter.calibration import fit
 from vplotter.kinematics import from_config
@@ -100,47 +101,20 @@ def test_light_cords_are_the_straight_ones(name):
 @settings(max_examples=40, deadline=None)
 @given(model, gx, gy)
 def test_forward_inverts_inverse(name, x, y):
-    kin = MODELS[name]
-    m = kin.to_machine(np.array([[x, y]]))
-    assert np.allclose(kin.forward(kin.inverse(m)), m, atol=1e-9)
+    props.forward_inverts_inverse(MODELS[name], x, y)
 
 
 @settings(max_examples=40, deadline=None)
 @given(model, gx, gy, angle)
 def test_slope_and_bend_are_the_derivatives_along_the_line(name, x, y, a):
-    kin = MODELS[name]
-    p = kin.to_machine(np.array([[x, y]]))
-    e = np.array([[math.cos(a), math.sin(a)]])
-    h = 1e-3
-    qm, q0, qp = (kin.inverse(p + k * h * e) for k in (-1, 0, 1))
-    k, b = kin.slope_bend(p, e)
-    assert np.allclose(k, (qp - qm) / (2 * h), atol=1e-7)
-    assert np.allclose(b, (qp - 2 * q0 + qm) / h ** 2, atol=1e-4)
-    assert np.allclose(k, kin.slope(p, e), atol=1e-12)
-    assert np.allclose(b, kin.bend(p, e), atol=1e-12)
+    props.derivatives_along_a_line(MODELS[name], x, y, a)
 
 
 @settings(max_examples=25, deadline=None)
 @given(model, gx, gy, angle, st.floats(1.0, 150.0), st.floats(0.01, 0.99))
 def test_extrema_and_crossing(name, x, y, a, d, frac):
-    kin = MODELS[name]
-    p0 = kin.to_machine(np.array([[x, y]]))
-    e = np.array([[math.cos(a), math.sin(a)]])
     d = min(d, _inside(x, y, a))          # the piece ends on the page less its edge
-    ext = kin.extrema(p0, e, np.array([d]))[0]
-    for m in (0, 1):
-        cuts = [0.0, *([ext[m]] if not math.isnan(ext[m]) else []), d]
-        if not math.isnan(ext[m]):
-            assert abs(kin.slope(p0 + e * ext[m], e)[0, m]) < 1e-9
-        for s0, s1 in zip(cuts[:-1], cuts[1:]):
-            a0, a1 = p0 + e * s0, p0 + e * s1
-            q0, q1 = kin.inverse(a0)[0, m], kin.inverse(a1)[0, m]
-            if abs(q1 - q0) < 1e-6:
-                continue
-            target = q0 + frac * (q1 - q0)
-            s = kin.crossing(a0, e, m, np.array([0]), np.array([target]), np.array([q1 > q0]))[0]
-            assert -1e-9 <= s <= s1 - s0 + 1e-6
-            assert kin.inverse(a0 + e * s)[0, m] == pytest.approx(target, abs=1e-6)
+    props.extrema_and_crossing(MODELS[name], x, y, a, d, frac, cord_tol=1e-6, piece_tol=1e-6)
 
 
 NEAR_ANCHOR = TwoCord(354.693, 175.2091, 416.8164, stretch=0.00521, sag_per_mm=MU)

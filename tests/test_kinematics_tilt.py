@@ -10,6 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from support import kin_props as props
 from vplotter import config
 from vplotter.kinematics import from_config
 from vplotter.kinematics.vplotter import TwoCord
@@ -111,9 +112,7 @@ def test_the_torques_about_the_centre_of_mass_cancel(name, x, y):
 @settings(max_examples=150, deadline=None)
 @given(model, gx, gy)
 def test_forward_inverts_inverse(name, x, y):
-    kin = MODELS[name]
-    m = kin.to_machine(np.array([[x, y]]))
-    assert np.allclose(kin.forward(kin.inverse(m)), m, atol=1e-9)
+    props.forward_inverts_inverse(MODELS[name], x, y)
 
 
 def test_level_on_the_centre_line_and_when_unset(config_path):
@@ -134,35 +133,13 @@ def test_level_on_the_centre_line_and_when_unset(config_path):
 @settings(max_examples=150, deadline=None)
 @given(model, gx, gy, angle)
 def test_slope_and_bend_are_the_derivatives_along_the_line(name, x, y, a):
-    kin = MODELS[name]
-    p = kin.to_machine(np.array([[x, y]]))
-    e = np.array([[math.cos(a), math.sin(a)]])
-    h = 1e-3
-    qm, q0, qp = (kin.inverse(p + k * h * e) for k in (-1, 0, 1))
-    assert np.allclose(kin.slope(p, e), (qp - qm) / (2 * h), atol=1e-7)
-    assert np.allclose(kin.bend(p, e), (qp - 2 * q0 + qm) / h ** 2, atol=1e-4)
+    props.derivatives_along_a_line(MODELS[name], x, y, a)
 
 
 @settings(max_examples=100, deadline=None)
 @given(model, gx, gy, angle, st.floats(1.0, 200.0), st.floats(0.01, 0.99))
 def test_extrema_and_crossing(name, x, y, a, d, frac):
-    kin = MODELS[name]
-    p0 = kin.to_machine(np.array([[x, y]]))
-    e = np.array([[math.cos(a), math.sin(a)]])
-    ext = kin.extrema(p0, e, np.array([d]))[0]
-    for m in (0, 1):
-        cuts = [0.0, *([ext[m]] if not math.isnan(ext[m]) else []), d]
-        if not math.isnan(ext[m]):
-            assert abs(kin.slope(p0 + e * ext[m], e)[0, m]) < 1e-9
-        for s0, s1 in zip(cuts[:-1], cuts[1:]):
-            a0, a1 = p0 + e * s0, p0 + e * s1
-            q0, q1 = kin.inverse(a0)[0, m], kin.inverse(a1)[0, m]
-            if abs(q1 - q0) < 1e-6:
-                continue
-            target = q0 + frac * (q1 - q0)
-            s = kin.crossing(a0, e, m, np.array([0]), np.array([target]), np.array([q1 > q0]))[0]
-            assert -1e-9 <= s <= s1 - s0 + 1e-6
-            assert kin.inverse(a0 + e * s)[0, m] == pytest.approx(target, abs=1e-5)
+    props.extrema_and_crossing(MODELS[name], x, y, a, d, frac, cord_tol=1e-5, piece_tol=1e-6)
 
 
 @pytest.mark.parametrize("name", sorted(MODELS))
