@@ -130,7 +130,8 @@ def test_auto_lists_every_style_and_keeps_the_best(capsys, config_path, photo):
     quick = {s: float(v) for s, v in re.findall(style, m.group(5))}
     assert set(done) | set(quick) | {m.group(1)} == {"hatch", "squiggle", "spiral", "flow",
                                                      "stipple --tsp"}    # a photograph: no dots
-    assert len(done) + 1 == int(m.group(6)) == photo_auto.FINISHED
+    assert 1 <= len(done) + 1 == int(m.group(6)) <= photo_auto.FINISHED + 1
+    assert "hatch" in set(done) | {m.group(1)}          # always finished
     assert float(m.group(3)) >= max(done.values())
     assert json.loads(out)["time_s"]["best"] <= 480 * 1.01
 
@@ -141,16 +142,17 @@ def test_auto_finishes_only_the_styles_ranked_best(monkeypatch):
     from vplotter.drawing import photo
 
     class Searched:
-        def __init__(self, quick):
-            self.quick, self.choice = quick, type("C", (), {"time_s": 60.0, "spacing_mm": 2})
+        def __init__(self, quick, d):
+            self.quick, self.d = quick, d
+            self.choice = type("C", (), {"time_s": 60.0, "spacing_mm": 2})
 
     quick = {"hatch": 0.70, "squiggle": 0.75, "spiral": 0.74, "flow": 0.60, "stipple": 0.73}
-    final = {"hatch": 0.9, "squiggle": 0.71, "spiral": 0.72, "flow": 0.99, "stipple": 0.99}
+    final = {"hatch": 0.71, "squiggle": 0.71, "spiral": 0.72, "flow": 0.99, "stipple": 0.99}
     starts = {}
 
     def search(d, start):
         starts[d.style] = start
-        return Searched(quick[d.style])
+        return Searched(quick[d.style], d)
 
     def finished(s, said):
         style = next(k for k, v in quick.items() if v == s.quick)
@@ -159,12 +161,14 @@ def test_auto_finishes_only_the_styles_ranked_best(monkeypatch):
     monkeypatch.setattr("vplotter.drawing.photo_curve.quick_score", lambda s, dark: s.quick)
     monkeypatch.setattr(photo_auto, "tone_score", lambda raw, pictures, pen: final[raw])
     opts = [photo.PhotoOptions(style=s) for s in photo_auto.AUTO_STYLES]
-    begin = lambda o: (type("D", (), {"style": o.style})(), photo.advice.Said())  # noqa: E731
+    begin = lambda o: (type("D", (), {"style": o.style, "drawn_last": {1: 2}})(),  # noqa: E731
+                       photo.advice.Said())
     pic = Picture(np.linspace(0, 1, 64, dtype=np.float32).reshape(8, 8), 8.0, 8.0)
     placed, said = photo_auto.auto(opts, begin, search, finished, (pic, None, None))
-    assert placed == ["spiral"]         # squiggle and spiral finished (within MARGIN), not flow
+    assert placed == ["spiral"]      # squiggle, spiral (within MARGIN) and hatch finished
     assert said.notes[0].startswith("--style auto chose spiral (tone 0.720, 0:55; squiggle "
-                                    "0.710, 0:55; quick: stipple 0.730, 1:00;")
+                                    "0.710, 0:55; hatch 0.710, 0:55; quick: stipple 0.730, "
+                                    "1:00; flow 0.600, 1:00): ")
     assert starts["hatch"] is None and starts["squiggle"] == 2 * photo_auto.SEED["squiggle"]
 
 

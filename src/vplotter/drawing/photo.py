@@ -34,7 +34,7 @@ from vplotter.inputs.strokes import Stroke
 # the first spacing tried, per style, in pen widths; time ~ spacing^-POWER (photo_curve.py)
 START_PENS = {"hatch": 3.0, "spiral": 3.0, "squiggle": 3.0, "stipple": 8.0, "tsp": 5.0,
               "flow": 3.0}
-DRAWN_KEPT = 8            # drawings remembered (by spacing and curve): the fitted curve's search
+DRAWN_KEPT = 16           # drawings remembered (by spacing and curve): the fitted curve's search
 
 
 @dataclass(frozen=True)
@@ -222,8 +222,9 @@ def _frame(placement: place.Placement, page: place.Box, w: float, h: float):
 class _Drawings:
     """A photo's drawings at a spacing and tone curve: the style's own strokes in picture mm
     (the last DRAWN_KEPT remembered: the fitted curve's first try is one its search already
-    drew, and so may be a search's repeat), placed on the page in a quick order (`make`), and
-    in the order they are drawn in (`final`)."""
+    drew, and so may be a search's repeat; --style auto's quick score drew the fitted curves
+    `pick_curve` draws again when the spacing's own exponent stays the best), placed on the
+    page in a quick order (`make`), and in the order they are drawn in (`final`)."""
 
     style: Callable
     opts: PhotoOptions

@@ -42,8 +42,9 @@ WHITE, LINE_ART = 0.05, 0.5     # line art: at least LINE_ART of the picture dar
 # the same budget were 0.6-1.6 x (flow, the stipples) and 2.4-3.4 x (squiggle, spiral) the
 # hatch's on bench/photo_tone.py's pictures)
 SEED = {"squiggle": 2.9, "spiral": 3.0, "flow": 1.0, "tsp": 1.2, "stipple": 1.5}
-MARGIN = 0.03        # styles finished: quick score at most this far behind the best one's ...
-FINISHED = 2         # ... at most this many
+MARGIN = 0.015       # styles finished: the best by the quick score, the next if at most this
+FINISHED = 2         # far behind it (at most this many), and ALWAYS (the quick score misses
+ALWAYS = ("hatch",)  # most of what the hatch's finish gains: 0.02-0.04 on some pictures)
 
 
 def white_share(picture) -> float:
@@ -121,10 +122,10 @@ def best(opts, tries: list, one, pictures):
 def auto(tries: list, begin, search, finish, pictures):
     """--style auto at a budget: (placed strokes, what is said). Every style's budget is
     searched on its own curve (`photo.searched`, from the hatch's spacing x SEED) and ranked
-    by `photo_curve.quick_score` (the curve fitted to that drawing's response, no planner);
-    the best FINISHED within MARGIN of the first are finished (`photo.finished`: the curves
-    fitted to the budget, the final order) and the best of those by its own score kept: one
-    style finished, not five. begin(opts) -> (`photo._Drawings`, `advice.Said`);
+    by `photo_curve.quick_score` (the curves fitted to that drawing's response, the best
+    timed once); the first, the next within MARGIN of it (FINISHED at most) and the hatch are
+    finished (`photo.finished`: the curves fitted to the budget, the final order) and the best
+    of those by its own score kept: one to three styles finished, not five. begin(opts) -> (`photo._Drawings`, `advice.Said`);
     search(drawings, start_mm or None) -> `photo.Searched`; finish: `photo.finished`."""
     from vplotter.drawing.photo_curve import quick_score
     from vplotter.inputs.image import score
@@ -140,9 +141,10 @@ def auto(tries: list, begin, search, finish, pictures):
         ranked.append((q, o, s, said))
     ranked.sort(key=lambda m: -m[0])
     made = []
-    for q, o, s, said in ranked[:FINISHED]:
-        if q < ranked[0][0] - MARGIN:
-            break
+    for k, (q, o, s, said) in enumerate(ranked):
+        if (k >= FINISHED or q < ranked[0][0] - MARGIN) and o.kind not in ALWAYS:
+            s.d.drawn_last.clear()            # its drawings: not needed again
+            continue
         placed, said, raw, time_s = finish(s, said)
         made.append((tone_score(raw, pictures, o.pen_mm), o, placed, said, time_s))
     chosen = max(made, key=lambda m: m[0])
@@ -152,8 +154,9 @@ def auto(tries: list, begin, search, finish, pictures):
         return f"{m[0]:.3f}, {clock_text(m[4])}"
 
     others = [f"{name(m[1])} {figures(m)}" for m in made if m is not chosen]
-    quick = [f"{name(o)} {q:.3f}, {clock_text(s.choice.time_s)}" for q, o, s, _ in
-             ranked[len(made):]]
+    done = {id(m[1]) for m in made}
+    quick = [f"{name(o)} {q:.3f}, {clock_text(s.choice.time_s)}" for q, o, s, _ in ranked
+             if id(o) not in done]
     said.notes.insert(0, f"--style auto chose {name(o)} (tone {figures(chosen)}"
                       f"{''.join('; ' + x for x in others)}; quick: "
                       f"{'; '.join(quick) or 'none'}): the drawing whose ink follows the "

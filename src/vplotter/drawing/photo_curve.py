@@ -117,7 +117,7 @@ def quick_score(s, dark, fit: bool = True) -> float:
         seen[t] = score.correlation(d.draw(sp, t), picture, opts.pen_mm, dark)
         return seen[t]
 
-    calibrate.search(fitted)
+    calibrate.search(fitted, refine=False)
     table = max(seen, key=seen.get)
     if not fit or seen[table] <= r:
         return max(r, seen[table])
