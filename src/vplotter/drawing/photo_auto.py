@@ -125,8 +125,9 @@ def auto(tries: list, begin, search, finish, pictures):
     by `photo_curve.quick_score` (the curves fitted to that drawing's response, the best
     timed once); the first, the next within MARGIN of it (FINISHED at most) and the hatch are
     finished (`photo.finished`: the curves fitted to the budget, the final order) and the best
-    of those by its own score kept: one to three styles finished, not five. begin(opts) -> (`photo._Drawings`, `advice.Said`);
-    search(drawings, start_mm or None) -> `photo.Searched`; finish: `photo.finished`."""
+    of those by its own score kept: one to three styles finished, not five.
+    begin(opts) -> (`photo._Drawings`, `advice.Said`); search(drawings, start_mm or None) ->
+    `photo.Searched`; finish: `photo.finished`."""
     from vplotter.drawing.photo_curve import quick_score
     from vplotter.inputs.image import score
 
