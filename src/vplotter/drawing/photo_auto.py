@@ -42,9 +42,9 @@ WHITE, LINE_ART = 0.05, 0.5     # line art: at least LINE_ART of the picture dar
 # the same budget were 0.6-1.6 x (flow, the stipples) and 2.4-3.4 x (squiggle, spiral) the
 # hatch's on bench/photo_tone.py's pictures)
 SEED = {"squiggle": 2.9, "spiral": 3.0, "flow": 1.0, "tsp": 1.2, "stipple": 1.5}
-MARGIN = 0.015       # styles finished: the best by the quick score, the next if at most this
-FINISHED = 2         # far behind it (at most this many), and ALWAYS (the quick score misses
-ALWAYS = ("hatch",)  # most of what the hatch's finish gains: 0.02-0.04 on some pictures)
+MARGIN = 0.03        # styles finished: the best by the quick score and the next within this
+FINISHED = 2         # of it (this many at most, besides ALWAYS), and ALWAYS (the quick score
+ALWAYS = ("hatch",)  # misses most of what the hatch's finish gains: 0.02-0.04 on some pictures)
 
 
 def white_share(picture) -> float:
@@ -123,8 +123,8 @@ def auto(tries: list, begin, search, finish, pictures):
     """--style auto at a budget: (placed strokes, what is said). Every style's budget is
     searched on its own curve (`photo.searched`, from the hatch's spacing x SEED) and ranked
     by `photo_curve.quick_score` (the curves fitted to that drawing's response, the best
-    timed once); the first, the next within MARGIN of it (FINISHED at most) and the hatch are
-    finished (`photo.finished`: the curves fitted to the budget, the final order) and the best
+    timed once); the first, the next within MARGIN of it (FINISHED at most, besides the
+    hatch) and the hatch are finished (`photo.finished`: the curves fitted to the budget, the final order) and the best
     of those by its own score kept: one to three styles finished, not five.
     begin(opts) -> (`photo._Drawings`, `advice.Said`); search(drawings, start_mm or None) ->
     `photo.Searched`; finish: `photo.finished`."""
@@ -141,9 +141,12 @@ def auto(tries: list, begin, search, finish, pictures):
         q = quick_score(s, dark) if pictures[1] is None else tone_score(s.raw, pictures, o.pen_mm)
         ranked.append((q, o, s, said))
     ranked.sort(key=lambda m: -m[0])
+    near = [m for m in ranked if m[1].kind not in ALWAYS and m[0] >= ranked[0][0] - MARGIN]
+    finishing = {id(m[1]) for m in near[:FINISHED]} | {id(m[1]) for m in ranked if
+                                                       m[1].kind in ALWAYS}
     made = []
-    for k, (q, o, s, said) in enumerate(ranked):
-        if (k >= FINISHED or q < ranked[0][0] - MARGIN) and o.kind not in ALWAYS:
+    for q, o, s, said in ranked:
+        if id(o) not in finishing:
             s.d.drawn_last.clear()            # its drawings: not needed again
             continue
         placed, said, raw, time_s = finish(s, said)
