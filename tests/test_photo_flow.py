@@ -137,8 +137,9 @@ def test_auto_lists_every_style_and_keeps_the_best(capsys, config_path, photo):
 
 
 def test_auto_finishes_only_the_styles_ranked_best(monkeypatch):
-    """--style auto finishes (curves fitted to the budget, the final order) only the styles
-    whose quick score is near the best one's, and keeps the best of those by its own score."""
+    """--style auto finishes (curves fitted to the budget, the final order) only the first by
+    the quick score, the one of the rest whose bound is highest (if near the first's score) and
+    the hatch, and keeps the best of those by its own score."""
     from vplotter.drawing import photo
 
     class Searched:
@@ -158,16 +159,20 @@ def test_auto_finishes_only_the_styles_ranked_best(monkeypatch):
         style = next(k for k, v in quick.items() if v == s.quick)
         return [style], said, style, 55.0
 
-    monkeypatch.setattr("vplotter.drawing.photo_curve.quick_score", lambda s, dark: s.quick)
+    bound = {"hatch": 0.70, "squiggle": 0.75, "spiral": 0.74, "flow": 0.74, "stipple": 0.745}
+    monkeypatch.setattr("vplotter.drawing.photo_curve.quick_score",
+                        lambda s, dark: (s.quick, bound[next(k for k, v in quick.items()
+                                                             if v == s.quick)]))
     monkeypatch.setattr(photo_auto, "tone_score", lambda raw, pictures, pen: final[raw])
     opts = [photo.PhotoOptions(style=s) for s in photo_auto.AUTO_STYLES]
     begin = lambda o: (type("D", (), {"style": o.style, "drawn_last": {1: 2}})(),  # noqa: E731
                        photo.advice.Said())
     pic = Picture(np.linspace(0, 1, 64, dtype=np.float32).reshape(8, 8), 8.0, 8.0)
     placed, said = photo_auto.auto(opts, begin, search, finished, (pic, None, None))
-    assert placed == ["spiral"]      # squiggle, spiral (within MARGIN) and hatch finished
-    assert said.notes[0].startswith("--style auto chose spiral (tone 0.720, 0:55; squiggle "
-                                    "0.710, 0:55; hatch 0.710, 0:55; quick: stipple 0.730, "
+    # squiggle first; of the rest the stipple's bound is highest (within MARGIN); the hatch
+    assert placed == ["stipple"]
+    assert said.notes[0].startswith("--style auto chose stipple (tone 0.990, 0:55; squiggle "
+                                    "0.710, 0:55; hatch 0.710, 0:55; quick: spiral 0.740, "
                                     "1:00; flow 0.600, 1:00): ")
     assert starts["hatch"] is None and starts["squiggle"] == 2 * photo_auto.SEED["squiggle"]
 

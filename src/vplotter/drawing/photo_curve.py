@@ -91,20 +91,21 @@ def pick_curve(picture, opts, draw, make, timed, budget_s: float, lo: float,
     return placed, c, g, note
 
 
-def quick_score(s, dark, fit: bool = True) -> float:
-    """What `pick_curve` will about reach from a budget's search (`photo.Searched`): the
-    search's drawing scored, and the curves fitted to its measured response (`calibrate
-    .search`) drawn at its spacing, no planner; the best of those. fit: the best fitted curve
-    is then timed once (it lays more ink than the spacing's own curve: its time is over the
-    budget) and drawn at the spacing time ~ spacing^-POWER says fits, and scored there: one
-    planner run. `--style auto` ranks the styles by it (`photo_auto.auto`); dark:
-    `score.darkness` of the picture."""
+def quick_score(s, dark) -> tuple[float, float]:
+    """What `pick_curve` will about reach from a budget's search (`photo.Searched`), and how high
+    it might: (the estimate, the bound). The search's drawing is scored, and the curves fitted
+    to its measured response (`calibrate.search`: 3 to 5) are drawn at its spacing, no planner;
+    the best of those is the bound (a fitted curve mostly lays more ink than the spacing's own,
+    so it takes longer than the budget). That curve is then timed once and, over the budget,
+    drawn at the spacing time ~ spacing^-POWER says fits and scored there: the estimate (a
+    spiral's time jumps with the spacing, so it may come out well under). `--style auto`
+    ranks the styles by it (`photo_auto.auto`); dark: `score.darkness` of the picture."""
     from vplotter.inputs.image import calibrate, score
 
     d, opts, picture = s.d, s.d.opts, s.d.picture
     r = score.correlation(s.raw, picture, opts.pen_mm, dark)
     if not ((opts.style in CURVES or opts.tsp) and d.layers is None and dark.std() > 0):
-        return r
+        return r, r
     sp = s.choice.spacing_mm
     g = s.curve if s.curve is not None else default_gamma(opts.style, sp, opts.pen_mm, picture,
                                                           opts.tsp)
@@ -119,10 +120,10 @@ def quick_score(s, dark, fit: bool = True) -> float:
 
     calibrate.search(fitted, refine=False)
     table = max(seen, key=seen.get)
-    if not fit or seen[table] <= r:
-        return max(r, seen[table])
+    if seen[table] <= r:
+        return r, r
     t = s.timed(d.make(sp, table))
     if t > s.budget_s:
         sp = min(s.hi, sp * (t / s.budget_s) ** (1 / POWER[opts.kind]))
-        return max(r, score.correlation(d.draw(sp, table), picture, opts.pen_mm, dark))
-    return seen[table]
+        return max(r, score.correlation(d.draw(sp, table), picture, opts.pen_mm, dark)), seen[table]
+    return seen[table], seen[table]
