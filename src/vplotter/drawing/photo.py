@@ -6,15 +6,16 @@ the page less --margin, aspect kept; centred on X0 Y0 as every drawing is: `plac
 because the line spacing only means something at the final size; it is loaded once at the
 resolution the pen can show; then `budget.fit` tries densities of the style, each placed on the
 page, put in a quick order (greedy; the stipples' own tour) and timed by the caller's planner,
-and keeps the densest that fits; then (`pick_curve`) the same for other tone curves (exponents
-either side, and curves fitted to the drawing's own measured response:
-`inputs/image/calibrate.py`), each drawing scored against the picture
+and keeps the densest that fits (`searched`); then (`photo_curve.pick_curve`, in `finished`)
+the same for other tone curves (exponents either side, and curves fitted to the drawing's own
+measured response: `inputs/image/calibrate.py`), each drawing scored against the picture
 (`inputs/image/score.py`), the best kept. Stipples search on each spacing's own curve (smooth
 in spacing), then choose their curve once, at the spacing found, and search again with it.
 Last, `budget.fill` puts the drawing in its final order (--order best: `order.py`'s; the
 stipples keep their tour; never longer than the quick order) and spends the time that saves on
-a denser spacing. `--style auto` (and a budgeted stipple: its dots or its tour) draws each
-candidate so and keeps the one that draws the tone best (`photo_auto.py`).
+a denser spacing. A budgeted stipple (its dots or its tour) draws each candidate so and keeps
+the one that draws the tone best; `--style auto` searches every style's budget and finishes
+two or three of them (`photo_auto.py`).
 """
 
 from __future__ import annotations
