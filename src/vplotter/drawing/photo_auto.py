@@ -20,8 +20,8 @@ highest, if within MARGIN of the first's score) and the hatch (ALWAYS) are finis
 best of those kept by its own score. The quick score came out within about 0.04 of the
 finished one for every style (the spiral's and the tour's time jump with the spacing) but the
 hatch, which its finish raised by up to 0.042: it is always finished (docs/measurements.md,
-"Photos"). The 12 MP photo at 1 h (bench/photo_speed.py): about 12 s of CPU where finishing
-all five took 22.9 s.
+"Photos"). The 12 MP photo at 1 h (bench/photo_speed.py): about 12-13 s on the idle machine,
+where finishing all five took 16.7 s.
 
 Stipples at a budget: a dot costs a pen lift (about 2 s on the seed machine), so an hour of
 dots lays little ink; the tour (TSP art) draws a line through the same kind of stipples and
