@@ -5,7 +5,8 @@ Pictures (made here, in a temporary folder): a 12-megapixel JPEG (4000 x 3000, p
 gradients, lit discs, soft noise) stored with EXIF orientation 6 (shown upright as 3000 x 4000),
 a 1200 x 900 PNG and a 640 x 480 JPEG of the same scene. For each picture, style and budget
 (1 h, 3 h) at --width 300 on ./config.toml: the wall time of `vplotter convert` (a
-subprocess), its peak resident size (/usr/bin/time -f %M when there is one, else
+subprocess) and its CPU time (user + sys, RUSAGE_CHILDREN: steadier than the wall time on a
+shared machine), its peak resident size (/usr/bin/time -f %M when there is one, else
 RUSAGE_CHILDREN of a fresh child), and the plot time `vplotter estimate OUT.ngc` gives for the
 result against the budget.
 
@@ -79,24 +80,28 @@ def bad_files(tmp: str, jpeg: str) -> list[str]:
     return [bomb, empty, text, cut]
 
 
-def run(args: list[str]) -> tuple[int, str, float, float]:
-    """(exit status, stderr, wall s, peak RSS MB) of a vplotter command."""
+def run(args: list[str]) -> tuple[int, str, float, float, float]:
+    """(exit status, stderr, wall s, peak RSS MB, CPU s: user + sys) of a vplotter command."""
+    import resource
+
     timer = shutil.which("time") or ("/usr/bin/time" if os.path.exists("/usr/bin/time") else None)
     rss_file = tempfile.mktemp(suffix=".rss")
     cmd = ["vplotter", *args]
     if timer:
         cmd = [timer, "-f", "%M", "-o", rss_file] + cmd
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     r = subprocess.run(cmd, capture_output=True, text=True)
     wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     if timer:
         with open(rss_file) as f:
             rss = int(f.read().strip().splitlines()[-1]) / 1024
         os.unlink(rss_file)
     else:
-        import resource
-        rss = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024   # a high-water mark
-    return r.returncode, r.stderr, wall, rss
+        rss = after.ru_maxrss / 1024                   # a high-water mark
+    return r.returncode, r.stderr, wall, rss, cpu
 
 
 def main() -> None:
@@ -109,7 +114,7 @@ def main() -> None:
     cfg = ["--config", args.config]
     with tempfile.TemporaryDirectory() as tmp:
         pics = pictures(tmp)
-        print(f"{'picture':22} {'style':9} {'budget':6} {'wall s':>7} {'RSS MB':>7} "
+        print(f"{'picture':22} {'style':9} {'budget':6} {'wall s':>7} {'CPU s':>6} {'RSS MB':>7} "
               f"{'plot time':>9} {'/ budget':>8}  chosen")
         for pic in pics[:args.first]:
             for b in args.budgets.split(","):
@@ -117,8 +122,8 @@ def main() -> None:
                 for s in args.styles.split(","):
                     out = os.path.join(tmp, "out.ngc")
                     how = ["--style", "stipple", "--tsp"] if s == "tsp" else ["--style", s]
-                    code, err, wall, rss = run([*cfg, "convert", pic, "-o", out, *how,
-                                                "--width", "300", "--max-time", b])
+                    code, err, wall, rss, cpu = run([*cfg, "convert", pic, "-o", out, *how,
+                                                     "--width", "300", "--max-time", b])
                     if code:
                         print(f"{os.path.basename(pic):22} {s:9} {b:6} failed: {err.strip()}")
                         continue
@@ -127,12 +132,14 @@ def main() -> None:
                     m = re.search(r"plot time [0-9:]+ \(([0-9.]+) s\)", r.stdout)
                     plot = float(m.group(1)) if m else float("nan")
                     chosen = re.search(r"spacing [0-9.]+ mm", err)
-                    print(f"{os.path.basename(pic):22} {s:9} {b:6} {wall:7.1f} {rss:7.0f} "
-                          f"{time.strftime('%H:%M:%S', time.gmtime(plot)):>9} "
+                    kept = re.search(r"--style auto chose (\S+(?: --tsp)?) ", err)
+                    chosen = kept or chosen
+                    print(f"{os.path.basename(pic):22} {s:9} {b:6} {wall:7.1f} {cpu:6.1f} "
+                          f"{rss:7.0f} {time.strftime('%H:%M:%S', time.gmtime(plot)):>9} "
                           f"{plot / budget:8.3f}  {chosen.group(0) if chosen else ''}", flush=True)
         print(f"\n{'bad file':22} {'exit':>4} {'wall s':>6}  the line")
         for bad in bad_files(tmp, pics[2]):
-            code, err, wall, _ = run([*cfg, "convert", bad, "-o", os.path.join(tmp, "bad.ngc"),
+            code, err, wall, _, _ = run([*cfg, "convert", bad, "-o", os.path.join(tmp, "bad.ngc"),
                                       "--style", "hatch", "--width", "300"])
             lines = [x for x in err.strip().splitlines() if not x.startswith("note:")]
             print(f"{os.path.basename(bad):22} {code:4d} {wall:6.2f}  "

@@ -29,13 +29,16 @@ For every image in a folder, every style (hatch, spiral, squiggle, stipple) and 
 
 Style "tsp" is `--style stipple --tsp` (TSP art: a line, compared at the same drawn length).
 Style "stipple" with a budget is the better of its dots and its tour (the converter chooses).
+Style "auto" is `--style auto`: its own file is measured like any other, and set against the
+best of the other styles run (give them all: `--styles hatch,spiral,squiggle,stipple,flow,auto`)
+by the bench's measure; without it, the style with the best own score is listed instead.
 
 At the same plot time: every drawing is also compared with `hatched` at the pitch whose lines,
 put in a nearest-neighbour order (`vplotter estimate --order greedy`: the draw's own planner),
 take our drawing's plot time (`h@time`, `diff` = ours - hatched's correlation). `own`: the
 converter's own score of our file (`inputs/image/score.py`, 1 mm cells); per picture and
-budget the style with the best own score is the one `--style auto` keeps (it runs the same
-styles and ranks them by that score), printed beside the best style by the bench's measure.
+budget the style `--style auto` kept (style "auto" run), or the style with the best own score,
+is printed beside the best style by the bench's measure.
 
 Output: per image a table (style, budget, drawn m, our plot time, ours corr, hatched corr at the
 same length, ratio, SSIM both, mean ink both, hatched pitch and plot time), then the smallest
@@ -259,13 +262,14 @@ def plot_time(ngc: str, config: str, *extra) -> float:
 
 
 def ours(photo: str, style: str, budget: str, out: str, config: str, reuse: bool = False):
-    """(pen-down polylines in G-code mm, seconds, spacing note) of vplotter convert (reuse: a
-    file already there is read back, not made again; its seconds NaN)."""
+    """(pen-down polylines in G-code mm, seconds, spacing note, the style `--style auto` chose
+    or None) of vplotter convert (reuse: a file already there is read back, not made again;
+    its seconds NaN)."""
     from bench import test_support
 
     tracecheck = test_support("tracecheck")
     if reuse and os.path.exists(out):
-        return tracecheck.reference_path(out, spacing=0.25), float("nan"), None
+        return tracecheck.reference_path(out, spacing=0.25), float("nan"), None, None
     t0 = time.perf_counter()
     how = ("--style", "stipple", "--tsp") if style == "tsp" else ("--style", style)
     r = vplotter("convert", photo, "-o", out, *how, "--width", f"{WIDTH_MM:g}",
@@ -274,7 +278,9 @@ def ours(photo: str, style: str, budget: str, out: str, config: str, reuse: bool
     if r.returncode:
         raise RuntimeError(f"convert {photo} {style} {budget}: {r.stderr.strip()}")
     m = re.search(r"spacing ([0-9.]+) mm", r.stderr)
-    return tracecheck.reference_path(out, spacing=0.25), wall, (float(m.group(1)) if m else None)
+    kept = re.search(r"--style auto chose (\S+(?: --tsp)?) ", r.stderr)
+    return (tracecheck.reference_path(out, spacing=0.25), wall, (float(m.group(1)) if m else None),
+            kept.group(1) if kept else None)
 
 
 def to_picture(polys, centre, height_mm):
@@ -417,13 +423,13 @@ def one_photo(photo, styles, budgets, args, tmp):
     def convert(job):
         s, b = job
         out = os.path.join(args.keep or tmp, f"{name}.{s}.{b}.ngc")
-        polys, wall, spacing = ours(photo, s, b, out, args.config, args.reuse)
-        return job, out, polys, wall, spacing
+        polys, wall, spacing, kept = ours(photo, s, b, out, args.config, args.reuse)
+        return job, out, polys, wall, spacing, kept
 
     with ThreadPoolExecutor(args.jobs) as pool:
         done = list(pool.map(convert, jobs))
     rows = []
-    for (s, b), out, polys, wall, spacing in done:
+    for (s, b), out, polys, wall, spacing, kept in done:
         pic = to_picture(polys, centre, height)
         length = drawn_m(pic)
         t_ours = plot_time(out, args.config)
@@ -452,7 +458,7 @@ def one_photo(photo, styles, budgets, args, tmp):
         write_gcode(h_pic, centre, height, g)
         t_h = plot_time(g, args.config, "--order", "best")
         dots = sum(1 for p in pic if len(p) == 1 or np.ptp(p, axis=0).max() < 1e-6)
-        rows.append(dict(photo=name, style=s, budget=b, spacing=spacing, drawn_m=length,
+        rows.append(dict(photo=name, style=s, budget=b, spacing=spacing, drawn_m=length, kept=kept,
                          own=own_score(pic, photo, height), h_time=at_time, h_t_pitch=p_t,
                          h_t_s=t_ht, h_t_m=hat.run(p_t)[0],
                          dots=dots, t_ours=t_ours, wall=wall, ours=mine, hatched=theirs,
@@ -515,12 +521,20 @@ def print_rows(rows):
               f"{clock(r['t_h']):>8} | {r['own']:6.3f} | {r['h_time']['corr']:6.3f} "
               f"{o['corr'] - r['h_time']['corr']:+6.3f} {r['h_t_m']:5.1f} {clock(r['h_t_s']):>8}")
     for b in dict.fromkeys(r["budget"] for r in rows):
-        mine = [r for r in rows if r["budget"] == b]
-        pick = max(mine, key=lambda r: r["own"])
+        mine = [r for r in rows if r["budget"] == b and r["style"] != "auto"]
+        ran = [r for r in rows if r["budget"] == b and r["style"] == "auto"]
+        if not mine:
+            continue
         top = max(mine, key=lambda r: r["ours"]["corr"])
-        print(f"  {b}: auto picks {pick['style']} (own score {pick['own']:.3f}; bench "
-              f"{pick['ours']['corr']:.3f}, best style {top['style']} {top['ours']['corr']:.3f}); "
-              f"hatched at the same plot time {pick['h_time']['corr']:.3f}")
+        if ran:                       # what `--style auto` kept, measured on its own file
+            pick, what = ran[0], f"auto kept {ran[0]['kept']}"
+        else:                         # the style with the best own score (auto's old ranking)
+            pick = max(mine, key=lambda r: r["own"])
+            what = f"best own score {pick['style']}"
+        print(f"  {b}: {what} (own score {pick['own']:.3f}; bench {pick['ours']['corr']:.3f}, "
+              f"best style {top['style']} {top['ours']['corr']:.3f}, "
+              f"{pick['ours']['corr'] - top['ours']['corr']:+.3f}); hatched at the same plot "
+              f"time {pick['h_time']['corr']:.3f}")
     if rows[0]["bands"]:
         print("grey ramp: ink per area in 5 bands, light to dark (darkness of the band first)")
         for r in rows:
@@ -590,7 +604,7 @@ def main() -> None:
                 print(f"    {s:9} min ratio {worst['ratio']:.2f} ({worst['photo']} "
                       f"{worst['budget']}), mean {np.mean([r['ratio'] for r in mine]):.2f}")
         best = {}
-        for r in rs:
+        for r in (r for r in rs if r["style"] != "auto"):
             k = (r["photo"], r["budget"])
             best[k] = max(best.get(k, 0), r["ratio"])
         k = min(best, key=best.get)
@@ -598,7 +612,7 @@ def main() -> None:
     print("\nat the same plot time (hatched in a nearest-neighbour order): best style - hatched")
     for label, rs in groups.items():
         best = {}
-        for r in rs:
+        for r in (r for r in rs if r["style"] != "auto"):
             k = (r["photo"], r["budget"])
             d = r["ours"]["corr"] - r["h_time"]["corr"]
             if k not in best or d > best[k][0]:
@@ -610,6 +624,17 @@ def main() -> None:
             mine = [r["ours"]["corr"] - r["h_time"]["corr"] for r in rs if r["style"] == s]
             if mine:
                 print(f"    {s:9} min {min(mine):+.3f}, mean {np.mean(mine):+.3f}")
+    autos = [r for r in every if r["style"] == "auto"]
+    if autos:
+        print("\n--style auto against the best style by the bench's measure (its own file):")
+        for r in autos:
+            rest = [q for q in every if q["photo"] == r["photo"] and q["budget"] == r["budget"]
+                    and q["style"] != "auto"]
+            top = max(rest, key=lambda q: q["ours"]["corr"]) if rest else None
+            print(f"  {r['photo']:18} {r['budget']:3} kept {r['kept']:14} {r['ours']['corr']:.3f}"
+                  + (f", best {top['style']} {top['ours']['corr']:.3f} "
+                     f"({r['ours']['corr'] - top['ours']['corr']:+.3f})" if top else "")
+                  + f", convert {r['wall']:.1f} s")
     ramp = [r for r in every if r["bands"]]
     if ramp:
         bad = [f"{r['style']} {r['budget']}" for r in ramp

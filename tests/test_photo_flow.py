@@ -12,6 +12,7 @@ from PIL import Image
 
 from support import tracecheck as tc
 from support.cli import run
+from vplotter.drawing import photo_auto
 from vplotter.inputs.image import flow, score
 from vplotter.inputs.image.picture import Picture
 
@@ -115,19 +116,65 @@ def test_flow_in_four_pens(capsys, config_path, photo, tmp_path):
 
 def test_auto_lists_every_style_and_keeps_the_best(capsys, config_path, photo):
     """info --style auto: one note names the style kept and every style's score and plot
-    time; the one kept scores best."""
+    time (those finished, then the quick ranking of the rest); the one kept scores best of
+    those finished, and the best of the quick ranking was finished."""
     code, out, err = run(capsys, ["--config", config_path, "info", photo, "--json",
                                   "--style", "auto", "--width", 100, "--max-time", "8m"])
     assert code == 0, err
     note = json.loads(out)["notes"][0]
-    m = re.match(r"--style auto chose (\S+( --tsp)?) \(tone ([0-9.]+), [0-9:]+; (.*)\): ", note)
+    m = re.match(r"--style auto chose (\S+( --tsp)?) \(tone ([0-9.]+), [0-9:]+; (.*); quick: "
+                 r"(.*)\): .* the best ([0-9]) finished$", note)
     assert m, note
-    others = dict((s, float(v)) for s, v in re.findall(r"([a-z]+(?: --tsp)?) ([0-9.]+), [0-9:]+",
-                                                       m.group(4)))
-    assert set(others) | {m.group(1)} == {"hatch", "squiggle", "spiral", "flow",
-                                          "stipple --tsp"}    # a photograph: no dots
-    assert float(m.group(3)) >= max(others.values())
+    style = r"([a-z]+(?: --tsp)?) ([0-9.]+), [0-9:]+"
+    done = {s: float(v) for s, v in re.findall(style, m.group(4))}
+    quick = {s: float(v) for s, v in re.findall(style, m.group(5))}
+    assert set(done) | set(quick) | {m.group(1)} == {"hatch", "squiggle", "spiral", "flow",
+                                                     "stipple --tsp"}    # a photograph: no dots
+    assert 1 <= len(done) + 1 == int(m.group(6)) <= photo_auto.FINISHED + 1
+    assert "hatch" in set(done) | {m.group(1)}          # always finished
+    assert float(m.group(3)) >= max(done.values())
     assert json.loads(out)["time_s"]["best"] <= 480 * 1.01
+
+
+def test_auto_finishes_only_the_styles_ranked_best(monkeypatch):
+    """--style auto finishes (curves fitted to the budget, the final order) only the first by
+    the quick score, the one of the rest whose bound is highest (if near the first's score) and
+    the hatch, and keeps the best of those by its own score."""
+    from vplotter.drawing import photo
+
+    class Searched:
+        def __init__(self, quick, d):
+            self.quick, self.d = quick, d
+            self.choice = type("C", (), {"time_s": 60.0, "spacing_mm": 2})
+
+    quick = {"hatch": 0.70, "squiggle": 0.75, "spiral": 0.74, "flow": 0.60, "stipple": 0.73}
+    final = {"hatch": 0.71, "squiggle": 0.71, "spiral": 0.72, "flow": 0.99, "stipple": 0.99}
+    starts = {}
+
+    def search(d, start):
+        starts[d.style] = start
+        return Searched(quick[d.style], d)
+
+    def finished(s, said):
+        style = next(k for k, v in quick.items() if v == s.quick)
+        return [style], said, style, 55.0
+
+    bound = {"hatch": 0.70, "squiggle": 0.75, "spiral": 0.74, "flow": 0.74, "stipple": 0.745}
+    monkeypatch.setattr("vplotter.drawing.photo_curve.quick_score",
+                        lambda s, dark: (s.quick, bound[next(k for k, v in quick.items()
+                                                             if v == s.quick)]))
+    monkeypatch.setattr(photo_auto, "tone_score", lambda raw, pictures, pen: final[raw])
+    opts = [photo.PhotoOptions(style=s) for s in photo_auto.AUTO_STYLES]
+    begin = lambda o: (type("D", (), {"style": o.style, "drawn_last": {1: 2}})(),  # noqa: E731
+                       photo.advice.Said())
+    pic = Picture(np.linspace(0, 1, 64, dtype=np.float32).reshape(8, 8), 8.0, 8.0)
+    placed, said = photo_auto.auto(opts, begin, search, finished, (pic, None, None))
+    # squiggle first; of the rest the stipple's bound is highest (within MARGIN); the hatch
+    assert placed == ["stipple"]
+    assert said.notes[0].startswith("--style auto chose stipple (tone 0.990, 0:55; squiggle "
+                                    "0.710, 0:55; hatch 0.710, 0:55; quick: spiral 0.740, "
+                                    "1:00; flow 0.600, 1:00): ")
+    assert starts["hatch"] is None and starts["squiggle"] == 2 * photo_auto.SEED["squiggle"]
 
 
 def test_a_budgeted_stipple_of_a_photograph_draws_the_tour(capsys, config_path, photo,

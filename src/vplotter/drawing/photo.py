@@ -6,15 +6,16 @@ the page less --margin, aspect kept; centred on X0 Y0 as every drawing is: `plac
 because the line spacing only means something at the final size; it is loaded once at the
 resolution the pen can show; then `budget.fit` tries densities of the style, each placed on the
 page, put in a quick order (greedy; the stipples' own tour) and timed by the caller's planner,
-and keeps the densest that fits; then (`pick_curve`) the same for other tone curves (exponents
-either side, and curves fitted to the drawing's own measured response:
-`inputs/image/calibrate.py`), each drawing scored against the picture
+and keeps the densest that fits (`searched`); then (`photo_curve.pick_curve`, in `finished`)
+the same for other tone curves (exponents either side, and curves fitted to the drawing's own
+measured response: `inputs/image/calibrate.py`), each drawing scored against the picture
 (`inputs/image/score.py`), the best kept. Stipples search on each spacing's own curve (smooth
 in spacing), then choose their curve once, at the spacing found, and search again with it.
 Last, `budget.fill` puts the drawing in its final order (--order best: `order.py`'s; the
 stipples keep their tour; never longer than the quick order) and spends the time that saves on
-a denser spacing. `--style auto` (and a budgeted stipple: its dots or its tour) draws each
-candidate so and keeps the one that draws the tone best (`photo_auto.py`).
+a denser spacing. A budgeted stipple (its dots or its tour) draws each candidate so and keeps
+the one that draws the tone best; `--style auto` searches every style's budget and finishes
+two or three of them (`photo_auto.py`).
 """
 
 from __future__ import annotations
@@ -27,19 +28,14 @@ import numpy as np
 
 from vplotter import budget
 from vplotter.drawing import advice, order, place
+from vplotter.drawing.photo_curve import CURVE_TRIES, CURVES, POWER, pick_curve
 from vplotter.errors import ConfigError
 from vplotter.inputs.strokes import Stroke
 
-# the first spacing tried, per style, in pen widths; time ~ spacing^-POWER
+# the first spacing tried, per style, in pen widths; time ~ spacing^-POWER (photo_curve.py)
 START_PENS = {"hatch": 3.0, "spiral": 3.0, "squiggle": 3.0, "stipple": 8.0, "tsp": 5.0,
               "flow": 3.0}
-POWER = {"hatch": 1.0, "spiral": 1.0, "squiggle": 1.0, "stipple": 2.0, "tsp": 1.0, "flow": 1.0}
-CURVES = ("hatch", "spiral", "squiggle", "flow")    # whose tone curve is chosen per picture
-CURVE_STEP = 1.6          # the curves tried: the spacing's own exponent, / and x this
-CURVE_MAX = 16.0
-CURVE_TRIES = 3           # drawings made per other curve (from the spacing already found)
-FITTED_TRIES = 5          # ... for the fitted curve (the likely winner: use the whole budget)
-DRAWN_KEPT = 8            # drawings remembered (by spacing and curve): the fitted curve's search
+DRAWN_KEPT = 16           # drawings remembered (by spacing and curve): the fitted curve's search
 
 
 @dataclass(frozen=True)
@@ -140,6 +136,10 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
     tries = photo_auto.variants(opts, pictures[0])
     if tries == [opts]:
         return one(opts)[:2]
+    if opts.style == image.AUTO and opts.spacing_mm is None:
+        return photo_auto.auto(tries, lambda o: _begun(o, pictures, frame, start_xy, method),
+                               lambda d, start: searched(d, plot_time, w, h, start), finished,
+                               pictures)
     return photo_auto.best(opts, tries, one, pictures)
 
 
@@ -147,6 +147,21 @@ def _one(opts: PhotoOptions, pictures, frame, w: float, h: float, plot_time, sta
          method: str):
     """One style's drawing: (placed strokes in their drawing order, what is said, the style's
     own strokes in picture mm, the plot time or None)."""
+    from vplotter.inputs import image
+
+    d, said = _begun(opts, pictures, frame, start_xy, method)
+    if opts.spacing_mm is not None:
+        said.notes.insert(0, advice.chosen(opts.kind, w, h, opts.spacing_mm))
+        said.details.append(image.describe(opts.style, opts.spacing_mm, opts.pen_mm, d.picture,
+                                           **d.extra))
+        said.advice = advice.advise(opts.kind, opts.pen_mm, opts.spacing_mm, w, h)
+        placed, raw = d.make(opts.spacing_mm)
+        return d.final(placed), said, raw, None
+    return finished(searched(d, plot_time, w, h), said)
+
+
+def _begun(opts: PhotoOptions, pictures, frame, start_xy, method: str):
+    """(the style's `_Drawings`, what is said so far: the pen, the pens' layers)."""
     from vplotter.inputs import image
 
     picture, layers, inks = pictures
@@ -162,15 +177,7 @@ def _one(opts: PhotoOptions, pictures, frame, w: float, h: float, plot_time, sta
 
         said.notes.append(f"{'cmyk' if opts.cmyk else 'colours'}: {len(inks)} pens, light to "
                           f"dark, ink asked for (mean coverage): {cmyk.shares(layers, inks)}")
-    if opts.spacing_mm is not None:
-        said.notes.insert(0, advice.chosen(opts.kind, w, h, opts.spacing_mm))
-        said.details.append(image.describe(opts.style, opts.spacing_mm, opts.pen_mm, picture,
-                                           **d.extra))
-        said.advice = advice.advise(opts.kind, opts.pen_mm, opts.spacing_mm, w, h)
-        placed, raw = d.make(opts.spacing_mm)
-        return d.final(placed), said, raw, None
-    drawn, said, raw, time_s = _budgeted(d, plot_time, w, h, said)
-    return drawn, said, raw, time_s
+    return d, said
 
 
 def _pictures(path: str, opts: PhotoOptions, w: float, h: float, owned: tuple):
@@ -216,8 +223,9 @@ def _frame(placement: place.Placement, page: place.Box, w: float, h: float):
 class _Drawings:
     """A photo's drawings at a spacing and tone curve: the style's own strokes in picture mm
     (the last DRAWN_KEPT remembered: the fitted curve's first try is one its search already
-    drew, and so may be a search's repeat), placed on the page in a quick order (`make`), and
-    in the order they are drawn in (`final`)."""
+    drew, and so may be a search's repeat; --style auto's quick score drew the fitted curves
+    `pick_curve` draws again when the spacing's own exponent stays the best), placed on the
+    page in a quick order (`make`), and in the order they are drawn in (`final`)."""
 
     style: Callable
     opts: PhotoOptions
@@ -268,24 +276,53 @@ class _Drawings:
         return order.order(moved, self.how, self.start_xy), made
 
 
-def _budgeted(d: _Drawings, plot_time, w: float, h: float, said: advice.Said):
+@dataclass
+class Searched:
+    """A style's budget searched on its own tone curve (`searched`): the densest spacing
+    within the budget; `finished` goes on from here (the curves, the final order)."""
+
+    d: _Drawings
+    plot_time: Callable
+    budget_s: float
+    lo: float
+    hi: float
+    w: float
+    h: float
+    drawn: list              # placed, in the quick order
+    raw: list                # the style's own strokes
+    choice: budget.Choice
+    curve: object            # None: the spacing's own
+
+    def timed(self, made) -> float:
+        return self.plot_time(made[0])
+
+
+def searched(d: _Drawings, plot_time, w: float, h: float, start_mm: float | None = None):
+    """The budget's search on the style's own curve (`_search`), from start_mm (None: the
+    style's START_PENS) -> `Searched`."""
+    opts = d.opts
+    s = Searched(d, plot_time, opts.max_time_s or budget.DEFAULT_S,
+                 opts.pen_mm * (1.2 if opts.style == "stipple" else 1.0), max(w, h) / 4, w, h,
+                 [], [], None, None)
+    s.drawn, s.raw, s.choice, s.curve = _search(d, s.timed, s.budget_s, s.lo, s.hi, start_mm)
+    return s
+
+
+def finished(s: Searched, said: advice.Said):
     """The drawing that fits the budget (and what is said, the style's own strokes, the plot
-    time): the densest spacing, the tone curve that draws the picture best, the final order
-    and the time it saves spent on density."""
+    time), from its search: the tone curve that draws the picture best, the final order and
+    the time it saves spent on density."""
     from vplotter.inputs import image
 
-    opts, picture = d.opts, d.picture
-    budget_s = opts.max_time_s or budget.DEFAULT_S
-    lo = opts.pen_mm * (1.2 if opts.style == "stipple" else 1.0)
-    hi = max(w, h) / 4
-    timed = lambda made: plot_time(made[0])                    # noqa: E731
-    drawn, raw, choice, curve = _search(d, timed, budget_s, lo, hi)
+    d, w, h = s.d, s.w, s.h
+    opts, picture, budget_s = d.opts, d.picture, s.budget_s
+    drawn, choice, curve = s.drawn, s.choice, s.curve
     if (opts.style in CURVES or opts.tsp) and d.layers is None:
-        drawn, choice, curve, why = pick_curve(picture, opts, d.draw, d.make, timed, budget_s,
-                                               lo, hi, raw, drawn, choice)
+        drawn, choice, curve, why = pick_curve(picture, opts, d.draw, d.make, s.timed,
+                                               budget_s, s.lo, s.hi, s.raw, drawn, choice)
         said.details.append(why)
     drawn, choice = budget.fill(drawn, choice, lambda sp: d.make(sp, curve)[0], d.final,
-                                plot_time, budget_s, lo, POWER[opts.kind])
+                                s.plot_time, budget_s, s.lo, POWER[opts.kind])
     said.details.append(choice.text())
     said.details.append(image.describe(opts.style, choice.spacing_mm, opts.pen_mm, picture,
                                        **d.extra, **({} if curve is None else {"curve": curve})))
@@ -297,13 +334,14 @@ def _budgeted(d: _Drawings, plot_time, w: float, h: float, said: advice.Said):
     return drawn, said, d.draw(choice.spacing_mm, curve), choice.time_s
 
 
-def _search(d: _Drawings, timed, budget_s: float, lo: float, hi: float):
+def _search(d: _Drawings, timed, budget_s: float, lo: float, hi: float,
+            start_mm: float | None = None):
     """(placed strokes, the style's own strokes, budget.Choice, the tone curve or None): the
-    densest spacing within the budget, on the style's own curve. Stipples search on each
-    spacing's own curve (smooth in spacing), then take the walk's curve once, at the spacing
-    found, and search again with it."""
+    densest spacing within the budget, on the style's own curve, from start_mm (None: the
+    style's START_PENS). Stipples search on each spacing's own curve (smooth in spacing),
+    then take the walk's curve once, at the spacing found, and search again with it."""
     opts = d.opts
-    start = START_PENS[opts.kind] * opts.pen_mm
+    start = start_mm or START_PENS[opts.kind] * opts.pen_mm
     if not (opts.style == "stipple" and not opts.tsp and d.layers is None):
         (drawn, raw), choice = budget.fit(d.make, timed, budget_s, start, lo, hi,
                                           POWER[opts.kind])
@@ -355,76 +393,3 @@ def pens_of(names: tuple[str, ...], owned: tuple = ()) -> list[tuple[str, str]]:
             raise ConfigError(f"error: --colours: {name} is given twice")
         out.append(pen)
     return out
-
-
-def default_gamma(style: str, spacing_mm: float, pen_mm: float, picture=None,
-                  tsp: bool = False) -> float:
-    """The tone curve's exponent a style takes from the spacing (the tour: and the picture)."""
-    from vplotter.inputs.image import flow, hatch, squiggle, stipple
-
-    if tsp:
-        return stipple.cap_gamma(picture, spacing_mm, pen_mm, True)
-    if style == "hatch":
-        return hatch.tone_gamma(spacing_mm, pen_mm)
-    if style == "flow":
-        return flow.tone_gamma(spacing_mm, pen_mm)
-    return squiggle.tone_gamma(spacing_mm, pen_mm)
-
-
-def pick_curve(picture, opts: PhotoOptions, draw, make, timed, budget_s: float, lo: float,
-               hi: float, raw, drawn, choice):
-    """The tone curve that draws this picture best within the budget. First exponents: the
-    spacing's own g0, g0 / CURVE_STEP and g0 x CURVE_STEP (within 1..CURVE_MAX), each fitted
-    to the budget (a few tries from the spacing already found). Then curves fitted to the best
-    drawing's measured response (`calibrate.py`: ink rising straight with darkness above a
-    threshold): a few thresholds drawn at that drawing's spacing (`calibrate.search`), the
-    best of them fitted to the budget. Every drawing is scored
-    against the picture (`score.correlation`: ink at the pen width, blurred at 1 mm, against
-    the blurred darkness). (placed strokes, budget.Choice, the curve, a note for `info`)."""
-    from vplotter.inputs.image import calibrate, score, tone
-
-    dark = score.darkness(picture)
-    g0 = default_gamma(opts.style, choice.spacing_mm, opts.pen_mm, picture, opts.tsp)
-    best = (score.correlation(raw, picture, opts.pen_mm, dark), g0, drawn, choice, raw)
-    said = [f"{tone.name(g0)} {best[0]:.3f}"]
-    made_tries = list(choice.tries)
-
-    def attempt(g, most: int = CURVE_TRIES) -> bool:
-        """Try the curve g (an exponent or a tone.Table), at most `most` drawings to fit the
-        budget; True if it is the best so far."""
-        nonlocal best
-        try:
-            (placed, made), c = budget.fit(lambda sp: make(sp, g), timed, budget_s,
-                                           best[3].spacing_mm, lo, hi, POWER[opts.kind],
-                                           most=most)
-        except ConfigError:                   # even the widest spacing is too long
-            return False
-        made_tries.extend(c.tries)
-        r = score.correlation(made, picture, opts.pen_mm, dark)
-        said.append(f"{tone.name(g)} {r:.3f}")
-        if r > best[0]:
-            best = (r, g, placed, c, made)
-            return True
-        return False
-
-    for step in (1 / CURVE_STEP, CURVE_STEP):
-        g = min(max(g0 * step, 1.0), CURVE_MAX)
-        if abs(g - g0) > 1e-6:
-            attempt(g)
-    if dark.std() > 0:                        # curves fitted to the best drawing's response
-        _, g, _, c, made = best
-        ink = score.ink(made, picture, opts.pen_mm)
-        resp, mean = calibrate.response(g, ink, dark), float(ink.mean())
-
-        def fitted(q: float) -> float:
-            """The score of the curve for threshold q, drawn at the measured drawing's spacing
-            (`draw` remembers it: the same curve for several q, or the fit's first try)."""
-            t = calibrate.table(resp, dark, mean, q)
-            return score.correlation(draw(c.spacing_mm, t), picture, opts.pen_mm, dark)
-
-        attempt(calibrate.table(resp, dark, mean, calibrate.search(fitted)), FITTED_TRIES)
-    r, g, placed, c, _ = best
-    c = replace(c, tries=made_tries)          # every drawing made counts
-    note = (f"tone curve {tone.name(g)} chosen for this picture (correlation of ink with "
-            f"darkness at a 1 mm blur, each curve fitted to the budget: {', '.join(said)})")
-    return placed, c, g, note

@@ -7,10 +7,21 @@ measure (`inputs/image/score.py`: the ink at the pen's width blurred at 1 mm aga
 picture's darkness blurred the same, the correlation bench/photo_tone.py reports, on 1 mm
 cells); with several pens each pen's strokes against its own layer, weighted by the ink the
 layer asks for. The best is kept and one note says which and why, with every candidate's score
-and plot time (so `info` lists them). Auto costs the sum of its styles (each is searched
-whole: a shortcut that ranked styles on a cheaper search could pick another than the full
-search would): about 5.4 x the hatch's time for a 12 MP photo at 1 h (bench/photo_speed.py;
-about 20 s idle on this machine), where the hatch takes 3-4 s and the others up to 2.2 x.
+and plot time (so `info` lists them).
+
+`--style auto` at a budget (`auto`) does not finish every style: most of a style's convert is
+fitting its tone curves to the budget (each curve several drawings, each ordered and timed by
+the planner) and its final order. Every style's budget is searched on its own curve (the
+hatch's first; the others start from its spacing x SEED, not from START_PENS: two to four
+drawings, not six to nine), then ranked by `photo_curve.quick_score`: the curves fitted to
+that drawing's measured response, drawn at its spacing, the best timed once. The first, the
+next (of the rest, the one whose bound, the fitted curves' best score before timing, is
+highest, if within MARGIN of the first's score) and the hatch (ALWAYS) are finished and the
+best of those kept by its own score. The quick score came out within about 0.04 of the
+finished one for every style (the spiral's and the tour's time jump with the spacing) but the
+hatch, which its finish raised by up to 0.042: it is always finished (docs/measurements.md,
+"Photos"). The 12 MP photo at 1 h (bench/photo_speed.py): about 12-13 s on the idle machine,
+where finishing all five took 16.7 s.
 
 Stipples at a budget: a dot costs a pen lift (about 2 s on the seed machine), so an hour of
 dots lays little ink; the tour (TSP art) draws a line through the same kind of stipples and
@@ -27,8 +38,16 @@ from dataclasses import replace
 
 from vplotter.budget import clock_text
 
-AUTO_STYLES = ("hatch", "squiggle", "spiral", "flow", "stipple")
+AUTO_STYLES = ("hatch", "squiggle", "spiral", "flow", "stipple")    # the hatch first: SEED
 WHITE, LINE_ART = 0.05, 0.5     # line art: at least LINE_ART of the picture darkness < WHITE
+# --style auto: each style's search starts at the hatch's spacing x this (their spacings at
+# the same budget were 0.6-1.6 x (flow, the stipples) and 2.4-3.4 x (squiggle, spiral) the
+# hatch's on bench/photo_tone.py's pictures)
+SEED = {"squiggle": 2.9, "spiral": 3.0, "flow": 1.0, "tsp": 1.2, "stipple": 1.5}
+MARGIN = 0.015       # styles finished: the best by the quick score, the one of the rest whose
+FINISHED = 2         # bound is highest if it is at most this under that score (FINISHED in all,
+ALWAYS = ("hatch",)  # besides ALWAYS), and ALWAYS (the quick score misses most of what the
+                     # hatch's finish gains: 0.02-0.04 on some pictures)
 
 
 def white_share(picture) -> float:
@@ -100,4 +119,58 @@ def best(opts, tries: list, one, pictures):
         head = f"stipple: {'the tour through the dots' if o.tsp else 'dots'}"
     said.notes.insert(0, f"{head} (tone {figures(chosen)}; {others}): the drawing whose ink "
                       f"follows the darkness best (correlation at a 1 mm blur)")
+    return placed, said
+
+
+def auto(tries: list, begin, search, finish, pictures):
+    """--style auto at a budget: (placed strokes, what is said). Every style's budget is
+    searched on its own curve (`photo.searched`, from the hatch's spacing x SEED) and ranked
+    by `photo_curve.quick_score` (the curves fitted to that drawing's response, the best
+    timed once); the first, the one of the rest whose bound (the fitted curves' best score
+    before timing) is highest if within MARGIN of the first's score, and the hatch are
+    finished (`photo.finished`: the curves fitted to the budget, the final order) and the best
+    of those by its own score kept: one to three styles finished, not five.
+    begin(opts) -> (`photo._Drawings`, `advice.Said`); search(drawings, start_mm or None) ->
+    `photo.Searched`; finish: `photo.finished`."""
+    from vplotter.drawing.photo_curve import quick_score
+    from vplotter.inputs.image import score
+
+    dark = score.darkness(pictures[0])
+    ranked, hatch_mm = [], None
+    for o in tries:
+        d, said = begin(o)
+        s = search(d, None if hatch_mm is None else hatch_mm * SEED.get(o.kind, 1.0))
+        if o.style == "hatch":
+            hatch_mm = s.choice.spacing_mm
+        q = (quick_score(s, dark) if pictures[1] is None else
+             (tone_score(s.raw, pictures, o.pen_mm),) * 2)
+        ranked.append((q[0], o, s, said, q[1]))
+    ranked.sort(key=lambda m: -m[0])
+    rest = sorted((m for m in ranked[1:] if m[1].kind not in ALWAYS and
+                   m[4] >= ranked[0][0] - MARGIN), key=lambda m: -m[4])
+    finishing = {id(m[1]) for m in ranked[:1] + rest[:FINISHED - 1]} | {
+        id(m[1]) for m in ranked if m[1].kind in ALWAYS}
+    made = []
+    for q, o, s, said, _ in ranked:
+        if id(o) not in finishing:
+            s.d.drawn_last.clear()            # its drawings: not needed again
+            continue
+        placed, said, raw, time_s = finish(s, said)
+        made.append((tone_score(raw, pictures, o.pen_mm), o, placed, said, time_s))
+    chosen = max(made, key=lambda m: m[0])
+    _, o, placed, said, _ = chosen
+
+    def figures(m) -> str:
+        return f"{m[0]:.3f}, {clock_text(m[4])}"
+
+    others = [f"{name(m[1])} {figures(m)}" for m in made if m is not chosen]
+    done = {id(m[1]) for m in made}
+    quick = [f"{name(o)} {q:.3f}, {clock_text(s.choice.time_s)}" for q, o, s, _, _ in ranked
+             if id(o) not in done]
+    said.notes.insert(0, f"--style auto chose {name(o)} (tone {figures(chosen)}"
+                      f"{''.join('; ' + x for x in others)}; quick: "
+                      f"{'; '.join(quick) or 'none'}): the drawing whose ink follows the "
+                      f"darkness best (correlation at a 1 mm blur); every style's budget "
+                      f"searched and its fitted curve scored at that spacing (quick), the best "
+                      f"{len(made)} finished")
     return placed, said

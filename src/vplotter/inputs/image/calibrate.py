@@ -85,10 +85,11 @@ def table(resp: tuple[np.ndarray, np.ndarray], dark: np.ndarray, mean_ink: float
     return tone.Table(tuple(float(v) for v in f), f"fitted (ink from darkness {d0:.2f} up)")
 
 
-def search(value) -> float:
+def search(value, refine: bool = True) -> float:
     """The threshold share q with the highest value(q) (value: q -> a score, called about 5
     to 7 times): QUANTILES, then WALK further while the best is the lowest or the highest
-    tried (within 0..MOST_Q), then REFINE either side of the best."""
+    tried (within 0..MOST_Q), then REFINE either side of the best (refine False: not; 3 to 5
+    calls)."""
     seen: dict[float, float] = {}
 
     def at(q: float) -> None:
@@ -105,6 +106,7 @@ def search(value) -> float:
             break
         at(best + step)
     best = max(seen, key=seen.get)
-    at(best - REFINE)
-    at(best + REFINE)
+    if refine:
+        at(best - REFINE)
+        at(best + REFINE)
     return max(seen, key=seen.get)
