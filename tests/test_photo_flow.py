@@ -149,10 +149,10 @@ def test_auto_finishes_only_the_styles_ranked_best(monkeypatch):
 
     quick = {"hatch": 0.70, "squiggle": 0.75, "spiral": 0.74, "flow": 0.60, "stipple": 0.73}
     final = {"hatch": 0.71, "squiggle": 0.71, "spiral": 0.72, "flow": 0.99, "stipple": 0.99}
-    starts = {}
+    searched = []
 
-    def search(d, start):
-        starts[d.style] = start
+    def search(d):
+        searched.append(d.style)
         return Searched(quick[d.style], d)
 
     def finished(s, said):
@@ -174,7 +174,7 @@ def test_auto_finishes_only_the_styles_ranked_best(monkeypatch):
     assert said.notes[0].startswith("--style auto chose stipple (tone 0.990, 0:55; squiggle "
                                     "0.710, 0:55; hatch 0.710, 0:55; quick: spiral 0.740, "
                                     "1:00; flow 0.600, 1:00): ")
-    assert starts["hatch"] is None and starts["squiggle"] == 2 * photo_auto.SEED["squiggle"]
+    assert searched == list(photo_auto.AUTO_STYLES)      # each style's budget searched once
 
 
 def test_a_budgeted_stipple_of_a_photograph_draws_the_tour(capsys, config_path, photo,

@@ -138,7 +138,7 @@ def strokes(path: str, opts: PhotoOptions, page: place.Box, placement: place.Pla
         return one(opts)[:2]
     if opts.style == image.AUTO and opts.spacing_mm is None:
         return photo_auto.auto(tries, lambda o: _begun(o, pictures, frame, start_xy, method),
-                               lambda d, start: searched(d, plot_time, w, h, start), finished,
+                               lambda d: searched(d, plot_time, w, h), finished,
                                pictures)
     return photo_auto.best(opts, tries, one, pictures)
 
@@ -297,14 +297,13 @@ class Searched:
         return self.plot_time(made[0])
 
 
-def searched(d: _Drawings, plot_time, w: float, h: float, start_mm: float | None = None):
-    """The budget's search on the style's own curve (`_search`), from start_mm (None: the
-    style's START_PENS) -> `Searched`."""
+def searched(d: _Drawings, plot_time, w: float, h: float):
+    """The budget's search on the style's own curve (`_search`) -> `Searched`."""
     opts = d.opts
     s = Searched(d, plot_time, opts.max_time_s or budget.DEFAULT_S,
                  opts.pen_mm * (1.2 if opts.style == "stipple" else 1.0), max(w, h) / 4, w, h,
                  [], [], None, None)
-    s.drawn, s.raw, s.choice, s.curve = _search(d, s.timed, s.budget_s, s.lo, s.hi, start_mm)
+    s.drawn, s.raw, s.choice, s.curve = _search(d, s.timed, s.budget_s, s.lo, s.hi)
     return s
 
 
@@ -334,14 +333,13 @@ def finished(s: Searched, said: advice.Said):
     return drawn, said, d.draw(choice.spacing_mm, curve), choice.time_s
 
 
-def _search(d: _Drawings, timed, budget_s: float, lo: float, hi: float,
-            start_mm: float | None = None):
+def _search(d: _Drawings, timed, budget_s: float, lo: float, hi: float):
     """(placed strokes, the style's own strokes, budget.Choice, the tone curve or None): the
-    densest spacing within the budget, on the style's own curve, from start_mm (None: the
-    style's START_PENS). Stipples search on each spacing's own curve (smooth in spacing),
-    then take the walk's curve once, at the spacing found, and search again with it."""
+    densest spacing within the budget, on the style's own curve, from START_PENS. Stipples
+    search on each spacing's own curve (smooth in spacing), then take the walk's curve once,
+    at the spacing found, and search again with it."""
     opts = d.opts
-    start = start_mm or START_PENS[opts.kind] * opts.pen_mm
+    start = START_PENS[opts.kind] * opts.pen_mm
     if not (opts.style == "stipple" and not opts.tsp and d.layers is None):
         (drawn, raw), choice = budget.fit(d.make, timed, budget_s, start, lo, hi,
                                           POWER[opts.kind])

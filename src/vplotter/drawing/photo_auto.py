@@ -11,17 +11,19 @@ and plot time (so `info` lists them).
 
 `--style auto` at a budget (`auto`) does not finish every style: most of a style's convert is
 fitting its tone curves to the budget (each curve several drawings, each ordered and timed by
-the planner) and its final order. Every style's budget is searched on its own curve (the
-hatch's first; the others start from its spacing x SEED, not from START_PENS: two to four
-drawings, not six to nine), then ranked by `photo_curve.quick_score`: the curves fitted to
+the planner) and its final order. Every style's budget is searched on its own curve, from where
+the style alone starts (a search started elsewhere, from the hatch's spacing, landed the tour
+on another spacing 0.01 below its own drawing on two of the bench's pictures), then ranked by
+`photo_curve.quick_score`: the curves fitted to
 that drawing's measured response, drawn at its spacing, the best timed once. The first, the
 next (of the rest, the one whose bound, the fitted curves' best score before timing, is
 highest, if within MARGIN of the first's score) and the hatch (ALWAYS) are finished and the
 best of those kept by its own score. The quick score came out within about 0.04 of the
 finished one for every style (the spiral's and the tour's time jump with the spacing) but the
 hatch, which its finish raised by up to 0.042: it is always finished (docs/measurements.md,
-"Photos"). The 12 MP photo at 1 h (bench/photo_speed.py): about 12-13 s on the idle machine,
-where finishing all five took 16.7 s.
+"Photos"). A style finished here is the drawing `--style` that style makes. The 12 MP photo at
+1 h (bench/photo_speed.py): 17.2 s of CPU under load where finishing all five took 23.2 s
+(16.7 s idle): about 14 s idle.
 
 Stipples at a budget: a dot costs a pen lift (about 2 s on the seed machine), so an hour of
 dots lays little ink; the tour (TSP art) draws a line through the same kind of stipples and
@@ -38,12 +40,8 @@ from dataclasses import replace
 
 from vplotter.budget import clock_text
 
-AUTO_STYLES = ("hatch", "squiggle", "spiral", "flow", "stipple")    # the hatch first: SEED
+AUTO_STYLES = ("hatch", "squiggle", "spiral", "flow", "stipple")
 WHITE, LINE_ART = 0.05, 0.5     # line art: at least LINE_ART of the picture darkness < WHITE
-# --style auto: each style's search starts at the hatch's spacing x this (their spacings at
-# the same budget were 0.6-1.6 x (flow, the stipples) and 2.4-3.4 x (squiggle, spiral) the
-# hatch's on bench/photo_tone.py's pictures)
-SEED = {"squiggle": 2.9, "spiral": 3.0, "flow": 1.0, "tsp": 1.2, "stipple": 1.5}
 MARGIN = 0.015       # styles finished: the best by the quick score, the one of the rest whose
 FINISHED = 2         # bound is highest if it is at most this under that score (FINISHED in all,
 ALWAYS = ("hatch",)  # besides ALWAYS), and ALWAYS (the quick score misses most of what the
@@ -124,24 +122,22 @@ def best(opts, tries: list, one, pictures):
 
 def auto(tries: list, begin, search, finish, pictures):
     """--style auto at a budget: (placed strokes, what is said). Every style's budget is
-    searched on its own curve (`photo.searched`, from the hatch's spacing x SEED) and ranked
+    searched on its own curve (`photo.searched`, as the style alone searches it) and ranked
     by `photo_curve.quick_score` (the curves fitted to that drawing's response, the best
     timed once); the first, the one of the rest whose bound (the fitted curves' best score
     before timing) is highest if within MARGIN of the first's score, and the hatch are
     finished (`photo.finished`: the curves fitted to the budget, the final order) and the best
     of those by its own score kept: one to three styles finished, not five.
-    begin(opts) -> (`photo._Drawings`, `advice.Said`); search(drawings, start_mm or None) ->
+    begin(opts) -> (`photo._Drawings`, `advice.Said`); search(drawings) ->
     `photo.Searched`; finish: `photo.finished`."""
     from vplotter.drawing.photo_curve import quick_score
     from vplotter.inputs.image import score
 
     dark = score.darkness(pictures[0])
-    ranked, hatch_mm = [], None
+    ranked = []
     for o in tries:
         d, said = begin(o)
-        s = search(d, None if hatch_mm is None else hatch_mm * SEED.get(o.kind, 1.0))
-        if o.style == "hatch":
-            hatch_mm = s.choice.spacing_mm
+        s = search(d)
         q = (quick_score(s, dark) if pictures[1] is None else
              (tone_score(s.raw, pictures, o.pen_mm),) * 2)
         ranked.append((q[0], o, s, said, q[1]))
