@@ -9,8 +9,6 @@ Drawings: a spiral of 2,000 linetos (one stroke, one part) and 300 random walks 
 
 from __future__ import annotations
 
-import math
-import random
 import tempfile
 import time
 from pathlib import Path
@@ -18,33 +16,15 @@ from pathlib import Path
 from bench import ROOT, test_support
 
 CONFIG = ROOT / "config.toml"
+scripts = test_support("scripts")
 
 
 def spiral() -> list[list[tuple[float, float]]]:
-    return [[((2 + k / 40) * math.cos(k / 20), (2 + k / 40) * math.sin(k / 20))
-             for k in range(2001)]]
+    return [scripts.spiral(2000)]
 
 
 def walks() -> list[list[tuple[float, float]]]:
-    rnd = random.Random(1)
-    out = []
-    for _ in range(300):
-        x, y = rnd.uniform(-150, 150), rnd.uniform(-100, 100)
-        pts = [(x, y)]
-        for _ in range(20):
-            x, y = x + rnd.uniform(-3, 3), y + rnd.uniform(-3, 3)
-            pts.append((x, y))
-        out.append(pts)
-    return out
-
-
-def gcode(strokes) -> str:
-    lines = []
-    for pts in strokes:
-        lines += [f"G0 X{pts[0][0]!r} Y{pts[0][1]!r}", "M3"]
-        lines += [f"G1 X{x!r} Y{y!r}" for x, y in pts[1:]]
-        lines.append("M5")
-    return "\n".join(lines) + "\n"
+    return scripts.walks(300, 20)
 
 
 def rows(path: Path) -> list[str]:
@@ -57,7 +37,7 @@ def measure(name: str, strokes, folder: Path) -> str:
 
     tc = test_support("tracecheck")
     ngc, t_api, t_file = folder / f"{name}.ngc", folder / f"{name}.api.csv", folder / "f.csv"
-    ngc.write_text(gcode(strokes))
+    ngc.write_text(scripts.gcode_of(strokes))
     parts = []
     flush = api.Plotter.flush
 

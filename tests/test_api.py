@@ -6,9 +6,7 @@ script's line; draw_file and estimate are draw's and estimate's."""
 
 from __future__ import annotations
 
-import math
 import os
-import random
 import signal
 import subprocess
 import sys
@@ -18,6 +16,7 @@ import pytest
 
 from support import REPO
 from support import tracecheck as tc
+from support.scripts import gcode_of, spiral, walks
 from support.signals import hold_lock, interrupt_after
 from vplotter import api
 from vplotter.backends.fake import FakeBackend
@@ -28,37 +27,6 @@ from vplotter.machine import state
 
 def run(config_path, *argv):
     return main(["--config", str(config_path), *map(str, argv)])
-
-
-def spiral(n: int) -> list[tuple[float, float]]:
-    return [((2 + k / 40) * math.cos(k / 20), (2 + k / 40) * math.sin(k / 20))
-            for k in range(n + 1)]
-
-
-def walks(n: int, length: int, seed: int = 1, spread=(150.0, 100.0),
-          step: float = 3.0) -> list[list[tuple[float, float]]]:
-    """n random walks of `length` steps of up to `step` mm, each starting anywhere in
-    +-spread."""
-    rnd = random.Random(seed)
-    out = []
-    for _ in range(n):
-        x, y = rnd.uniform(-spread[0], spread[0]), rnd.uniform(-spread[1], spread[1])
-        pts = [(x, y)]
-        for _ in range(length):
-            x, y = x + rnd.uniform(-step, step), y + rnd.uniform(-step, step)
-            pts.append((x, y))
-        out.append(pts)
-    return out
-
-
-def gcode_of(strokes) -> str:
-    """The G-code file a script of moveto/pendown/lineto/penup is: one call a line."""
-    lines = []
-    for pts in strokes:
-        lines += [f"G0 X{pts[0][0]!r} Y{pts[0][1]!r}", "M3"]
-        lines += [f"G1 X{x!r} Y{y!r}" for x, y in pts[1:]]
-        lines.append("M5")
-    return "\n".join(lines) + "\n"
 
 
 def rows(path) -> list[str]:
@@ -134,6 +102,19 @@ def calibrated(config_path):
     assert run(config_path, "calibrate", "--at", "0", "0") == 0
 
 
+def _left_safe(trace, cfg) -> None:
+    """As `draw` leaves the machine when stopped: the pen up and the coils released at the
+    trace's end, and the stored position clean, where the trace ends."""
+    tr = tc.read_trace(trace)
+    assert tc.released_at_end(tr, cfg) == []
+    dec = tc.decode(tr, cfg, (0.0, 0.0))
+    assert not dec.pen_down[-1]
+    pos = state.load()
+    assert pos.clean and pos.pen == "up"
+    assert np.allclose([pos.left_mm, pos.right_mm], [dec.left_mm[-1], dec.right_mm[-1]],
+                       atol=1e-9)
+
+
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
 def test_a_signal_mid_play_leaves_the_machine_as_draw_does(signum, config_path, tmp_path,
                                                            monkeypatch):
@@ -147,14 +128,7 @@ def test_a_signal_mid_play_leaves_the_machine_as_draw_does(signum, config_path, 
     assert stopped.value.exit_code == 128 + signum
     assert isinstance(stopped.value, KeyboardInterrupt)
     assert "pen lifted, coils released, position saved" in str(stopped.value)
-    tr = tc.read_trace(trace)
-    assert tc.released_at_end(tr, cfg) == []
-    dec = tc.decode(tr, cfg, (0.0, 0.0))
-    assert not dec.pen_down[-1]
-    pos = state.load()
-    assert pos.clean and pos.pen == "up"
-    assert np.allclose([pos.left_mm, pos.right_mm], [dec.left_mm[-1], dec.right_mm[-1]],
-                       atol=1e-9)
+    _left_safe(trace, cfg)
 
 
 def test_ctrl_c_between_two_calls_lifts_releases_and_stores(config_path, tmp_path):
@@ -170,14 +144,7 @@ def test_ctrl_c_between_two_calls_lifts_releases_and_stores(config_path, tmp_pat
             assert p.pen_is_down
             os.kill(os.getpid(), signal.SIGINT)     # the script's own code runs
             p.lineto(10, 40)        # pragma: no cover - never reached
-    tr = tc.read_trace(trace)
-    assert tc.released_at_end(tr, cfg) == []
-    dec = tc.decode(tr, cfg, (0.0, 0.0))
-    assert not dec.pen_down[-1]
-    pos = state.load()
-    assert pos.clean and pos.pen == "up"
-    assert np.allclose([pos.left_mm, pos.right_mm], [dec.left_mm[-1], dec.right_mm[-1]],
-                       atol=1e-9)
+    _left_safe(trace, cfg)
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler    # given back
 
 
