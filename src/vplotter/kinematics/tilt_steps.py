@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vplotter.kinematics.tilt import cord_jets
-from vplotter.kinematics.tilt_kept import windows, balance, jets, remember  # noqa: F401
+from vplotter.kinematics.tilt_kept import windows
 
 SUB_MM = 3.0
 END_MARGIN, END_MARGIN_MM = 0.03, 1.0     # a piece whose end is not known: past its last step

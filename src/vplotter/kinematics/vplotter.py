@@ -29,10 +29,10 @@ from vplotter.kinematics.taylor import mul as _mul
 from vplotter.kinematics.taylor import scale as _scale
 from vplotter.kinematics.taylor import sqrt as _sqrt
 from vplotter.kinematics.taylor import sub as _sub
-from vplotter.kinematics import tilt_steps
+from vplotter.kinematics import tilt_kept, tilt_steps
 from vplotter.kinematics.sag import Sag
 from vplotter.kinematics.sag import crossing as sag_crossing
-from vplotter.kinematics.tilt import Gondola, cord_jets, cords_value, tensions
+from vplotter.kinematics.tilt import Gondola, cords_value, tensions
 
 NEWTON_STEPS = 40          # at most; they stop when every row is within TOL_MM
 TOL_MM = 1e-10
@@ -103,10 +103,10 @@ class TwoCord:
         m = np.asarray(xy, dtype=float)
         if self.gondola is not None:
             flat = m.reshape(-1, 2)
-            state = (tilt_steps.balance(self, flat) if len(flat) > 2
+            state = (tilt_kept.balance(self, flat) if len(flat) > 2
                      else self.gondola.solve(flat[:, 0], flat[:, 1]))
             if m.ndim == 2 and len(m) > 2:        # a window's vertices: see tilt_steps
-                tilt_steps.remember(self, m, state)
+                tilt_kept.remember(self, m, state)
             return cords_value(state[6], self.stretch).reshape(m.shape)
         flat = m.reshape(-1, 2)
         q, _, _ = self._jets(flat, np.zeros_like(flat))
@@ -162,7 +162,7 @@ class TwoCord:
         if self.sag is not None:
             return self.sag.jets(xy, e)
         if self.gondola is not None:
-            ql, qr = tilt_steps.jets(self, xy, e, state)
+            ql, qr = tilt_kept.jets(self, xy, e, state)
             return tuple(np.stack((a, b), axis=-1) for a, b in zip(ql, qr))
         zero = np.zeros(len(xy))
         xl = (xy[:, 0] - self.anchors[0, 0], e[:, 0], zero)
@@ -210,7 +210,7 @@ class TwoCord:
         if self.gondola is not None and self.stretch == 0.0 and self.sag is None:
             xy = np.asarray(xy, dtype=float)
             return self.gondola.slopes(xy, np.asarray(e, dtype=float),
-                                       tilt_steps.balance(self, xy))
+                                       tilt_kept.balance(self, xy))
         if not self.plain:
             return self._jets(xy, e)[1]
         return self._along(xy, e)[0]
