@@ -222,3 +222,24 @@ def test_a_drawing_with_sagging_cords(config_path, tmp_path):
     x, y = tc.forward_kinematics(straight, left, right)
     far = np.hypot(x - ref[:, 0], y - ref[:, 1]).max()
     assert far > 0.1
+
+
+def test_a_point_near_straight_below_an_anchor_is_refused(config_path, tmp_path, capsys):
+    """Near straight below an anchor the other cord hangs slack in a deep bow (a plan there
+    came out 0.4 m off, its cords no triangle): `info` and `draw` refuse that point in one
+    line, exit 2; the same drawing away from the side plans."""
+    cfg_path = tmp_path / "sag.toml"
+    cfg_path.write_text(config_path.read_text() + "[gondola]\nmass_g = 150.0\n"
+                        "cord_spacing_mm = 20.0\npen_below_mm = 12.0\n[cords]\n"
+                        "mass_g_per_m = 18.0\n")
+    for x, ok in ((-196.25, False), (-100.0, True)):
+        gfile = tmp_path / "e.ngc"
+        gfile.write_text(f"G0 X0 Y0\nG0 X{x} Y-249\nG0 X0 Y0\n")
+        for cmd in ("info", "draw"):
+            extra = ["--dry-run"] if cmd == "draw" else []
+            code, _, err = run(capsys, ["--config", cfg_path, cmd, gfile, *extra])
+            if ok:
+                assert code == 0, err
+            else:
+                assert code == 2 and err.count("\n") == 1 and "Warning" not in err
+                assert f"e.ngc:2:1: error: the pen cannot reach X{x:.3f} Y-249.000" in err

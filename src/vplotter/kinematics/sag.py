@@ -36,6 +36,8 @@ TOL = 1e-10          # forward stops after a step below this (mm)
 TOL_BALANCE = 1e-7   # the balance after a step below this (relative in H, rad): then ~1e-14
 INSIDE_MM = 1.0      # forward: a pen this far at least inside the anchors and below them
 WARM_MM = 5.0        # balance(): the last balance is the first guess for points this near
+SLACK = 1.5         # TwoCord.check_move: the slack cord's mu h / 2H at most this (a plan
+                    # failed at 3.3, held at 2.05)
 PHI_STEP = 0.2       # rad: a Newton step of the turn goes no further
 
 

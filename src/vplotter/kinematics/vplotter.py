@@ -74,10 +74,31 @@ class TwoCord:
         return np.stack((m[..., 0] - self.origin[0], self.origin[1] - m[..., 1]), axis=-1)
 
     def check_move(self, xy: np.ndarray, start: np.ndarray) -> int:
-        """-1: the cords reach every point of the page (which the plan checks)."""
-        return -1
+        """-1: the cords reach every point of the page (which the plan checks). Sagging cords
+        hold the gondola only where neither cord's end on it is near straight below its
+        anchor: there the other cord goes slack and hangs in a bow deeper than the step solver
+        takes (a plan 0.4 m off was seen). Each cord's drop over its span is kept under
+        sag.SLACK / (mu D), so that the slack cord's catenary parameter H / mu stays above
+        D / (2 SLACK) (H >= 1 / (2 K) of straight cords): a half-plane per cord, so the lines
+        between such points keep to it too. The first point where not."""
+        if self.sag is None:
+            return -1
+        from vplotter.kinematics.sag import SLACK
+
+        m = np.asarray(xy, dtype=float)
+        half = self.spacing_mm / 2.0
+        steep = SLACK / (self.sag_per_mm * self.d_mm)
+        drop = m[:, 1] - self.pen_below_mm
+        bad = ((drop > steep * (m[:, 0] - half)) | (drop > steep * (self.d_mm - half - m[:, 0]))
+               | (m[:, 0] - half <= 0.0) | (m[:, 0] + half >= self.d_mm))
+        idx = np.flatnonzero(bad)
+        return int(idx[0]) if idx.size else -1
 
     def cannot_reach(self, x: float, y: float) -> str:
+        if self.sag is not None:
+            return (f"the pen cannot reach X{x:.3f} Y{y:.3f}: a cord's end on the gondola "
+                    f"would hang nearly straight below its anchor, the other cord slack "
+                    f"(sagging cords: keep the drawing further from the page's sides)")
         return f"the pen cannot reach X{x:.3f} Y{y:.3f}"
 
     # ------------------------------------------------------------------ geometry
