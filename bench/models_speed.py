@@ -8,7 +8,10 @@ once per sub-piece of 3 mm, a planned window at a time, and each step in closed 
 osculating level model (kinematics/tilt_steps.py). Each tilt row is printed beside the same
 model without tilt, and the last column says how much slower tilt makes it (CPU time, the
 best of 5 runs, 3 on the large file; the runs are interleaved, one of each model in turn, so
-that a busy machine slows every model alike). Sagging cords ([cords] mass_g_per_m,
+that a busy machine slows every model alike). "planning CPU" streams the plan (parse, plan and
+schedule in one pass, as a drawing too large to keep is drawn); "as `draw`" is what `vplotter
+draw` does: the whole file checked and planned first (pipeline.validate), the kept plan then
+scheduled (pipeline.replay). Sagging cords ([cords] mass_g_per_m,
 kinematics/sag.py) solve their balance at every Newton step of every step's crossing (the exact
 step solver): those rows are printed beside the same machine without sag. Run:
 python -m bench.models_speed [--car-only] [--tilt | --sag] [--runs N] (--tilt, --sag: only the
@@ -80,21 +83,29 @@ def table(path: str, runs: int, tilt_only: bool = False) -> None:
         tilt = ("gondola, tilting (mass 30 mm below the pen)", "all of them, tilting")
         models = {k: v for k, v in models.items()
                   if k in tilt or k in (without[t] for t in tilt)}
-    print("| model | steps | planning CPU | steps / CPU s | plot time | tilt / sag costs |")
-    print("| --- | --- | --- | --- | --- | --- |")
+    print("| model | steps | planning CPU | steps / CPU s | plot time | tilt / sag costs "
+          "| as `draw` | tilt / sag costs |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
     best: dict = {}
+    drawn: dict = {}
     summaries: dict = {}
     for _ in range(runs):                    # each round runs every model once, in turn
         for name, cfg in models.items():
             cpu, summaries[name] = _run(cfg, path)
             best[name] = min(cpu, best.get(name, cpu))
+            cpu = _draw(cfg, path)
+            drawn[name] = min(cpu, drawn.get(name, cpu))
     for name in models:
         summary, cpu = summaries[name], best[name]
         steps = int(summary.steps.sum())
-        slower = (f"{(cpu / best[without[name]] - 1) * 100:+.0f} % on \"{without[name]}\""
-                  if name in without else "")
         print(f"| {name} | {steps:,} | {cpu:.3f} s | {steps / cpu / 1e6:.1f} M | "
-              f"{summary.time_s:.1f} s | {slower} |")
+              f"{summary.time_s:.1f} s | {_costs(best, without, name)} | {drawn[name]:.3f} s "
+              f"| {_costs(drawn, without, name)} |")
+
+
+def _costs(cpu: dict, without: dict, name: str) -> str:
+    return (f"{(cpu[name] / cpu[without[name]] - 1) * 100:+.0f} % on \"{without[name]}\""
+            if name in without else "")
 
 
 def _run(cfg, path: str) -> tuple:
@@ -107,6 +118,21 @@ def _run(cfg, path: str) -> tuple:
                                  path, summary=summary):
         pass
     return time.process_time() - t0, summary
+
+
+def _draw(cfg, path: str) -> float:
+    """CPU time of what `draw` does (the dry run's rows made, not written): the whole file
+    validated and planned, then the kept plan replayed (streamed again if too long to keep)."""
+    kin = kinematics.from_config(cfg)
+    cords = kin.inverse(kin.to_machine(np.zeros((1, 2))))[0]
+    t0 = time.process_time()
+    summary = pipeline.validate(cfg, gcode.read(path, warn=lambda m: None), (0, 0), cords, path)
+    rows = (pipeline.replay(cfg, summary.plan, (0, 0), cords) if summary.plan is not None
+            else pipeline.stream(cfg, gcode.read(path, warn=lambda m: None), (0, 0), cords,
+                                 path))
+    for _rows in rows:
+        pass
+    return time.process_time() - t0
 
 
 if __name__ == "__main__":

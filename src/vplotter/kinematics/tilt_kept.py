@@ -4,10 +4,16 @@ balance reused between the planner's calls (`balance`: the same points, moved on
 a first guess of phi), and the cords' derivatives the planner asks for at the starts and the
 ends of a window's pieces (`jets`), which the window's layout takes.
 
-The planner and the schedule have each a machine: the windows are kept here, by machine."""
+The planner and the schedule have each a machine: the windows are kept here, by machine.
+A window lives as long as its vertices' array: the planner's, which its blocks' vertices are
+views of, so that a block finds its window by the array it views (`find`) however long after
+it was planned (a draw plans the whole drawing to check it, keeps the plan and plays it
+after: pipeline.validate). The last WINDOWS are also kept outright (the planner's next
+calls, and blocks that are copies)."""
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -28,7 +34,7 @@ class Window:
     e: np.ndarray | None = None
     d: np.ndarray | None = None
     lay: object | None = None       # its tilt_steps.Layout
-    jets0: tuple | None = None      # (e, r, qj) of jets() at the pieces' starts
+    jets0: tuple | None = None      # (e, r, qj) of jets() at the pieces' starts (`brief`)
     jets1: tuple | None = None      # and at their ends
     cursor: int = 0
     at: int = 0
@@ -36,6 +42,8 @@ class Window:
 
 
 _WINDOWS: list = []     # (machine, Window): the planner and the schedule have each a machine
+_BY_VERTS: dict = {}    # id of a vertices' array -> [(its weakref, machine, Window)]
+_LAID: list = [None]    # a weakref to the window whose layout was made last (one layout kept)
 
 
 def _machine(kin) -> tuple:
@@ -51,13 +59,58 @@ def windows(kin) -> list:
 
 
 def remember(kin, xy: np.ndarray, state: tuple) -> None:
-    """Keep the balance at a window's vertices (from `inverse`) for its blocks' steps."""
+    """Keep the balance at a window's vertices (from `inverse`) for its blocks' steps, while
+    the array xy lives (it must not change: the planner's arrays do not)."""
     key = _machine(kin)
     mine = [i for i, (m, _) in enumerate(_WINDOWS) if m == key]
     for i in reversed(mine[:len(mine) - WINDOWS + 1]):
         del _WINDOWS[i]
-    _WINDOWS.append((key, Window(xy.copy(), state)))
+    w = Window(xy, state)
+    _WINDOWS.append((key, w))
     del _WINDOWS[:-4 * WINDOWS]
+    root = _root(xy)
+    kept = _BY_VERTS.get(id(root))
+    if kept is None:
+        kept = _BY_VERTS[id(root)] = []
+        weakref.finalize(root, _BY_VERTS.pop, id(root), None)
+    kept.append((weakref.ref(root), key, w))
+
+
+def find(kin, a: np.ndarray) -> tuple | None:
+    """(window, i) when the rows a are the window's vertices i .. i + len(a) - 1, as a view of
+    the same array; else None."""
+    root = _root(a)
+    kept = _BY_VERTS.get(id(root))
+    if not kept:
+        return None
+    key = kin.__dict__.get("_tilt_key") or _machine(kin)
+    at = a.__array_interface__["data"][0]
+    for ref, m, w in reversed(kept):
+        v = w.verts
+        if ref() is not root or m != key or v.strides != a.strides:
+            continue
+        i, rest = divmod(at - v.__array_interface__["data"][0], v.strides[0])
+        if not rest and 0 <= i and i + len(a) <= len(v):
+            return w, i
+    return None
+
+
+def laid(w: Window, make) -> object:
+    """The window's layout, made by make() the first time; the last window's is let go (the
+    blocks come window by window)."""
+    if w.lay is None:
+        last = _LAID[0] and _LAID[0]()
+        if last is not None and last is not w:
+            last.lay = None
+        w.lay = make()
+        _LAID[0] = weakref.ref(w)
+    return w.lay
+
+
+def _root(a: np.ndarray) -> np.ndarray:
+    while isinstance(a.base, np.ndarray):
+        a = a.base
+    return a
 
 
 def balance(kin, xy: np.ndarray) -> tuple:
@@ -124,9 +177,15 @@ def jets(kin, xy: np.ndarray, e: np.ndarray, state=None) -> tuple:
         w = mine[-1]
         for a, name in ((0, "jets0"), (1, "jets1")):
             if np.array_equal(w.verts[a:a + len(xy)], xy):
-                setattr(w, name, (e.copy(), r, qj))
+                setattr(w, name, (e.copy(), *brief(r, qj)))
                 break
     return qj
+
+
+def brief(r, qj) -> tuple:
+    """Of the cords' triples r and the motor coordinates' qj, what a layout takes (the cords'
+    values, the motor coordinates' values and slopes): kept for a window's whole life."""
+    return tuple((rx[:1], ry[:1]) for rx, ry in r), tuple(q[:2] for q in qj)
 
 
 def _joined(a, b):

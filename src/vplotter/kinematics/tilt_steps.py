@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vplotter.kinematics.tilt import cord_jets
-from vplotter.kinematics.tilt_kept import windows
+from vplotter.kinematics.tilt_kept import brief, find, laid, windows
 
 SUB_MM = 3.0
 END_MARGIN, END_MARGIN_MM = 0.03, 1.0     # a piece whose end is not known: past its last step
@@ -97,38 +97,55 @@ def _window(kin, p0, e, motor=0):
     """(layout, offset of the block's first piece in it) when the block is a run of pieces
     of a window the machine knows, else None."""
     n = len(p0)
+    hit = find(kin, p0)
+    if hit is not None and hit[1] + n < len(hit[0].verts):
+        w, i = hit
+        if (e is w.asked and i == w.at) or np.array_equal(_directions(w)[i:i + n], e):
+            return _laid(kin, w, i, n, e), i
     for w in reversed(windows(kin)):
         m = len(w.verts)
         if n > m - 1:
             continue
-        if w.e is None:
-            diff = np.diff(w.verts, axis=0)
-            w.d = np.hypot(diff[:, 0], diff[:, 1])
-            with np.errstate(divide="ignore", invalid="ignore"):
-                w.e = np.column_stack((diff[:, 0] / w.d, diff[:, 1] / w.d))
+        we = _directions(w)
         # the block asked last (the other motor's call) or the next one, else a search
         i = -1
         for c in ((w.at, w.cursor) if motor else (w.cursor, w.at)):
             # (the same directions as the last call's: the schedule's other motor)
             if (c + n <= m - 1 and (w.verts[c:c + n] == p0).all()
-                    and ((e is w.asked and c == w.at) or (w.e[c:c + n] == e).all())):
+                    and ((e is w.asked and c == w.at) or (we[c:c + n] == e).all())):
                 i = c
                 break
         if i < 0:
             hits = np.flatnonzero((w.verts[:m - n, 0] == p0[0, 0])
                                   & (w.verts[:m - n, 1] == p0[0, 1]))
             hits = [h for h in hits.tolist() if np.array_equal(w.verts[h:h + n], p0)
-                    and np.array_equal(w.e[h:h + n], e)]
+                    and np.array_equal(we[h:h + n], e)]
             if not hits:
                 continue
             i = hits[0]
-        if w.lay is None:
-            ok = w.d > 0
-            w.lay = _lay(kin, w.verts[:-1], np.where(ok[:, None], w.e, 0.0),
-                         np.where(ok, w.d, 0.0), w.state, (w.jets0, w.jets1))
-        w.at, w.cursor, w.asked = i, i + n, e
-        return w.lay, i
+        return _laid(kin, w, i, n, e), i
     return None
+
+
+def _directions(w):
+    """The window's pieces' directions (and lengths), found once."""
+    if w.e is None:
+        diff = np.diff(w.verts, axis=0)
+        w.d = np.hypot(diff[:, 0], diff[:, 1])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            w.e = np.column_stack((diff[:, 0] / w.d, diff[:, 1] / w.d))
+    return w.e
+
+
+def _laid(kin, w, i, n, e):
+    """The window's layout; the block at piece i (n pieces along e) is the one asked last."""
+    def make():
+        ok = w.d > 0
+        return _lay(kin, w.verts[:-1], np.where(ok[:, None], w.e, 0.0), np.where(ok, w.d, 0.0),
+                    w.state, (w.jets0, w.jets1))
+
+    w.at, w.cursor, w.asked = i, i + n, e
+    return laid(w, make)
 
 
 def crossing(kin, p0, e, motor, piece, q, rising, exact) -> np.ndarray:
@@ -286,7 +303,7 @@ def _vertex_jets(kin, pts, e, owner, inner, frac, ends, first, known):
         out[idx[0]], out[idx[1]], out[idx[2]] = a, b, c
         return out
 
-    return put(at0[0], at1[0], r_in), put(at0[1], at1[1], cord_jets(r_in, kin.stretch))
+    return put(at0, at1, brief(r_in, cord_jets(r_in, kin.stretch)))
 
 
 def _merged(gondola, pts, inner, guess, ends, vert) -> tuple:
