@@ -8,10 +8,11 @@ A machine kind is an object with these methods (all vectorised over rows, machin
 - `bend(xy, e) -> (N, M)`: second derivative d2(motor)/ds2 along a straight line;
 - `extrema(p0, e, d) -> (N, M)`: path distance in (0, d) where a motor turns round on a straight
   piece (NaN where it does not), so that pieces can be cut into monotonic ones;
-- `crossing(p0, e, motor, piece, q, rising) -> s`: for pieces p0 + s e (N rows) and steps of
-  one motor (piece index, target coordinate q, rising or not: one row each), the path distance
-  along its piece at which the motor coordinate reaches q (the step solver; work per piece is
-  done once per piece, not per step).
+- `crossing(p0, e, motor, piece, q, rising, spacing=None) -> s`: for pieces p0 + s e (N rows)
+  and steps of one motor (piece index, target coordinate q, rising or not: one row each), the
+  path distance along its piece at which the motor coordinate reaches q (the step solver; work
+  per piece is done once per piece, not per step). `spacing`, when given: each piece's steps
+  are in order along it, this far apart (the schedule's), which a solver may use.
 - `check_move(xy, start) -> index or -1`: the first point the pen cannot reach going in
   straight lines from `start` through the points (beyond the page rectangle, which the plan
   checks itself; the two-cord machine reaches all of it), and `cannot_reach(x, y)`, the error

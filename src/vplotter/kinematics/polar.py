@@ -152,7 +152,7 @@ class Polar:
         return np.where(inside, s, np.nan)
 
     def crossing(self, p0: np.ndarray, e: np.ndarray, motor: int, piece: np.ndarray,
-                 q: np.ndarray, rising: np.ndarray) -> np.ndarray:
+                 q: np.ndarray, rising: np.ndarray, spacing: float | None = None) -> np.ndarray:
         """Distance s along p0[piece] + s e[piece] at which motor `motor` reaches q: the angle
         where the line meets the line through the centre at paper angle arm - q, the radius
         where the pen is |q| from the centre (the radius's sign is q's)."""

@@ -35,6 +35,8 @@ PHI_LIMIT = 1.2           # rad: the bracket (no gondola that balances turns thi
 PHI_NEWTON = 1e-7         # rad: Newton stops after a step below this: phi within 1e-13
 PHI_STEPS = 60
 PHI_FAST = 8              # plain Newton steps before the bracketed ones
+GUESS_CELLS = 32          # the first guess of phi: a table, this many cells across the anchors
+_TABLES: dict = {}        # the tables made, by gondola (the planner's and the schedule's machine)
 
 
 class Gondola:
@@ -76,7 +78,7 @@ class Gondola:
         """phi at pen points (x, y): (phi, cos, sin, dF/dphi, dF/dx, dF/dy, cords r)."""
         x = np.asarray(x, dtype=float)
         y = np.asarray(y, dtype=float)
-        phi = np.zeros(x.shape) if phi is None else np.array(phi, dtype=float)
+        phi = self._guess(x, y) if phi is None else np.array(phi, dtype=float)
         # plain Newton steps first (the balance is smooth and phi small: three steps from
         # zero); the rows that did not settle on the stable balance go the bracketed way
         step = np.zeros(x.shape)
@@ -96,6 +98,45 @@ class Gondola:
             c, s = np.cos(phi), np.sin(phi)
             f, df, r, g = self._terms(x, y, c, s)
         return self._state(phi, c, s, df, r, g)
+
+    def _guess(self, x, y) -> np.ndarray:
+        """A first guess of phi at (x, y): the balance solved on a grid of cells D /
+        GUESS_CELLS (once per gondola), interpolated bilinearly (within about 4e-5 on the
+        page: two Newton steps where four or five start from zero)."""
+        table = self.__dict__.get("_table")
+        if table is None:
+            key = (self.d_mm, self.v, self.a)
+            table = self._table = _TABLES.get(key) or _TABLES.setdefault(key, self._grid())
+        x0, h, t = table
+        rows, cols = t.shape
+        fx = (x - x0) / h
+        fy = y / h
+        np.clip(fx, 0.0, cols - 1.000001, out=fx)
+        np.clip(fy, 0.0, rows - 1.000001, out=fy)
+        ix, iy = fx.astype(np.intp), fy.astype(np.intp)
+        fx -= ix
+        fy -= iy
+        k = iy * cols
+        k += ix
+        flat = t.ravel()
+        a, b, c, d = flat[k], flat[k + 1], flat[k + cols], flat[k + cols + 1]
+        b -= a
+        c -= a
+        d -= a
+        d -= b
+        d -= c                                   # d - b - c + a
+        return a + fx * b + fy * (c + fx * d)
+
+    def _grid(self) -> tuple:
+        """(x0, h, phi on the grid): between the anchors, from 2 h below them down to 2 D (rows
+        of y = i h, clamped at 2 h: nearer, the points the gondola cannot hang at begin)."""
+        h = self.d_mm / GUESS_CELLS
+        xs = np.arange(GUESS_CELLS + 1) * h
+        ys = np.arange(2 * GUESS_CELLS + 1) * h
+        gx, gy = np.meshgrid(xs, np.maximum(ys, 2.0 * h))
+        phi = self.solve(gx.ravel(), gy.ravel(), np.zeros(gx.size))[0]
+        phi = np.where(np.isfinite(phi), phi, 0.0)
+        return xs[0], h, phi.reshape(gx.shape)
 
     def _bracketed(self, x, y, phi):
         """phi by Newton steps kept inside a bracket (bisection where a step would leave it)."""

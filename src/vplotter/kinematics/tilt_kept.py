@@ -39,6 +39,7 @@ class Window:
     cursor: int = 0
     at: int = 0
     asked: np.ndarray | None = None     # the directions of the last call (the same object)
+    data: int | None = None         # where verts's data lies in memory
 
 
 _WINDOWS: list = []     # (machine, Window): the planner and the schedule have each a machine
@@ -84,12 +85,14 @@ def find(kin, a: np.ndarray) -> tuple | None:
     if not kept:
         return None
     key = kin.__dict__.get("_tilt_key") or _machine(kin)
-    at = a.__array_interface__["data"][0]
+    at = a.ctypes.data
     for ref, m, w in reversed(kept):
         v = w.verts
         if ref() is not root or m != key or v.strides != a.strides:
             continue
-        i, rest = divmod(at - v.__array_interface__["data"][0], v.strides[0])
+        if w.data is None:
+            w.data = v.ctypes.data
+        i, rest = divmod(at - w.data, v.strides[0])
         if not rest and 0 <= i and i + len(a) <= len(v):
             return w, i
     return None

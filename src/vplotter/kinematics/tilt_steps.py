@@ -26,6 +26,7 @@ caller) is laid out on its own.
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -34,6 +35,8 @@ from vplotter.kinematics.tilt import cord_jets
 from vplotter.kinematics.tilt_kept import brief, find, laid, windows
 
 SUB_MM = 3.0
+_ASKED: list = [lambda: None]    # the window of the last call (weakly): its block's other
+#                                  motor asks next
 END_MARGIN, END_MARGIN_MM = 0.03, 1.0     # a piece whose end is not known: past its last step
 
 
@@ -54,7 +57,8 @@ class Layout:
     owner: np.ndarray     # each point's piece
     top: tuple = ()       # per motor the most rising steps may reach on each piece (its
     bottom: tuple = ()    # end, -inf where the cord falls), the least falling steps may
-    badc: tuple = ()      # per motor the pieces before each with a sub-piece that fails
+    badc: tuple = ()      # per motor the pieces before each with a sub-piece that fails, or
+    #                       whose cord goes both ways (prefix counts, n + 1)
     longs: np.ndarray | None = None   # pieces with k > 1 before each piece (n + 1)
     # the inner points in order: the sub-piece each starts, its piece, and per motor its
     # cord signed the way the cord goes along the piece (+-q: rising along the piece), and
@@ -63,6 +67,7 @@ class Layout:
     iown: np.ndarray | None = None
     iupq: tuple = ()
     big: tuple = ()
+    whole: bool = False   # the pieces' lengths are the true ones (a window's: _window)
 
 
 def _ends(kin, p0, e, motor, piece, q, rising):
@@ -97,10 +102,15 @@ def _window(kin, p0, e, motor=0):
     """(layout, offset of the block's first piece in it) when the block is a run of pieces
     of a window the machine knows, else None."""
     n = len(p0)
+    w = _ASKED[0]()
+    if w is not None and e is w.asked and n == w.cursor - w.at and w.lay is not None:
+        return w.lay, w.at                                 # (the block's other motor)
     hit = find(kin, p0)
     if hit is not None and hit[1] + n < len(hit[0].verts):
         w, i = hit
-        if (e is w.asked and i == w.at) or np.array_equal(_directions(w)[i:i + n], e):
+        # the block's directions are its vertices' (one row checked against gross misuse)
+        we = _directions(w)
+        if abs(we[i, 0] - e[0, 0]) + abs(we[i, 1] - e[0, 1]) < 1e-9:
             return _laid(kin, w, i, n, e), i
     for w in reversed(windows(kin)):
         m = len(w.verts)
@@ -145,15 +155,14 @@ def _laid(kin, w, i, n, e):
                     w.state, (w.jets0, w.jets1))
 
     w.at, w.cursor, w.asked = i, i + n, e
+    _ASKED[0] = weakref.ref(w)
     return laid(w, make)
 
 
-def crossing(kin, p0, e, motor, piece, q, rising, exact) -> np.ndarray:
+def crossing(kin, p0, e, motor, piece, q, rising, exact, spacing=None) -> np.ndarray:
     """As TwoCord.crossing; `exact(p0, e, motor, piece, q, rising)` the exact solver."""
     if not len(q):
         return np.zeros(0)
-    if (piece[1:] < piece[:-1]).any():
-        return exact(p0, e, motor, piece, q, rising)
     found = _window(kin, p0, e, motor)
     if found is None:
         lay, i = _block_layout(kin, p0, e, motor, piece, q, rising), 0
@@ -162,12 +171,12 @@ def crossing(kin, p0, e, motor, piece, q, rising, exact) -> np.ndarray:
     n = len(p0)
     ends = np.searchsorted(piece, np.arange(n + 1))       # each piece's steps: ends[p]:ends[p+1]
     lo, hi = lay.sub0[i], lay.sub0[i + n]                  # the block's sub-pieces
+    if spacing is None and not _in_order(lay, motor, piece, q, rising):
+        return exact(p0, e, motor, piece, q, rising)
     if lay.longs[i + n] > lay.longs[i]:
-        count = _counts(lay, motor, i, n, piece, q, rising, ends)
-        if count is None:
-            return exact(p0, e, motor, piece, q, rising)
+        count = _counts(lay, motor, i, n, q, rising, ends, spacing)
     else:
-        count = np.diff(ends)                              # one sub-piece per piece
+        count = ends[1:] - ends[:-1]                       # one sub-piece per piece
     s0, s1, kappa, h = np.repeat(lay.model[motor][:, lo:hi], count, axis=1)
     s = q + kappa                        # s = s0 + s1 sqrt((q + kappa)^2 - h), in place
     s *= s
@@ -182,36 +191,63 @@ def crossing(kin, p0, e, motor, piece, q, rising, exact) -> np.ndarray:
     return s
 
 
-def _counts(lay, motor, i, n, piece, q, rising, ends):
-    """The number of steps on each of the block's sub-pieces (pieces i .. i + n - 1 of the
-    layout), from where its inner points fall among the steps; None when the steps do not
-    run one way along each piece (not the schedule's)."""
-    big = lay.big[motor]
-    # the steps in order along the pieces: piece by piece, each one the way its cord goes
+def _in_order(lay, motor, piece, q, rising) -> bool:
+    """Whether the steps run one way along each piece, piece by piece (the schedule's)."""
     key = np.where(rising, q, -q)
-    key += piece * big
-    if (key[1:] < key[:-1]).any():
-        return None
+    key += piece * lay.big[motor]
+    return not (key[1:] < key[:-1]).any()
+
+
+def _counts(lay, motor, i, n, q, rising, ends, spacing):
+    """The number of steps on each of the block's sub-pieces (pieces i .. i + n - 1 of the
+    layout), from where its inner points fall among the steps: from each piece's first step
+    and the steps' spacing when known, else by a search among them."""
     a, b = lay.sub0[i] - i, lay.sub0[i + n] - i - n      # the block's inner points
-    ikey = (lay.iown[a:b] - i) * big
-    ikey += lay.iupq[motor][a:b]
-    pos = np.searchsorted(key, ikey, side="right")
+    own = lay.iown[a:b] - i
+    first = ends[own]
+    if spacing is not None:
+        at = np.minimum(first, len(q) - 1)
+        # how many of the piece's steps come before each point, from how far past the first
+        # step its cord is, the way the steps go
+        u = lay.iupq[motor][a:b] - np.where(rising[at], q[at], -q[at])
+        u /= spacing
+        np.floor(u, out=u)
+        u += 1.0
+        np.clip(u, 0.0, ends[own + 1] - first, out=u)
+        pos = u.astype(np.intp)
+        pos += first
+    else:
+        big = lay.big[motor]
+        key = np.where(rising, q, -q)
+        key += np.repeat(np.arange(n), ends[1:] - ends[:-1]) * big
+        ikey = own * big
+        ikey += lay.iupq[motor][a:b]
+        pos = np.searchsorted(key, ikey, side="right")
     bounds = np.empty(lay.sub0[i + n] - lay.sub0[i] + 1, dtype=np.intp)
     bounds[lay.sub0[i:i + n] - lay.sub0[i]] = ends[:-1]
     bounds[lay.isub[a:b] - lay.sub0[i]] = pos
     bounds[-1] = ends[-1]
     np.maximum.accumulate(bounds, out=bounds)     # (a piece whose cord turns: see _slow)
-    return np.diff(bounds)
+    return bounds[1:] - bounds[:-1]
 
 
 def _slow(lay, motor, i, n, piece, q, rising, ends, lo, hi, count):
     """The steps the model cannot take (None: none): on a sub-piece it fails on, or on a piece
-    whose cord turns against its steps or ends short of its last step."""
+    whose cord turns against its steps or ends short of its last step. On a window's pieces
+    (their true lengths) whose cords go one way, only the first piece's steps can go against
+    its cord (they start from the count the motor stands at, not from its cord rounded), and
+    no piece's last step is past its end's cord but by rounding (the schedule's targets are
+    the cords at the pieces' ends rounded: the last step is at most there): none is slow."""
+    badc = lay.badc[motor]
+    if lay.whole and badc[i + n] == badc[i]:
+        if ends[1] == 0 or not (lay.top[motor][i] == -np.inf if rising[0]
+                                else lay.bottom[motor][i] == np.inf):
+            return None
     last = ends[1:] - 1
     ql = q[last]
     turn = np.where(rising[last], ql > lay.top[motor][i:i + n], ql < lay.bottom[motor][i:i + n])
     turn &= last >= ends[:-1]                   # (the pieces with steps)
-    if not turn.any() and lay.badc[motor][i + n] == lay.badc[motor][i]:
+    if not turn.any() and badc[i + n] == badc[i]:
         return None
     bad = np.repeat(lay.bad[motor][lo:hi], count)
     slow = np.flatnonzero(turn[piece] | bad)
@@ -237,6 +273,7 @@ def _lay(kin, p0, e, d, ends=None, known=(None, None)) -> Layout:
     known (then only the points inside the pieces are solved); known: jets()'s (e, r, qj)
     at the pieces' starts and ends, when it kept them."""
     n = len(p0)
+    whole = ends is not None
     k = np.maximum(1, np.ceil(d / SUB_MM - 1e-9)).astype(np.int64)
     first = np.concatenate(([0], np.cumsum(k + 1)))
     owner = np.repeat(np.arange(n), k + 1)
@@ -269,8 +306,9 @@ def _lay(kin, p0, e, d, ends=None, known=(None, None)) -> Layout:
         downs.append(np.bincount(owner[start], dq < 0, minlength=n) > 0)
     q = (qj[0][0], qj[1][0])
     ends = first[1:] - 1
-    badc = tuple(np.concatenate(([0], np.cumsum(np.bincount(owner[start], b, minlength=n) > 0)))
-                 for b in bads)
+    badc = tuple(np.concatenate(([0], np.cumsum((np.bincount(owner[start], b, minlength=n) > 0)
+                                                | (u & dn))))
+                 for b, u, dn in zip(bads, ups, downs))
     top = tuple(np.where(dn, -np.inf, v[ends]) for v, dn in zip(q, downs))
     bottom = tuple(np.where(u, np.inf, v[ends]) for v, u in zip(q, ups))
     ins = np.flatnonzero(inner)
@@ -279,7 +317,7 @@ def _lay(kin, p0, e, d, ends=None, known=(None, None)) -> Layout:
     big = tuple(2.0 ** np.ceil(np.log2(4.0 * np.abs(v).max(initial=1.0) + 16.0)) for v in q)
     return Layout(k, first, first - np.arange(n + 1), q, tuple(models), tuple(bads),
                   inner, owner, top, bottom, badc,
-                  np.concatenate(([0], np.cumsum(k > 1))), ins - iown, iown, iupq, big)
+                  np.concatenate(([0], np.cumsum(k > 1))), ins - iown, iown, iupq, big, whole)
 
 
 def _vertex_jets(kin, pts, e, owner, inner, frac, ends, first, known):

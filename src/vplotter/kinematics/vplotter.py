@@ -300,13 +300,15 @@ class TwoCord:
         return out
 
     def crossing(self, p0: np.ndarray, e: np.ndarray, motor: int, piece: np.ndarray,
-                 q: np.ndarray, rising: np.ndarray) -> np.ndarray:
+                 q: np.ndarray, rising: np.ndarray, spacing: float | None = None) -> np.ndarray:
         """Distance s along p0[piece] + s e[piece] at which motor coordinate `motor` reaches q.
-        Each piece starts on the near side of its steps' q and the motor runs one way on it."""
+        Each piece starts on the near side of its steps' q and the motor runs one way on it;
+        spacing: see kinematics/__init__.py."""
         if self.sag is not None:
             return sag_crossing(self, p0, e, motor, piece, q, rising, _bracketed, TOL_MM)
         if self.gondola is not None and FAST_TILT:
-            return tilt_steps.crossing(self, p0, e, motor, piece, q, rising, self._exact_crossing)
+            return tilt_steps.crossing(self, p0, e, motor, piece, q, rising, self._exact_crossing,
+                                       spacing)
         return self._exact_crossing(p0, e, motor, piece, q, rising)
 
     def _exact_crossing(self, p0, e, motor, piece, q, rising) -> np.ndarray:

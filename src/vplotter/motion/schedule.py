@@ -246,7 +246,7 @@ class Scheduler:
             # step k of a piece crosses half-way to the next count: ns + step (k + 1/2)
             q = ((self.ref[m] + (ns + 0.5 * step) / self.spu[m])[piece]
                  + (step / self.spu[m])[piece] * j)
-            s = self.kin.crossing(block.verts[:-1], e, m, piece, q, rising)
+            s = self.kin.crossing(block.verts[:-1], e, m, piece, q, rising, 1.0 / self.spu[m])
             np.clip(s, 0.0, block.d[piece], out=s)
             t_us = np.rint(block.time_at(piece, s, table)).astype(np.int64)
             t_us, dirn, piece = self._spaced(m, t_us, step[piece].astype(np.int8), piece)
