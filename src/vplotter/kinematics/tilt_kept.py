@@ -22,6 +22,7 @@ from vplotter.kinematics.tilt import cord_jets
 
 WINDOWS = 2                               # windows kept (the last ones the planner planned)
 NEAR_MM = 10.0                            # a few points solved this close: their phi a guess
+REUSE_MIN = 64                            # points: a solve this large is kept to take rows from
 
 
 @dataclass
@@ -143,12 +144,46 @@ def balance(kin, xy: np.ndarray) -> tuple:
             st = tuple(_joined(v, w) for v, w in zip(st, new))
             break
     else:
-        st = kin.gondola.solve(xy[:, 0], xy[:, 1], _guess(kin, xy, seen))
+        guess = _guess(kin, xy, seen)
+        st = _reused(kin, xy) if guess is None else None
+        if st is None:
+            st = kin.gondola.solve(xy[:, 0], xy[:, 1], guess)
+    if n >= REUSE_MIN:
+        kin._tilt_big = (xy.copy(), st)
     if n > 2:
         kin._tilt_solves = [*seen[-2:], (xy.copy(), st)]
     else:
         kin._tilt_near = (xy.copy(), st[0])
     return st
+
+
+def _reused(kin, xy) -> tuple | None:
+    """The balance at xy where at least a quarter of the points were in the last large solve
+    (the planner asks again for a window's vertices with points put in: where the cords turn,
+    then where a piece is cut finer): those rows taken from it, the others solved; else None.
+    The rows are matched by x (a sort) and checked on y."""
+    n = len(xy)
+    big = kin.__dict__.get("_tilt_big")
+    if big is None or n < REUSE_MIN or 4 * len(big[0]) < n:
+        return None
+    m, st = big
+    order = np.argsort(m[:, 0], kind="stable")
+    row = order[np.minimum(np.searchsorted(m[order, 0], xy[:, 0]), len(m) - 1)]
+    hit = (m[row, 0] == xy[:, 0]) & (m[row, 1] == xy[:, 1])
+    if 4 * int(np.count_nonzero(hit)) < n:
+        return None
+    at, new = np.flatnonzero(hit), np.flatnonzero(~hit)
+    got = row[at]
+    solved = kin.gondola.solve(xy[new, 0], xy[new, 1])
+
+    def merged(old, add):
+        if isinstance(old, tuple):
+            return tuple(map(merged, old, add))
+        out = np.empty(n)
+        out[at], out[new] = old[got], add
+        return out
+
+    return tuple(map(merged, st, solved))
 
 
 def _guess(kin, xy, seen):
