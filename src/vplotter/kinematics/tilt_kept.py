@@ -159,15 +159,17 @@ def balance(kin, xy: np.ndarray) -> tuple:
 
 def _reused(kin, xy) -> tuple | None:
     """The balance at xy where at least a quarter of the points were in the last large solve
-    (the planner asks again for a window's vertices with points put in: where the cords turn,
-    then where a piece is cut finer): those rows taken from it, the others solved; else None.
-    The rows are matched by x (a sort) and checked on y."""
+    and the paths start alike (the planner asks again for a window's vertices with points put
+    in: where the cords turn, then where a piece is cut finer): those rows taken from it, the
+    others solved; else None. The rows are matched by x (a sort) and checked on y."""
     n = len(xy)
     big = kin.__dict__.get("_tilt_big")
     if big is None or n < REUSE_MIN or 4 * len(big[0]) < n:
         return None
     m, st = big
-    order = np.argsort(m[:, 0], kind="stable")
+    if not any(xy[i, 0] == m[0, 0] and xy[i, 1] == m[0, 1] for i in (0, 1)):
+        return None               # (the same path from its start, or from one point before)
+    order = np.argsort(m[:, 0])
     row = order[np.minimum(np.searchsorted(m[order, 0], xy[:, 0]), len(m) - 1)]
     hit = (m[row, 0] == xy[:, 0]) & (m[row, 1] == xy[:, 1])
     if 4 * int(np.count_nonzero(hit)) < n:
