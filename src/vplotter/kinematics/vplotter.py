@@ -37,6 +37,7 @@ from vplotter.kinematics.tilt import Gondola, cords_value, tensions
 NEWTON_STEPS = 40          # at most; they stop when every row is within TOL_MM
 TOL_MM = 1e-10
 FAST_TILT = True           # tilt: the step solver of tilt_steps (False: the exact one)
+MID_MM = 3.0               # tilt: longer pieces solve the bend at their middle (bend_inside)
 
 
 class TwoCord:
@@ -249,6 +250,19 @@ class TwoCord:
             return k, b
         k, g = self._along(xy, e)
         return k, (1.0 - k * k) / g
+
+    def bend_inside(self, mid, e, d, k0, k1, b0, b1) -> np.ndarray:
+        """(M, N) the bend at the middles `mid` of pieces of length d along e, whose slopes and
+        bends at their ends are k0, k1, b0, b1 (M, N). The tilting gondola's short pieces
+        (up to MID_MM) take the middle of the slope's cubic through its ends (within about
+        1e-4 of the bend there: its balance is not solved again); others solve it."""
+        if self.gondola is None or self.sag is not None:
+            return self.bend(mid, e).T
+        out = 1.5 * (k1 - k0) / np.maximum(d, 1e-300) - 0.25 * (b0 + b1)
+        long = np.flatnonzero(d > MID_MM)
+        if len(long):
+            out[:, long] = self.bend(mid[long], e[long]).T
+        return out
 
     def extrema(self, p0: np.ndarray, e: np.ndarray, d: np.ndarray) -> np.ndarray:
         # the cord is shortest where the pen passes the foot of the perpendicular from the anchor

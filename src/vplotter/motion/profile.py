@@ -67,7 +67,9 @@ def window(kin, v_cord, a_cord, verts, cap, stop, u_entry, turns) -> Window:
     # the bend is largest at an end or (for other machine kinds) inside: ends and middle
     mid = 0.5 * (verts[:-1] + verts[1:])
     bend = np.maximum(np.abs(b0), np.abs(b1))
-    bend = np.maximum(bend, np.abs(kin.bend(mid, e).T))
+    inside = getattr(kin, "bend_inside", None)
+    bend = np.maximum(bend, np.abs(inside(mid, e, d, k0, k1, b0, b1) if inside is not None
+                                   else kin.bend(mid, e).T))
     acc = a_cord                                              # (M,)
     v_rate = least(v_cord[:, None] / np.maximum(kmax, 1e-9))
     v_bend = least(np.sqrt((BEND_SHARE * acc)[:, None] / np.maximum(bend, 1e-12)))
