@@ -84,13 +84,17 @@ def _forces(c: dict, x, y, phi):
     return torque, TL, TR, np.hypot(Lx, Ly), np.hypot(D - Rx, Ry)
 
 
-def _bisect(fn, shape, around=None):
-    """The phi in [-TILT_LIMIT, TILT_LIMIT] (or within 0.05 of `around`) where fn(phi)
+def _bisect(fn, shape, around=None, width=0.05):
+    """The phi in [-TILT_LIMIT, TILT_LIMIT] (or within `width` of `around`) where fn(phi)
     changes sign: halvings down to 1e-4 rad, then regula falsi inside the bracket (each step
-    gains some four digits there)."""
-    lo = np.full(shape, -TILT_LIMIT) if around is None else around - 0.05
-    hi = np.full(shape, TILT_LIMIT) if around is None else around + 0.05
+    gains some four digits there). A bracket about `around` that misses the change of sign
+    anywhere is widened to 0.05."""
+    lo = np.full(shape, -TILT_LIMIT) if around is None else around - width
+    hi = np.full(shape, TILT_LIMIT) if around is None else around + width
     f_lo = fn(lo)
+    if around is not None and width < 0.05:
+        if (np.sign(fn(hi)) == np.sign(f_lo)).any():
+            return _bisect(fn, shape, around)
     while (hi - lo).max(initial=0.0) > 1e-4:
         mid = 0.5 * (lo + hi)
         f_mid = fn(mid)
@@ -138,11 +142,14 @@ def _tilted_forward(c: dict, a, b):
         # the lower of the two points (+y down): the pen hangs below the anchors
         return ex + along * dx / d - up * dy / d, ey + along * dy / d + up * dx / d
 
-    phi = None
+    phi, width = None, 0.05
     for _ in range(6 if k else 1):
         # the tensions change the cords by k T (a few mm at most): phi moves far less than
-        # 0.05 rad after the first round
-        phi = _bisect(lambda p: _forces(c, *pen(p), p)[0], a.shape, phi)
+        # 0.05 rad after the first round, and some 40 times less each round after
+        last = phi
+        phi = _bisect(lambda p: _forces(c, *pen(p), p)[0], a.shape, phi, width)
+        if last is not None:
+            width = float(np.clip(8.0 * np.nanmax(np.abs(phi - last), initial=0.0), 1e-9, 0.05))
         x, y = pen(phi)
         if k:
             _, TL, TR, _, _ = _forces(c, x, y, phi)
