@@ -72,12 +72,15 @@ def test_a_childs_error_is_the_converts(monkeypatch, forks):
         _auto(monkeypatch, 2, search=search)
 
 
-def test_a_child_that_fails_is_redone_here(monkeypatch, forks):
+@pytest.mark.parametrize("how", ["raises", "dies"])
+def test_a_child_that_fails_is_redone_here(monkeypatch, forks, how):
     me = os.getpid()
 
     def finish(s, said):
-        if os.getpid() != me:
+        if os.getpid() != me and how == "raises":
             raise RuntimeError("a bug in the child")
+        if os.getpid() != me:
+            os._exit(3)                 # killed: nothing sent
         return [s.style, os.getpid()], said, s.style, 55.0
 
     placed, note = _auto(monkeypatch, 2, finished=finish)
