@@ -21,9 +21,13 @@ highest, if within MARGIN of the first's score) and the hatch (ALWAYS) are finis
 best of those kept by its own score. The quick score came out within about 0.04 of the
 finished one for every style (the spiral's and the tour's time jump with the spacing) but the
 hatch, which its finish raised by up to 0.042: it is always finished (docs/measurements.md,
-"Photos"). A style finished here is the drawing `--style` that style makes. The 12 MP photo at
-1 h (bench/photo_speed.py): 17.2 s of CPU under load where finishing all five took 23.2 s
-(16.7 s idle): about 14 s idle.
+"Photos"). A style finished here is the drawing `--style` that style makes. The stipples (the
+tour, the dearest to search and finish) go to a second process where there is a core for it
+(`photo_fork`): searched, scored and finished there while this one does the other four (the
+child's finish is made before the ranking knows whether it is needed, and stopped if not);
+the same G-code as one process. The 12 MP photo at 1 h (docs/measurements.md, "Photos"): in
+one process 15.7-18.3 s of CPU under load (about 14 s idle); in two, this process 8.5-9.4 s
+and the child 7.7-8.5 s, so about 7-8 s idle, 12.2 s wall under load against 16.6 s.
 
 Stipples at a budget: a dot costs a pen lift (about 2 s on the seed machine), so an hour of
 dots lays little ink; the tour (TSP art) draws a line through the same kind of stipples and
