@@ -13,8 +13,9 @@ short for the picture) is raised by `get` as the parent's own; anything else (th
 a result that does not pickle) raises `Lost`, and the parent does that work itself. The child
 ignores Ctrl-C (the parent stops it: `close`, always called), dies with the parent (a parent
 killed outright leaves nothing computing) and leaves by os._exit (no atexit handlers, no
-buffers of the parent flushed twice). Memory: the child shares the parent's pages
-until either writes them (copy on write): about 200 MB more at 12 MP, 1 h.
+buffers of the parent flushed twice; a draw's session files and pins are not closed, the
+parent's copies stay open). Memory: the child shares the parent's pages until either writes
+them (copy on write); at 12 MP, 1 h its peak RSS is 163 MB beside the parent's 196 MB.
 """
 
 from __future__ import annotations
