@@ -25,9 +25,9 @@ hatch, which its finish raised by up to 0.042: it is always finished (docs/measu
 tour, the dearest to search and finish) go to a second process where there is a core for it
 (`photo_fork`): searched, scored and finished there while this one does the other four (the
 child's finish is made before the ranking knows whether it is needed, and stopped if not);
-the same G-code as one process. The 12 MP photo at 1 h (docs/measurements.md, "Photos"): in
-one process 15.7-18.3 s of CPU under load (about 14 s idle); in two, this process 8.5-9.4 s
-and the child 7.7-8.5 s, so about 7-8 s idle, 12.2 s wall under load against 16.6 s.
+the same G-code as one process. The 12 MP photo at 1 h (docs/measurements.md, "Photos"), on
+the idle machine: 9.0 s where one process took 14.6 s (about the same CPU: 15.5 s and 15.7 s;
+this process's share is the longer, 8.5-9.4 s of CPU under load against the child's 7.7-8.5).
 
 Stipples at a budget: a dot costs a pen lift (about 2 s on the seed machine), so an hour of
 dots lays little ink; the tour (TSP art) draws a line through the same kind of stipples and
