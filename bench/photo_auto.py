@@ -5,8 +5,8 @@ For every picture in a folder and each budget (1 h, 3 h), 300 mm wide on ./confi
 and FINISHED opened up; in one process, `photo_fork.WORKERS` = 1): per style the CPU time of
 its budget's search, of its quick score (`photo_curve.quick_score`) and of its finish
 (`photo.finished`: the curves fitted to the budget, the final order), the quick score and
-the finished drawing's own score (the
-converter's measure, `inputs/image/score.py`). Then the styles `--style auto` finishes with
+the finished drawing's own score (the converter's measure, `inputs/image/score.py`). Then
+the styles `--style auto` finishes with
 its own MARGIN, FINISHED and ALWAYS, the one it keeps, and how far that is from the best
 finished style; the same for other settings (`--policies`).
 
