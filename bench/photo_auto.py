@@ -2,10 +2,11 @@
 
 For every picture in a folder and each budget (1 h, 3 h), 300 mm wide on ./config.toml,
 `vplotter convert --style auto` is run in this process with every style finished (its MARGIN
-and FINISHED opened up): per style the CPU time of its budget's search, of its quick score
-(`photo_curve.quick_score`) and of its finish (`photo.finished`: the curves fitted to the
-budget, the final order), the quick score and the finished drawing's own score (the
-converter's measure, `inputs/image/score.py`). Then the styles `--style auto` finishes with
+and FINISHED opened up; in one process, `photo_fork.WORKERS` = 1): per style the CPU time of
+its budget's search, of its quick score (`photo_curve.quick_score`) and of its finish
+(`photo.finished`: the curves fitted to the budget, the final order), the quick score and
+the finished drawing's own score (the converter's measure, `inputs/image/score.py`). Then
+the styles `--style auto` finishes with
 its own MARGIN, FINISHED and ALWAYS, the one it keeps, and how far that is from the best
 finished style; the same for other settings (`--policies`).
 
@@ -28,12 +29,12 @@ def one(path: str, budget: str, config: str) -> dict:
     """{style: {search_s, quick_s, finish_s, quick, final}} of one --style auto run, every
     style finished."""
     from vplotter.cli import main
-    from vplotter.drawing import photo, photo_auto, photo_curve
+    from vplotter.drawing import photo, photo_auto, photo_curve, photo_fork
 
     rec: dict = {}
     saved = (photo_auto.FINISHED, photo_auto.MARGIN, photo.searched, photo.finished,
-             photo_curve.quick_score)
-    _, _, searched, finished, quick_score = saved
+             photo_curve.quick_score, photo_fork.WORKERS)
+    _, _, searched, finished, quick_score, _ = saved
 
     def timed(fn, key, name_of):
         def run(s, *a, **k):
@@ -49,6 +50,7 @@ def one(path: str, budget: str, config: str) -> dict:
         return run
 
     photo_auto.FINISHED, photo_auto.MARGIN = 99, 1.0
+    photo_fork.WORKERS = 1              # one process: every style's figures recorded here
     photo.searched = timed(searched, "search_s", lambda d: photo_auto.name(d.opts))
     photo.finished = timed(finished, "finish_s", lambda s: photo_auto.name(s.d.opts))
     photo_curve.quick_score = timed(quick_score, "quick_s", lambda s: photo_auto.name(s.d.opts))
@@ -60,7 +62,7 @@ def one(path: str, budget: str, config: str) -> dict:
             raise RuntimeError(f"convert {path} --style auto failed")
     finally:
         (photo_auto.FINISHED, photo_auto.MARGIN, photo.searched, photo.finished,
-         photo_curve.quick_score) = saved
+         photo_curve.quick_score, photo_fork.WORKERS) = saved
     return rec
 
 

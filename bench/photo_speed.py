@@ -7,16 +7,19 @@ a 1200 x 900 PNG and a 640 x 480 JPEG of the same scene. For each picture, style
 (1 h, 3 h) at --width 300 on ./config.toml: the wall time of `vplotter convert` (a
 subprocess) and its CPU time (user + sys, RUSAGE_CHILDREN: steadier than the wall time on a
 shared machine), its peak resident size (/usr/bin/time -f %M when there is one, else
-RUSAGE_CHILDREN of a fresh child), and the plot time `vplotter estimate OUT.ngc` gives for the
-result against the budget.
+RUSAGE_CHILDREN of a fresh child; `--style auto`, two processes: the larger one's), and the
+plot time `vplotter estimate OUT.ngc` gives for the result against the budget.
 
 Bad files: a decompression bomb (a PNG whose IHDR claims 30000 x 30000, built with struct and
 zlib: 900 MB of pixels if decoded), an empty file, a text file named .png and a JPEG cut in
 half: exit status, the one line it printed, the time.
 
 Run (from the repository root, in vplotter's venv): python -m bench.photo_speed
-    [--budgets 1h,3h] [--styles hatch,spiral,squiggle,stipple,flow,tsp,auto]
-    (tsp: stipple --tsp; auto: --style auto, every style tried)
+    [--budgets 1h,3h] [--styles hatch,spiral,squiggle,stipple,flow,tsp,auto] [--first N]
+    [--runs N] [--idle]
+    (tsp: stipple --tsp; auto: --style auto, every style tried; --runs: each convert N times,
+    one row each; --idle: each convert started once every core has been at least 90 % idle
+    for 3 s, on a shared machine; another version: PYTHONPATH=OLD/src python -m ...)
 """
 
 from __future__ import annotations
@@ -104,12 +107,33 @@ def run(args: list[str]) -> tuple[int, str, float, float, float]:
     return r.returncode, r.stderr, wall, rss, cpu
 
 
+def wait_idle(share: float = 0.9, seconds: float = 3.0) -> float:
+    """Wait until the machine's CPUs have been at least `share` idle over `seconds` (Linux's
+    /proc/stat; elsewhere at once); the idle share seen."""
+    def counts() -> tuple[int, int]:
+        with open("/proc/stat") as f:
+            v = [int(x) for x in f.readline().split()[1:]]
+        return v[3] + v[4], sum(v)
+
+    if not os.path.exists("/proc/stat"):
+        return float("nan")
+    while True:
+        a = counts()
+        time.sleep(seconds)
+        b = counts()
+        idle = (b[0] - a[0]) / max(1, b[1] - a[1])
+        if idle >= share:
+            return idle
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--budgets", default="1h,3h")
     ap.add_argument("--styles", default=",".join(STYLES))
     ap.add_argument("--config", default=os.path.join(ROOT, "config.toml"))
     ap.add_argument("--first", type=int, default=3, help="only the first N pictures (12 MP first)")
+    ap.add_argument("--runs", type=int, default=1, help="each convert this many times")
+    ap.add_argument("--idle", action="store_true", help="start each convert on an idle machine")
     args = ap.parse_args()
     cfg = ["--config", args.config]
     with tempfile.TemporaryDirectory() as tmp:
@@ -119,9 +143,11 @@ def main() -> None:
         for pic in pics[:args.first]:
             for b in args.budgets.split(","):
                 budget = {"h": 3600, "m": 60}[b[-1]] * float(b[:-1])
-                for s in args.styles.split(","):
+                for s in [s for s in args.styles.split(",") for _ in range(args.runs)]:
                     out = os.path.join(tmp, "out.ngc")
                     how = ["--style", "stipple", "--tsp"] if s == "tsp" else ["--style", s]
+                    if args.idle:
+                        wait_idle()
                     code, err, wall, rss, cpu = run([*cfg, "convert", pic, "-o", out, *how,
                                                      "--width", "300", "--max-time", b])
                     if code:

@@ -140,7 +140,9 @@ def test_auto_finishes_only_the_styles_ranked_best(monkeypatch):
     """--style auto finishes (curves fitted to the budget, the final order) only the first by
     the quick score, the one of the rest whose bound is highest (if near the first's score) and
     the hatch, and keeps the best of those by its own score."""
-    from vplotter.drawing import photo
+    from vplotter.drawing import photo, photo_fork
+
+    monkeypatch.setattr(photo_fork, "WORKERS", 1)       # every search seen here
 
     class Searched:
         def __init__(self, quick, d):
