@@ -306,10 +306,17 @@ class TwoCord:
                 return sign * k[at, m], sign * b[at, m]
 
             # first guess: where the level gondola's cord turns (the foot of the perpendicular
-            # from its shifted anchor), inside the piece
+            # from its shifted anchor), inside the piece; the tilting gondola's, where a
+            # straight cord turns that has the slopes at the piece's ends (a straight cord's
+            # slope is u / sqrt(h^2 + u^2) at u from the foot: tan = u / h is linear in u)
             a = self.anchors[m]
             s0 = -((p0[rows, 0] - a[:, 0]) * e[rows, 0] + (p0[rows, 1] - a[:, 1]) * e[rows, 1])
-            s0 = np.clip(s0, 0.0, d[rows]) if self.gondola is not None else None
+            if self.gondola is not None:
+                t0, t1 = (k / np.sqrt(np.maximum(1.0 - k * k, 1e-12))
+                          for k in (k0[rows, m], k1[rows, m]))
+                s0 = np.clip(d[rows] * t0 / (t0 - t1), 0.0, d[rows])
+            else:
+                s0 = None
             out[rows, m] = _bracketed(f, np.zeros(len(rows)), d[rows].astype(float), TOL_MM, s0)
         return out
 
