@@ -35,6 +35,7 @@ PHI_LIMIT = 1.2           # rad: the bracket (no gondola that balances turns thi
 PHI_NEWTON = 1e-7         # rad: Newton stops after a step below this: phi within 1e-13
 PHI_STEPS = 60
 PHI_FAST = 8              # plain Newton steps before the bracketed ones
+FEW = 2                   # points solved in Python floats (the array's overhead is most)
 GUESS_CELLS = 32          # the first guess of phi: a table, this many cells across the anchors
 _TABLES: dict = {}        # the tables made, by gondola (the planner's and the schedule's machine)
 
@@ -78,6 +79,14 @@ class Gondola:
         """phi at pen points (x, y): (phi, cos, sin, dF/dphi, dF/dx, dF/dy, cords r)."""
         x = np.asarray(x, dtype=float)
         y = np.asarray(y, dtype=float)
+        if x.size <= FEW:                 # Newton in Python floats: no array overhead
+            start = np.zeros(x.shape) if phi is None else np.broadcast_to(phi, x.shape)
+            phi = np.reshape([self.solve_one(a, b, p)[1] for a, b, p in
+                              zip(x.ravel().tolist(), y.ravel().tolist(),
+                                  np.ravel(start).tolist())], x.shape)
+            c, s = np.cos(phi), np.sin(phi)
+            _, df, r, g = self._terms(x, y, c, s)
+            return self._state(phi, c, s, df, r, g)
         phi = self._guess(x, y) if phi is None else np.array(phi, dtype=float)
         # plain Newton steps first (the balance is smooth and phi small: three steps from
         # zero); the rows that did not settle on the stable balance go the bracketed way
@@ -171,12 +180,12 @@ class Gondola:
         fy = -gl_x * rrx + gr_x * rlx
         return phi, c, s, df, fx, fy, r
 
-    def solve_one(self, x: float, y: float) -> tuple:
-        """solve() for one point in Python floats (no array overhead): (r_Lx, r_Ly, r_Rx,
-        r_Ry) and phi."""
+    def solve_one(self, x: float, y: float, phi: float = 0.0) -> tuple:
+        """solve() for one point in Python floats (no array overhead), from phi: (r_Lx, r_Ly,
+        r_Rx, r_Ry) and phi."""
         import math
 
-        phi, lo, hi = 0.0, -PHI_LIMIT, PHI_LIMIT
+        lo, hi = -PHI_LIMIT, PHI_LIMIT
         for _ in range(PHI_STEPS):
             f, df, _, _ = self._terms(x, y, math.cos(phi), math.sin(phi))
             if self.sign * f > 0:
