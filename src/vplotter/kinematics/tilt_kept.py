@@ -23,6 +23,7 @@ from vplotter.kinematics.tilt import cord_jets
 WINDOWS = 2                               # windows kept (the last ones the planner planned)
 NEAR_MM = 10.0                            # a few points solved this close: their phi a guess
 REUSE_MIN = 64                            # points: a solve this large is kept to take rows from
+START = 8                                 # and the next one takes them if its path starts here
 
 
 @dataclass
@@ -159,23 +160,31 @@ def balance(kin, xy: np.ndarray) -> tuple:
 
 def _reused(kin, xy) -> tuple | None:
     """The balance at xy where at least a quarter of the points were in the last large solve
-    and the paths start alike (the planner asks again for a window's vertices with points put
+    and the paths start alike, within START points (the planner asks again for a window's vertices with points put
     in: where the cords turn, then where a piece is cut finer): those rows taken from it, the
-    others solved; else None. The rows are matched by x (a sort) and checked on y."""
+    others solved; else None. The rows are matched by their distance along the path (points
+    put in on a piece leave the others' distances as they were, but for rounding), each
+    checked against the two nearest."""
     n = len(xy)
     big = kin.__dict__.get("_tilt_big")
     if big is None or n < REUSE_MIN or 4 * len(big[0]) < n:
         return None
     m, st = big
-    if not any(xy[i, 0] == m[0, 0] and xy[i, 1] == m[0, 1] for i in (0, 1)):
-        return None               # (the same path from its start, or from one point before)
-    order = np.argsort(m[:, 0])
-    row = order[np.minimum(np.searchsorted(m[order, 0], xy[:, 0]), len(m) - 1)]
-    hit = (m[row, 0] == xy[:, 0]) & (m[row, 1] == xy[:, 1])
+    head = np.flatnonzero((xy[:START, 0] == m[0, 0]) & (xy[:START, 1] == m[0, 1]))
+    if not len(head):
+        return None               # (the same path from its start, or from a few points before)
+    first = int(head[0])
+    sm, sx = _along(m), _along(xy[first:])
+    right = np.minimum(np.searchsorted(sm, sx), len(m) - 1)
+    left = np.maximum(right - 1, 0)
+    pts = xy[first:]
+    row = np.where(np.abs(sm[left] - sx) < np.abs(sm[right] - sx), left, right)
+    hit = np.zeros(n, dtype=bool)
+    hit[first:] = (m[row, 0] == pts[:, 0]) & (m[row, 1] == pts[:, 1])
     if 4 * int(np.count_nonzero(hit)) < n:
         return None
     at, new = np.flatnonzero(hit), np.flatnonzero(~hit)
-    got = row[at]
+    got = row[at - first]
     solved = kin.gondola.solve(xy[new, 0], xy[new, 1])
 
     def merged(old, add):
@@ -186,6 +195,14 @@ def _reused(kin, xy) -> tuple | None:
         return out
 
     return tuple(map(merged, st, solved))
+
+
+def _along(p: np.ndarray) -> np.ndarray:
+    """Each point's distance along the polyline p from its first."""
+    out = np.empty(len(p))
+    out[0] = 0.0
+    np.cumsum(np.hypot(p[1:, 0] - p[:-1, 0], p[1:, 1] - p[:-1, 1]), out=out[1:])
+    return out
 
 
 def _guess(kin, xy, seen):
