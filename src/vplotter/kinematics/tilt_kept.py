@@ -160,9 +160,9 @@ def balance(kin, xy: np.ndarray) -> tuple:
 
 def _reused(kin, xy) -> tuple | None:
     """The balance at xy where at least a quarter of the points were in the last large solve
-    and the paths start alike, within START points (the planner asks again for a window's vertices with points put
-    in: where the cords turn, then where a piece is cut finer): those rows taken from it, the
-    others solved; else None. The rows are matched by their distance along the path (points
+    and the paths start alike, within START points (the planner asks again for a window's
+    vertices with points put in: where the cords turn, then where a piece is cut finer): those
+    rows taken from it, the others solved; else None. The rows are matched by their distance along the path (points
     put in on a piece leave the others' distances as they were, but for rounding), each
     checked against the two nearest."""
     n = len(xy)
