@@ -162,9 +162,9 @@ def _reused(kin, xy) -> tuple | None:
     """The balance at xy where at least a quarter of the points were in the last large solve
     and the paths start alike, within START points (the planner asks again for a window's
     vertices with points put in: where the cords turn, then where a piece is cut finer): those
-    rows taken from it, the others solved; else None. The rows are matched by their distance along the path (points
-    put in on a piece leave the others' distances as they were, but for rounding), each
-    checked against the two nearest."""
+    rows taken from it, the others solved; else None. The rows are matched by their distance
+    along the path (points put in on a piece leave the others' distances as they were, but for
+    rounding), each checked against the two nearest."""
     n = len(xy)
     big = kin.__dict__.get("_tilt_big")
     if big is None or n < REUSE_MIN or 4 * len(big[0]) < n:
