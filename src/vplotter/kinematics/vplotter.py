@@ -286,8 +286,9 @@ class TwoCord:
         if self.gondola is not None and n > 1:
             # pieces that follow one another: the next start (the balance solved already;
             # the slope differs by the bend times a rounding error)
-            same = np.abs(ends[:-1] - p0[1:]).max(axis=1) <= 1e-9
-            ends[:-1][same] = p0[1:][same]
+            gap = np.abs(ends[:-1] - p0[1:])
+            same = np.maximum(gap[:, 0], gap[:, 1]) <= 1e-9
+            ends[:-1] = np.where(same[:, None], p0[1:], ends[:-1])
         k1 = self.slope(ends, e)
         # the rows of both motors at once with the tilting gondola (each iterate solves the
         # balance for both cords); one motor at a time otherwise
