@@ -108,10 +108,15 @@ def _costs(cpu: dict, without: dict, name: str) -> str:
             if name in without else "")
 
 
+def _home(cfg) -> np.ndarray:
+    """The cords with the pen at G-code (0, 0), where the runs start."""
+    kin = kinematics.from_config(cfg)
+    return kin.inverse(kin.to_machine(np.zeros((1, 2))))[0]
+
+
 def _run(cfg, path: str) -> tuple:
     """CPU time of one dry run (parse, plan, schedule), and its summary."""
-    kin = kinematics.from_config(cfg)
-    cords = kin.inverse(kin.to_machine(np.zeros((1, 2))))[0]
+    cords = _home(cfg)
     summary = pipeline.Summary()
     t0 = time.process_time()
     for _rows in pipeline.stream(cfg, gcode.read(path, warn=lambda m: None), (0, 0), cords,
@@ -123,8 +128,7 @@ def _run(cfg, path: str) -> tuple:
 def _draw(cfg, path: str) -> float:
     """CPU time of what `draw` does (the dry run's rows made, not written): the whole file
     validated and planned, then the kept plan replayed (streamed again if too long to keep)."""
-    kin = kinematics.from_config(cfg)
-    cords = kin.inverse(kin.to_machine(np.zeros((1, 2))))[0]
+    cords = _home(cfg)
     t0 = time.process_time()
     summary = pipeline.validate(cfg, gcode.read(path, warn=lambda m: None), (0, 0), cords, path)
     rows = (pipeline.replay(cfg, summary.plan, (0, 0), cords) if summary.plan is not None

@@ -162,14 +162,14 @@ def test_the_step_solver_on_a_large_wall():
     rng = np.random.default_rng(5)
     g = np.cumsum(rng.normal(0, 200, (40, 2)), axis=0)
     g = np.clip(g - g.mean(axis=0), [-800, -500], [800, 500])[:8]
-    count, error = _steps_on(kin, g, planner=True, spacing=0.006)
+    count, error = _steps_on(kin, g, planner=True)
     assert count > 100_000 and error < 1e-5
 
 
-def _steps_on(kin, g, planner=False, spacing=None) -> tuple:
+def _steps_on(kin, g, planner=False) -> tuple:
     """(steps, the largest distance of a step's cord from its target) of the steps of 6e-3 mm
-    along the polyline g (G-code mm), cut where a motor turns round (as the planner does);
-    spacing: told to the solver (the schedule's way: counts on sub-pieces by arithmetic)."""
+    along the polyline g (G-code mm), cut where a motor turns round (as the planner does),
+    their spacing told to the solver as the schedule tells it."""
     g = g[np.r_[True, (np.diff(g, axis=0) != 0).any(axis=1)]]
     verts = kin.to_machine(g)
     seg = np.diff(verts, axis=0)
@@ -199,7 +199,7 @@ def _steps_on(kin, g, planner=False, spacing=None) -> tuple:
         j = np.arange(len(piece)) - np.repeat(np.cumsum(n) - n, n)
         sign = np.sign(np.diff(q[:, m]))[piece]
         target = q[piece, m] + sign * 0.006 * (j + 0.5)
-        s = kin.crossing(verts[:-1], e, m, piece, target, sign > 0, spacing)
+        s = kin.crossing(verts[:-1], e, m, piece, target, sign > 0, 0.006)
         got = kin.inverse(verts[:-1][piece] + e[piece] * s[:, None])[:, m]
         count, error = count + len(target), max(error, float(np.abs(got - target).max()))
     return count, error

@@ -48,6 +48,7 @@ def extrema_and_crossing(kin, x: float, y: float, a: float, d: float, frac: floa
             if abs(q1 - q0) < 1e-6:
                 continue
             target = q0 + frac * (q1 - q0)
-            s = kin.crossing(a0, e, m, np.array([0]), np.array([target]), np.array([q1 > q0]))[0]
+            s = kin.crossing(a0, e, m, np.array([0]), np.array([target]), np.array([q1 > q0]),
+                             abs(q1 - q0))[0]      # (one step: the schedule's way, spaced)
             assert -1e-9 <= s <= s1 - s0 + piece_tol
             assert kin.inverse(a0 + e * s)[0, m] == pytest.approx(target, abs=cord_tol)

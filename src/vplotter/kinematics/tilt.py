@@ -116,9 +116,9 @@ class Gondola:
         if table is None:
             key = (self.d_mm, self.v, self.a)
             table = self._table = _TABLES.get(key) or _TABLES.setdefault(key, self._grid())
-        x0, h, t = table
+        h, t = table
         rows, cols = t.shape
-        fx = (x - x0) / h
+        fx = x / h
         fy = y / h
         np.clip(fx, 0.0, cols - 1.000001, out=fx)
         np.clip(fy, 0.0, rows - 1.000001, out=fy)
@@ -137,15 +137,16 @@ class Gondola:
         return a + fx * b + fy * (c + fx * d)
 
     def _grid(self) -> tuple:
-        """(x0, h, phi on the grid): between the anchors, from 2 h below them down to 2 D (rows
-        of y = i h, clamped at 2 h: nearer, the points the gondola cannot hang at begin)."""
+        """(h, phi on the grid): between the anchors (columns x = j h), from 2 h below them down
+        to 2 D (rows y = i h, clamped at 2 h: nearer, the points the gondola cannot hang at
+        begin)."""
         h = self.d_mm / GUESS_CELLS
         xs = np.arange(GUESS_CELLS + 1) * h
         ys = np.arange(2 * GUESS_CELLS + 1) * h
         gx, gy = np.meshgrid(xs, np.maximum(ys, 2.0 * h))
         phi = self.solve(gx.ravel(), gy.ravel(), np.zeros(gx.size))[0]
         phi = np.where(np.isfinite(phi), phi, 0.0)
-        return xs[0], h, phi.reshape(gx.shape)
+        return h, phi.reshape(gx.shape)
 
     def _bracketed(self, x, y, phi):
         """phi by Newton steps kept inside a bracket (bisection where a step would leave it)."""

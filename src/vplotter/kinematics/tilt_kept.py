@@ -38,9 +38,6 @@ class Window:
     lay: object | None = None       # its tilt_steps.Layout
     jets0: tuple | None = None      # (e, r, qj) of jets() at the pieces' starts (`brief`)
     jets1: tuple | None = None      # and at their ends
-    cursor: int = 0
-    at: int = 0
-    asked: np.ndarray | None = None     # the directions of the last call (the same object)
     data: int | None = None         # where verts's data lies in memory
 
 

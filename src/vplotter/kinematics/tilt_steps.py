@@ -16,12 +16,13 @@ Sub-pieces the model cannot take (no bend where the cord barely moves) fall back
 exact solve.
 
 The sub-pieces are laid out a planned window at a time where the machine knows the window
-(`TwoCord.inverse` keeps the last windows' vertices and balances: the planner asks for the
-cords at every vertex of a window before it cuts it into blocks, then for their derivatives
-along the pieces at the pieces' starts and ends, which the layout takes): one vectorised
-pass for all its blocks, each block's call then only finds its steps' sub-pieces (steps
-counted per sub-piece, the models repeated). A block the machine does not know (another
-caller) is laid out on its own.
+(`TwoCord.inverse` keeps each window's vertices and balances as long as its blocks live: the
+planner asks for the cords at every vertex of a window before it cuts it into blocks, then
+for their derivatives along the pieces at the pieces' starts and ends, which the layout
+takes): one vectorised pass for all its blocks, each block's call then only finds its steps'
+sub-pieces (steps counted per sub-piece from the steps' spacing, the models repeated). A
+block the machine does not know (another caller's) is laid out on its own; steps whose
+spacing is not given (not the schedule's) are solved exactly.
 """
 
 from __future__ import annotations
@@ -32,11 +33,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from vplotter.kinematics.tilt import cord_jets
-from vplotter.kinematics.tilt_kept import brief, find, laid, windows
+from vplotter.kinematics.tilt_kept import brief, find, laid
 
 SUB_MM = 3.0
-_ASKED: list = [lambda: None]    # the window of the last call (weakly): its block's other
-#                                  motor asks next
+_ASKED: list = [None]     # (directions, window (weakly), offset) of the last call: its
+#                           block's other motor asks next, with the same directions
 END_MARGIN, END_MARGIN_MM = 0.03, 1.0     # a piece whose end is not known: past its last step
 
 
@@ -61,12 +62,10 @@ class Layout:
     #                       whose cord goes both ways (prefix counts, n + 1)
     longs: np.ndarray | None = None   # pieces with k > 1 before each piece (n + 1)
     # the inner points in order: the sub-piece each starts, its piece, and per motor its
-    # cord signed the way the cord goes along the piece (+-q: rising along the piece), and
-    # a power of two above twice any |q| (piece * big + signed q orders the steps)
+    # cord signed the way the cord goes along the piece (+-q: rising along the piece)
     isub: np.ndarray | None = None
     iown: np.ndarray | None = None
     iupq: tuple = ()
-    big: tuple = ()
     whole: bool = False   # the pieces' lengths are the true ones (a window's: _window)
 
 
@@ -98,43 +97,31 @@ def _ends(kin, p0, e, motor, piece, q, rising):
     return np.nan_to_num(d, nan=0.0)
 
 
-def _window(kin, p0, e, motor=0):
+def _window(kin, p0, e):
     """(layout, offset of the block's first piece in it) when the block is a run of pieces
-    of a window the machine knows, else None."""
-    n = len(p0)
-    w = _ASKED[0]()
-    if w is not None and e is w.asked and n == w.cursor - w.at and w.lay is not None:
-        return w.lay, w.at                                 # (the block's other motor)
+    of a window the machine knows (its vertices a view of the window's: tilt_kept.find),
+    else None."""
+    last = _ASKED[0]
+    if last is not None and last[0] is e:                  # the block's other motor
+        w = last[1]()
+        if w is not None and w.lay is not None:
+            return w.lay, last[2]
     hit = find(kin, p0)
-    if hit is not None and hit[1] + n < len(hit[0].verts):
-        w, i = hit
-        # the block's directions are its vertices' (one row checked against gross misuse)
-        we = _directions(w)
-        if abs(we[i, 0] - e[0, 0]) + abs(we[i, 1] - e[0, 1]) < 1e-9:
-            return _laid(kin, w, i, n, e), i
-    for w in reversed(windows(kin)):
-        m = len(w.verts)
-        if n > m - 1:
-            continue
-        we = _directions(w)
-        # the block asked last (the other motor's call) or the next one, else a search
-        i = -1
-        for c in ((w.at, w.cursor) if motor else (w.cursor, w.at)):
-            # (the same directions as the last call's: the schedule's other motor)
-            if (c + n <= m - 1 and (w.verts[c:c + n] == p0).all()
-                    and ((e is w.asked and c == w.at) or (we[c:c + n] == e).all())):
-                i = c
-                break
-        if i < 0:
-            hits = np.flatnonzero((w.verts[:m - n, 0] == p0[0, 0])
-                                  & (w.verts[:m - n, 1] == p0[0, 1]))
-            hits = [h for h in hits.tolist() if np.array_equal(w.verts[h:h + n], p0)
-                    and np.array_equal(we[h:h + n], e)]
-            if not hits:
-                continue
-            i = hits[0]
-        return _laid(kin, w, i, n, e), i
-    return None
+    if hit is None or hit[1] + len(p0) >= len(hit[0].verts):
+        return None
+    w, i = hit
+    # the block's directions are its vertices' (one row checked against gross misuse)
+    we = _directions(w)
+    if not abs(we[i, 0] - e[0, 0]) + abs(we[i, 1] - e[0, 1]) < 1e-9:
+        return None
+
+    def make():
+        ok = w.d > 0
+        return _lay(kin, w.verts[:-1], np.where(ok[:, None], we, 0.0), np.where(ok, w.d, 0.0),
+                    w.state, (w.jets0, w.jets1))
+
+    _ASKED[0] = (e, weakref.ref(w), i)
+    return laid(w, make), i
 
 
 def _directions(w):
@@ -147,23 +134,14 @@ def _directions(w):
     return w.e
 
 
-def _laid(kin, w, i, n, e):
-    """The window's layout; the block at piece i (n pieces along e) is the one asked last."""
-    def make():
-        ok = w.d > 0
-        return _lay(kin, w.verts[:-1], np.where(ok[:, None], w.e, 0.0), np.where(ok, w.d, 0.0),
-                    w.state, (w.jets0, w.jets1))
-
-    w.at, w.cursor, w.asked = i, i + n, e
-    _ASKED[0] = weakref.ref(w)
-    return laid(w, make)
-
-
 def crossing(kin, p0, e, motor, piece, q, rising, exact, spacing=None) -> np.ndarray:
-    """As TwoCord.crossing; `exact(p0, e, motor, piece, q, rising)` the exact solver."""
+    """As TwoCord.crossing; `exact(p0, e, motor, piece, q, rising)` the exact solver, which
+    takes the steps when their spacing is not given (not the schedule's)."""
     if not len(q):
         return np.zeros(0)
-    found = _window(kin, p0, e, motor)
+    if spacing is None:
+        return exact(p0, e, motor, piece, q, rising)
+    found = _window(kin, p0, e)
     if found is None:
         lay, i = _block_layout(kin, p0, e, motor, piece, q, rising), 0
     else:
@@ -171,8 +149,6 @@ def crossing(kin, p0, e, motor, piece, q, rising, exact, spacing=None) -> np.nda
     n = len(p0)
     ends = np.searchsorted(piece, np.arange(n + 1))       # each piece's steps: ends[p]:ends[p+1]
     lo, hi = lay.sub0[i], lay.sub0[i + n]                  # the block's sub-pieces
-    if spacing is None and not _in_order(lay, motor, piece, q, rising):
-        return exact(p0, e, motor, piece, q, rising)
     if lay.longs[i + n] > lay.longs[i]:
         count = _counts(lay, motor, i, n, q, rising, ends, spacing)
     else:
@@ -191,38 +167,22 @@ def crossing(kin, p0, e, motor, piece, q, rising, exact, spacing=None) -> np.nda
     return s
 
 
-def _in_order(lay, motor, piece, q, rising) -> bool:
-    """Whether the steps run one way along each piece, piece by piece (the schedule's)."""
-    key = np.where(rising, q, -q)
-    key += piece * lay.big[motor]
-    return not (key[1:] < key[:-1]).any()
-
-
 def _counts(lay, motor, i, n, q, rising, ends, spacing):
     """The number of steps on each of the block's sub-pieces (pieces i .. i + n - 1 of the
-    layout), from where its inner points fall among the steps: from each piece's first step
-    and the steps' spacing when known, else by a search among them."""
+    layout), from where its inner points fall among the steps: how many of the piece's steps
+    come before each point, from how far past the piece's first step its cord is, the way the
+    steps go, and the steps' spacing."""
     a, b = lay.sub0[i] - i, lay.sub0[i + n] - i - n      # the block's inner points
     own = lay.iown[a:b] - i
     first = ends[own]
-    if spacing is not None:
-        at = np.minimum(first, len(q) - 1)
-        # how many of the piece's steps come before each point, from how far past the first
-        # step its cord is, the way the steps go
-        u = lay.iupq[motor][a:b] - np.where(rising[at], q[at], -q[at])
-        u /= spacing
-        np.floor(u, out=u)
-        u += 1.0
-        np.clip(u, 0.0, ends[own + 1] - first, out=u)
-        pos = u.astype(np.intp)
-        pos += first
-    else:
-        big = lay.big[motor]
-        key = np.where(rising, q, -q)
-        key += np.repeat(np.arange(n), ends[1:] - ends[:-1]) * big
-        ikey = own * big
-        ikey += lay.iupq[motor][a:b]
-        pos = np.searchsorted(key, ikey, side="right")
+    at = np.minimum(first, len(q) - 1)
+    u = lay.iupq[motor][a:b] - np.where(rising[at], q[at], -q[at])
+    u /= spacing
+    np.floor(u, out=u)
+    u += 1.0
+    np.clip(u, 0.0, ends[own + 1] - first, out=u)
+    pos = u.astype(np.intp)
+    pos += first
     bounds = np.empty(lay.sub0[i + n] - lay.sub0[i] + 1, dtype=np.intp)
     bounds[lay.sub0[i:i + n] - lay.sub0[i]] = ends[:-1]
     bounds[lay.isub[a:b] - lay.sub0[i]] = pos
@@ -314,10 +274,9 @@ def _lay(kin, p0, e, d, ends=None, known=(None, None)) -> Layout:
     ins = np.flatnonzero(inner)
     iown = owner[ins]
     iupq = tuple(np.where(v[ends] >= v[first[:-1]], 1.0, -1.0)[iown] * v[ins] for v in q)
-    big = tuple(2.0 ** np.ceil(np.log2(4.0 * np.abs(v).max(initial=1.0) + 16.0)) for v in q)
     return Layout(k, first, first - np.arange(n + 1), q, tuple(models), tuple(bads),
                   inner, owner, top, bottom, badc,
-                  np.concatenate(([0], np.cumsum(k > 1))), ins - iown, iown, iupq, big, whole)
+                  np.concatenate(([0], np.cumsum(k > 1))), ins - iown, iown, iupq, whole)
 
 
 def _vertex_jets(kin, pts, e, owner, inner, frac, ends, first, known):
