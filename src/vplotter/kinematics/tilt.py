@@ -50,6 +50,8 @@ class Gondola:
         self.d_mm = float(d_mm)
         self.v = ((-half, -h), (half, -h))                    # pen -> the cords' points
         self.a = ((-half, -h - c), (half, -h - c))            # centre of mass -> them
+        # - a_m x v_m, the constant part of k_m (see _coefficients)
+        self._k0 = tuple(-(ax * vy - ay * vx) for (ax, ay), (vx, vy) in zip(self.a, self.v))
         # the orientation of the stable balance: sign * F rises through zero there (the
         # restoring torque), the same everywhere on the wall; taken below the middle
         mid = np.array([self.d_mm / 2.0]), np.array([self.d_mm])
@@ -75,6 +77,33 @@ class Gondola:
         df = dkl * rrx + kl * pr_y - dkr * rlx - kr * pl_y
         return f, df, (rlx, rly, rrx, rry), (gl_x, gl_y, gr_x, gr_y)
 
+    def _coefficients(self, x, y) -> tuple:
+        """F at pen (x, y) as a quadratic in cos and sin of phi: with w_m = A_m - p, k_m =
+        (R a_m) x r_m = c (a_m x w_m) - s (a_m . w_m) - a_m x v_m (R a x R v = a x v) and
+        r_mx = w_mx - (R v_m)_x both linear in (c, s). The per-point terms (P_L, Q_L, P_R,
+        Q_R, w_Lx, w_Rx): a Newton step then costs half of _terms."""
+        (alx, aly), (arx, ary) = self.a
+        wlx, wrx = -x, self.d_mm - x
+        wy = -y
+        return (alx * wy - aly * wlx, -(alx * wlx + aly * wy),
+                arx * wy - ary * wrx, -(arx * wrx + ary * wy), wlx, wrx)
+
+    def _f(self, co, c, s) -> tuple:
+        """F and dF/dphi from _coefficients at cos/sin of phi c, s."""
+        pl, ql, pr, qr, wlx, wrx = co
+        (vlx, vly), (vrx, vry) = self.v
+        kl = c * pl + s * ql + self._k0[0]
+        kr = c * pr + s * qr + self._k0[1]
+        rlx = wlx - (c * vlx - s * vly)
+        rrx = wrx - (c * vrx - s * vry)
+        f = kl * rrx - kr * rlx
+        # d/dphi: dc = -s, ds = c
+        dkl = c * ql - s * pl
+        dkr = c * qr - s * pr
+        drlx = s * vlx + c * vly
+        drrx = s * vrx + c * vry
+        return f, dkl * rrx + kl * drrx - dkr * rlx - kr * drlx
+
     def solve(self, x, y, phi=None):
         """phi at pen points (x, y): (phi, cos, sin, dF/dphi, dF/dx, dF/dy, cords r)."""
         x = np.asarray(x, dtype=float)
@@ -91,9 +120,10 @@ class Gondola:
         # plain Newton steps first (the balance is smooth and phi small: three steps from
         # zero); the rows that did not settle on the stable balance go the bracketed way
         step = np.zeros(x.shape)
+        co = self._coefficients(x, y)
         with np.errstate(divide="ignore", invalid="ignore"):
             for _ in range(PHI_FAST):
-                f, df, _, _ = self._terms(x, y, np.cos(phi), np.sin(phi))
+                f, df = self._f(co, np.cos(phi), np.sin(phi))
                 step = f / df
                 phi = phi - step
                 if not np.abs(step).max(initial=0.0) > PHI_NEWTON:
@@ -120,8 +150,10 @@ class Gondola:
         rows, cols = t.shape
         fx = x / h
         fy = y / h
-        np.clip(fx, 0.0, cols - 1.000001, out=fx)
-        np.clip(fy, 0.0, rows - 1.000001, out=fy)
+        np.maximum(fx, 0.0, out=fx)             # (np.clip costs more on a few points)
+        np.minimum(fx, cols - 1.000001, out=fx)
+        np.maximum(fy, 0.0, out=fy)
+        np.minimum(fy, rows - 1.000001, out=fy)
         ix, iy = fx.astype(np.intp), fy.astype(np.intp)
         fx -= ix
         fy -= iy
@@ -153,9 +185,9 @@ class Gondola:
         lo = np.full(x.shape, -PHI_LIMIT)
         hi = np.full(x.shape, PHI_LIMIT)
         sg = self.sign
+        co = self._coefficients(x, y)
         for _ in range(PHI_STEPS):
-            c, s = np.cos(phi), np.sin(phi)
-            f, df, _, _ = self._terms(x, y, c, s)
+            f, df = self._f(co, np.cos(phi), np.sin(phi))
             above = sg * f > 0
             hi = np.where(above, phi, hi)
             lo = np.where(above, lo, phi)
@@ -187,8 +219,9 @@ class Gondola:
         import math
 
         lo, hi = -PHI_LIMIT, PHI_LIMIT
+        co = self._coefficients(x, y)
         for _ in range(PHI_STEPS):
-            f, df, _, _ = self._terms(x, y, math.cos(phi), math.sin(phi))
+            f, df = self._f(co, math.cos(phi), math.sin(phi))
             if self.sign * f > 0:
                 hi = phi
             else:
@@ -241,8 +274,7 @@ class Gondola:
             # k = gx ry - gy rx as a triple
             k0 = gx * ry0 - gy * rx0
             k1 = g1x * ry0 + gx * ry[1] - g1y * rx0 - gy * rx[1]
-            k2 = (2.0 * (g1x * ry[1] - g1y * rx[1]) + gx * ry[2] - gy * rx[2]
-                  - sq * (gx * ry0 - gy * rx0))
+            k2 = 2.0 * (g1x * ry[1] - g1y * rx[1]) + gx * ry[2] - gy * rx[2] - sq * k0
             cords.append((px, py, rx, ry))
             ks.append((k0, k1, k2))
         (kl0, kl1, kl2), (kr0, kr1, kr2) = ks

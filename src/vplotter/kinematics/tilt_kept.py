@@ -38,12 +38,12 @@ class Window:
     lay: object | None = None       # its tilt_steps.Layout
     jets0: tuple | None = None      # (e, r, qj) of jets() at the pieces' starts (`brief`)
     jets1: tuple | None = None      # and at their ends
-    data: int | None = None         # where verts's data lies in memory
 
 
 _WINDOWS: list = []     # (machine, Window): the planner and the schedule have each a machine
 _BY_VERTS: dict = {}    # id of a vertices' array -> [(its weakref, machine, Window)]
 _LAID: list = [None]    # a weakref to the window whose layout was made last (one layout kept)
+_NEXT: list = [None]    # (root's weakref, machine, window, offset): where the last block found ended
 
 
 def _machine(kin) -> tuple:
@@ -78,21 +78,36 @@ def remember(kin, xy: np.ndarray, state: tuple) -> None:
 
 def find(kin, a: np.ndarray) -> tuple | None:
     """(window, i) when the rows a are the window's vertices i .. i + len(a) - 1, as a view of
-    the same array; else None."""
-    root = _root(a)
+    the same array; else None. The blocks come in order: where the last one found ended is
+    tried first (its first row the same memory as a's; asking for a view's address costs
+    more)."""
+    root = a.base
+    if root is None:
+        return None
+    while isinstance(root.base, np.ndarray):
+        root = root.base
+    key = kin.__dict__.get("_tilt_key")
+    if key is None:
+        key = kin._tilt_key = _machine(kin)
+    n = len(a)
+    nxt = _NEXT[0]
+    if nxt is not None and nxt[0]() is root and nxt[1] == key:
+        w, i = nxt[2], nxt[3]
+        v = w.verts
+        if i + n <= len(v) and v.strides == a.strides and np.shares_memory(a[0], v[i]):
+            _NEXT[0] = (nxt[0], key, w, i + n)
+            return w, i
     kept = _BY_VERTS.get(id(root))
     if not kept:
         return None
-    key = kin.__dict__.get("_tilt_key") or _machine(kin)
-    at = a.ctypes.data
+    at = _at(a)
     for ref, m, w in reversed(kept):
         v = w.verts
         if ref() is not root or m != key or v.strides != a.strides:
             continue
-        if w.data is None:
-            w.data = v.ctypes.data
-        i, rest = divmod(at - w.data, v.strides[0])
-        if not rest and 0 <= i and i + len(a) <= len(v):
+        i, rest = divmod(at - _at(v), v.strides[0])
+        if not rest and 0 <= i and i + n <= len(v):
+            _NEXT[0] = (ref, key, w, i + n)
             return w, i
     return None
 
@@ -107,6 +122,11 @@ def laid(w: Window, make) -> object:
         w.lay = make()
         _LAID[0] = weakref.ref(w)
     return w.lay
+
+
+def _at(a: np.ndarray) -> int:
+    """The address of a's first element."""
+    return a.ctypes.data
 
 
 def _root(a: np.ndarray) -> np.ndarray:
@@ -153,6 +173,65 @@ def balance(kin, xy: np.ndarray) -> tuple:
     else:
         kin._tilt_near = (xy.copy(), st[0])
     return st
+
+
+def end_slopes(kin, xy: np.ndarray, e: np.ndarray, d: np.ndarray) -> tuple:
+    """For the pieces xy + s e, 0 <= s <= d (N): the cords' slopes (N, 2) at their starts and
+    at their ends (the balance at the starts solved as `balance` solves and keeps it; an end
+    where the next piece starts takes that start's), and f(rows, motors, sign) that makes the
+    function a search for the cords' turning points needs: at s along those rows' pieces, sign
+    times the slope and the bend of each row's cord (the balance solved from phi interpolated
+    between the piece's ends)."""
+    g = kin.gondola
+    n = len(xy)
+    st = balance(kin, xy)
+    k0 = slopes(kin, xy, e, st)
+    ends = xy + e * d[:, None]
+    same = np.zeros(n, dtype=bool)
+    if n > 1:
+        gap = np.abs(ends[:-1] - xy[1:])
+        same[:-1] = np.maximum(gap[:, 0], gap[:, 1]) <= 1e-9
+    k1 = np.empty_like(k0)
+    phi1 = np.empty(n)
+    if same[:-1].all():
+        at = slice(0, n - 1)
+        nxt = tuple(_cut(v, 1, n) for v in st)
+    else:
+        at = np.flatnonzero(same)
+        nxt = tuple(_rows(v, at + 1) for v in st)
+    if n > 1:
+        k1[at] = slopes(kin, xy[1:] if isinstance(at, slice) else xy[at + 1], e[at], nxt)
+        phi1[at] = nxt[0]
+    other = np.flatnonzero(~same)
+    end_st = g.solve(ends[other, 0], ends[other, 1], st[0][other])     # (from the start's)
+    k1[other] = slopes(kin, ends[other], e[other], end_st)
+    phi1[other] = end_st[0]
+    phi0 = st[0]
+
+    def search(rows, m, sign):
+        p, u, dd = xy[rows], e[rows], d[rows]
+        a, b = phi0[rows], phi1[rows] - phi0[rows]
+        left = m == 0
+
+        def f(s):
+            pts = p + u * s[:, None]
+            state = g.solve(pts[:, 0], pts[:, 1], a + b * (s / dd))
+            r, _ = g.jets(pts, u, state)
+            ql, qr = cord_jets(r, kin.stretch)
+            return (sign * np.where(left, ql[1], qr[1]), sign * np.where(left, ql[2], qr[2]))
+
+        return f
+
+    return k0, k1, search
+
+
+def slopes(kin, xy, e, st) -> np.ndarray:
+    """(N, 2) the motor coordinates' slopes along e at xy, the balance there st."""
+    if kin.stretch == 0.0:
+        return kin.gondola.slopes(xy, e, st)
+    r, _ = kin.gondola.jets(xy, e, st)
+    ql, qr = cord_jets(r, kin.stretch)
+    return np.stack((ql[1], qr[1]), axis=-1)
 
 
 def _reused(kin, xy) -> tuple | None:
@@ -248,3 +327,7 @@ def _joined(a, b):
 
 def _cut(v, a, b):
     return tuple(x[a:b] for x in v) if isinstance(v, tuple) else v[a:b]
+
+
+def _rows(v, idx):
+    return tuple(x[idx] for x in v) if isinstance(v, tuple) else v[idx]

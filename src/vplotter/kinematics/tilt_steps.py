@@ -147,12 +147,13 @@ def crossing(kin, p0, e, motor, piece, q, rising, exact, spacing=None) -> np.nda
     else:
         lay, i = found
     n = len(p0)
-    ends = np.searchsorted(piece, np.arange(n + 1))       # each piece's steps: ends[p]:ends[p+1]
     lo, hi = lay.sub0[i], lay.sub0[i + n]                  # the block's sub-pieces
     if lay.longs[i + n] > lay.longs[i]:
+        ends = np.searchsorted(piece, np.arange(n + 1))   # each piece's steps: ends[p]:ends[p+1]
         count = _counts(lay, motor, i, n, q, rising, ends, spacing)
     else:
-        count = ends[1:] - ends[:-1]                       # one sub-piece per piece
+        ends = None
+        count = np.bincount(piece, minlength=n)            # one sub-piece per piece
     s0, s1, kappa, h = np.repeat(lay.model[motor][:, lo:hi], count, axis=1)
     s = q + kappa                        # s = s0 + s1 sqrt((q + kappa)^2 - h), in place
     s *= s
@@ -172,20 +173,23 @@ def _counts(lay, motor, i, n, q, rising, ends, spacing):
     layout), from where its inner points fall among the steps: how many of the piece's steps
     come before each point, from how far past the piece's first step its cord is, the way the
     steps go, and the steps' spacing."""
-    a, b = lay.sub0[i] - i, lay.sub0[i + n] - i - n      # the block's inner points
+    s0 = lay.sub0[i]
+    a, b = s0 - i, lay.sub0[i + n] - i - n               # the block's inner points
     own = lay.iown[a:b] - i
     first = ends[own]
     at = np.minimum(first, len(q) - 1)
-    u = lay.iupq[motor][a:b] - np.where(rising[at], q[at], -q[at])
+    qa = q[at]
+    u = lay.iupq[motor][a:b] - np.where(rising[at], qa, -qa)
     u /= spacing
     np.floor(u, out=u)
     u += 1.0
-    np.clip(u, 0.0, ends[own + 1] - first, out=u)
+    np.maximum(u, 0.0, out=u)                     # (np.clip costs more on a few points)
+    np.minimum(u, ends[own + 1] - first, out=u)
     pos = u.astype(np.intp)
     pos += first
-    bounds = np.empty(lay.sub0[i + n] - lay.sub0[i] + 1, dtype=np.intp)
-    bounds[lay.sub0[i:i + n] - lay.sub0[i]] = ends[:-1]
-    bounds[lay.isub[a:b] - lay.sub0[i]] = pos
+    bounds = np.empty(lay.sub0[i + n] - s0 + 1, dtype=np.intp)
+    bounds[lay.sub0[i:i + n] - s0] = ends[:-1]
+    bounds[lay.isub[a:b] - s0] = pos
     bounds[-1] = ends[-1]
     np.maximum.accumulate(bounds, out=bounds)     # (a piece whose cord turns: see _slow)
     return bounds[1:] - bounds[:-1]
@@ -197,12 +201,16 @@ def _slow(lay, motor, i, n, piece, q, rising, ends, lo, hi, count):
     (their true lengths) whose cords go one way, only the first piece's steps can go against
     its cord (they start from the count the motor stands at, not from its cord rounded), and
     no piece's last step is past its end's cord but by rounding (the schedule's targets are
-    the cords at the pieces' ends rounded: the last step is at most there): none is slow."""
+    the cords at the pieces' ends rounded: the last step is at most there): none is slow.
+    ends: each piece's first step (n + 1), or None where each piece is one sub-piece (count
+    is then per piece)."""
     badc = lay.badc[motor]
     if lay.whole and badc[i + n] == badc[i]:
-        if ends[1] == 0 or not (lay.top[motor][i] == -np.inf if rising[0]
-                                else lay.bottom[motor][i] == np.inf):
+        if piece[0] != 0 or not (lay.top[motor][i] == -np.inf if rising[0]
+                                 else lay.bottom[motor][i] == np.inf):
             return None
+    if ends is None:
+        ends = np.concatenate(([0], np.cumsum(count)))
     last = ends[1:] - 1
     ql = q[last]
     turn = np.where(rising[last], ql > lay.top[motor][i:i + n], ql < lay.bottom[motor][i:i + n])

@@ -185,7 +185,7 @@ class TwoCord:
             return self.sag.jets(xy, e)
         if self.gondola is not None:
             ql, qr = tilt_kept.jets(self, xy, e, state)
-            return tuple(np.stack((a, b), axis=-1) for a, b in zip(ql, qr))
+            return tuple(np.stack((a, b)).T for a, b in zip(ql, qr))     # (rows of motors)
         zero = np.zeros(len(xy))
         xl = (xy[:, 0] - self.anchors[0, 0], e[:, 0], zero)
         yl = (xy[:, 1] - self.anchors[0, 1], e[:, 1], zero)
@@ -231,8 +231,8 @@ class TwoCord:
     def slope(self, xy: np.ndarray, e: np.ndarray) -> np.ndarray:
         if self.gondola is not None and self.stretch == 0.0 and self.sag is None:
             xy = np.asarray(xy, dtype=float)
-            return self.gondola.slopes(xy, np.asarray(e, dtype=float),
-                                       tilt_kept.balance(self, xy))
+            return tilt_kept.slopes(self, xy, np.asarray(e, dtype=float),
+                                    tilt_kept.balance(self, xy))
         if not self.plain:
             return self._jets(xy, e)[1]
         return self._along(xy, e)[0]
@@ -281,15 +281,19 @@ class TwoCord:
         Newton on the slope, the bend being its derivative."""
         n = len(p0)
         out = np.full((n, 2), np.nan)
-        k0 = self.slope(p0, e)
-        ends = p0 + e * d[:, None]
-        if self.gondola is not None and n > 1:
-            # pieces that follow one another: the next start (the balance solved already;
-            # the slope differs by the bend times a rounding error)
-            gap = np.abs(ends[:-1] - p0[1:])
-            same = np.maximum(gap[:, 0], gap[:, 1]) <= 1e-9
-            ends[:-1] = np.where(same[:, None], p0[1:], ends[:-1])
-        k1 = self.slope(ends, e)
+        tilt = self.gondola is not None and self.sag is None
+        if tilt:
+            k0, k1, search = tilt_kept.end_slopes(self, p0, e, d)
+        else:
+            k0 = self.slope(p0, e)
+            ends = p0 + e * d[:, None]
+            if self.gondola is not None and n > 1:
+                # pieces that follow one another: the next start (the balance solved already;
+                # the slope differs by the bend times a rounding error)
+                gap = np.abs(ends[:-1] - p0[1:])
+                same = np.maximum(gap[:, 0], gap[:, 1]) <= 1e-9
+                ends[:-1] = np.where(same[:, None], p0[1:], ends[:-1])
+            k1 = self.slope(ends, e)
         # the rows of both motors at once with the tilting gondola (each iterate solves the
         # balance for both cords); one motor at a time otherwise
         turn = k0 * k1 < 0
@@ -300,24 +304,23 @@ class TwoCord:
             if not len(rows):
                 continue
             sign = np.where(k1[rows, m] > 0, 1.0, -1.0)      # sign * slope rises through zero
-            at = np.arange(len(rows))
+            if tilt:
+                f = search(rows, m, sign)
+            else:
+                at = np.arange(len(rows))
 
-            def f(s, rows=rows, m=m, sign=sign, at=at):
-                _, k, b = self._jets(p0[rows] + e[rows] * s[:, None], e[rows])
-                return sign * k[at, m], sign * b[at, m]
+                def f(s, rows=rows, m=m, sign=sign, at=at):
+                    _, k, b = self._jets(p0[rows] + e[rows] * s[:, None], e[rows])
+                    return sign * k[at, m], sign * b[at, m]
 
-            # first guess: where the level gondola's cord turns (the foot of the perpendicular
-            # from its shifted anchor), inside the piece; the tilting gondola's, where a
-            # straight cord turns that has the slopes at the piece's ends (a straight cord's
-            # slope is u / sqrt(h^2 + u^2) at u from the foot: tan = u / h is linear in u)
-            a = self.anchors[m]
-            s0 = -((p0[rows, 0] - a[:, 0]) * e[rows, 0] + (p0[rows, 1] - a[:, 1]) * e[rows, 1])
+            s0 = None
             if self.gondola is not None:
+                # first guess: where a straight cord turns that has the slopes at the piece's
+                # ends (a straight cord's slope is u / sqrt(h^2 + u^2) at u from the foot of
+                # the perpendicular: tan = u / h is linear in u)
                 t0, t1 = (k / np.sqrt(np.maximum(1.0 - k * k, 1e-12))
                           for k in (k0[rows, m], k1[rows, m]))
                 s0 = np.clip(d[rows] * t0 / (t0 - t1), 0.0, d[rows])
-            else:
-                s0 = None
             out[rows, m] = _bracketed(f, np.zeros(len(rows)), d[rows].astype(float), TOL_MM, s0)
         return out
 
