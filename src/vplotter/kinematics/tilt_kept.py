@@ -1,8 +1,9 @@
 """What the tilting gondola's machine keeps between calls (kinematics/tilt_steps.py lays out
 and solves steps with it): the planned windows' vertices and balances (`remember`), the
 balance reused between the planner's calls (`balance`: the same points, moved on by one, or
-a first guess of phi), and the cords' derivatives the planner asks for at the starts and the
-ends of a window's pieces (`jets`), which the window's layout takes.
+a first guess of phi; `carry`: the same points with points put in, which the planner tells),
+and the cords' derivatives the planner asks for at the starts and the ends of a window's
+pieces (`jets`), which the window's layout takes.
 
 The planner and the schedule have each a machine: the windows are kept here, by machine.
 A window lives as long as its vertices' array: the planner's, which its blocks' vertices are
@@ -22,8 +23,6 @@ from vplotter.kinematics.tilt import cord_jets
 
 WINDOWS = 2                               # windows kept (the last ones the planner planned)
 NEAR_MM = 10.0                            # a few points solved this close: their phi a guess
-REUSE_MIN = 64                            # points: a solve this large is kept to take rows from
-START = 8                                 # and the next one takes them if its path starts here
 
 
 @dataclass
@@ -162,12 +161,7 @@ def balance(kin, xy: np.ndarray) -> tuple:
             st = tuple(_joined(v, w) for v, w in zip(st, new))
             break
     else:
-        guess = _guess(kin, xy, seen)
-        st = _reused(kin, xy) if guess is None else None
-        if st is None:
-            st = kin.gondola.solve(xy[:, 0], xy[:, 1], guess)
-    if n >= REUSE_MIN:
-        kin._tilt_big = (xy.copy(), st)
+        st = kin.gondola.solve(xy[:, 0], xy[:, 1], _guess(kin, xy, seen))
     if n > 2:
         kin._tilt_solves = [*seen[-2:], (xy.copy(), st)]
     else:
@@ -234,51 +228,20 @@ def slopes(kin, xy, e, st) -> np.ndarray:
     return np.stack((ql[1], qr[1]), axis=-1)
 
 
-def _reused(kin, xy) -> tuple | None:
-    """The balance at xy where at least a quarter of the points were in the last large solve
-    and the paths start alike, within START points (the planner asks again for a window's
-    vertices with points put in: where the cords turn, then where a piece is cut finer): those
-    rows taken from it, the others solved; else None. The rows are matched by their distance
-    along the path (points put in on a piece leave the others' distances as they were, but for
-    rounding), each checked against the two nearest."""
-    n = len(xy)
-    big = kin.__dict__.get("_tilt_big")
-    if big is None or n < REUSE_MIN or 4 * len(big[0]) < n:
-        return None
-    m, st = big
-    head = np.flatnonzero((xy[:START, 0] == m[0, 0]) & (xy[:START, 1] == m[0, 1]))
-    if not len(head):
-        return None               # (the same path from its start, or from a few points before)
-    first = int(head[0])
-    sm, sx = _along(m), _along(xy[first:])
-    right = np.minimum(np.searchsorted(sm, sx), len(m) - 1)
-    left = np.maximum(right - 1, 0)
-    pts = xy[first:]
-    row = np.where(np.abs(sm[left] - sx) < np.abs(sm[right] - sx), left, right)
-    hit = np.zeros(n, dtype=bool)
-    hit[first:] = (m[row, 0] == pts[:, 0]) & (m[row, 1] == pts[:, 1])
-    if 4 * int(np.count_nonzero(hit)) < n:
-        return None
-    at, new = np.flatnonzero(hit), np.flatnonzero(~hit)
-    got = row[at - first]
-    solved = kin.gondola.solve(xy[new, 0], xy[new, 1])
-
-    def merged(old, add):
-        if isinstance(old, tuple):
-            return tuple(map(merged, old, add))
-        out = np.empty(n)
-        out[at], out[new] = old[got], add
-        return out
-
-    return tuple(map(merged, st, solved))
-
-
-def _along(p: np.ndarray) -> np.ndarray:
-    """Each point's distance along the polyline p from its first."""
-    out = np.empty(len(p))
-    out[0] = 0.0
-    np.cumsum(np.hypot(p[1:, 0] - p[:-1, 0], p[1:, 1] - p[:-1, 1]), out=out[1:])
-    return out
+def carry(kin, old: np.ndarray, new: np.ndarray, piece: np.ndarray, end: np.ndarray) -> None:
+    """Keep the balance at new: old's vertices with points put in on its pieces (new[0] is
+    old[0], new[j + 1] lies on piece[j], and is old's vertex piece[j] + 1 where end[j]:
+    refine.put_in), taken from the balance at old (`balance`: the planner asked for it, or for
+    all but one of its rows) and solved at the points put in."""
+    st = balance(kin, old)
+    rows = np.concatenate(([0], piece + 1))
+    put = np.flatnonzero(~end) + 1
+    out = tuple(_rows(v, rows) for v in st)
+    if len(put):
+        for o, v in zip(out, kin.gondola.solve(new[put, 0], new[put, 1])):
+            for a, b in (zip(o, v) if isinstance(o, tuple) else ((o, v),)):
+                a[put] = b
+    kin._tilt_solves = [*getattr(kin, "_tilt_solves", [])[-2:], (new.copy(), out)]
 
 
 def _guess(kin, xy, seen):

@@ -264,6 +264,13 @@ class TwoCord:
             out[:, long] = self.bend(mid[long], e[long]).T
         return out
 
+    def carry(self, old: np.ndarray, new: np.ndarray, piece: np.ndarray,
+              end: np.ndarray) -> None:
+        """The planner put points in on the pieces through old (refine.put_in): the tilting
+        gondola keeps its balance at new, from old's (tilt_kept.carry)."""
+        if self.gondola is not None and self.sag is None:
+            tilt_kept.carry(self, old, new, piece, end)
+
     def extrema(self, p0: np.ndarray, e: np.ndarray, d: np.ndarray) -> np.ndarray:
         # the cord is shortest where the pen passes the foot of the perpendicular from the anchor
         if not self.plain:

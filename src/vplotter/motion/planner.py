@@ -65,7 +65,7 @@ from vplotter.motion.corners import CORNER_CEIL, CORNER_TOP, RETRY_GAIN  # noqa:
 from vplotter.motion.profile import BEND_SHARE, RETRY_MIN, RETRY_ROUNDS  # noqa: F401
 from vplotter.motion.profile import motor_path, profile  # noqa: F401
 from vplotter.motion.refine import CORNER_SHARE, MIN_SLOPE, SHARP_TRY, TAU_S  # noqa: F401
-from vplotter.motion.refine import refine, scaled, sharp_shares  # noqa: F401
+from vplotter.motion.refine import put_in, refine, scaled, sharp_shares  # noqa: F401
 
 RATE_MARGIN = 0.998    # of max_step_rate: step times are rounded to microseconds
 ACCEL_MARGIN = 0.96    # of max_accel
@@ -237,10 +237,8 @@ class Planner:
         good = (s - prev > 1e-9) | (s == d[piece])
         good &= ~((s != d[piece]) & (d[piece] - s <= 1e-9))
         piece, s = piece[good], s[good]
-        new = verts[piece] + scaled(e[piece], s)
         end = s == d[piece]
-        new[end] = verts[1:][piece[end]]
-        verts = np.vstack((verts[:1], new))
+        verts = put_in(self.kin, verts, e, piece, s, end)
         return verts, cap[piece], line[piece], draw[piece], stop[piece] & end, origin[piece]
 
     def _profile(self, verts, cap, line, draw, stop, u_entry, events, q0):

@@ -86,10 +86,21 @@ def refine(kin, v_cord, a_cord, verts, cap, line, draw, stop, origin):
     piece, s, end = _kept_cuts(piece_parts, s_parts, d)
     if len(piece) == n:
         return verts, cap, line, draw, stop, origin
+    verts = put_in(kin, verts, e, piece, s, end)
+    return verts, cap[piece], line[piece], draw[piece], stop[piece] & end, origin[piece]
+
+
+def put_in(kin, verts, e, piece, s, end) -> np.ndarray:
+    """verts with points put in on its pieces (directions e): vertex j + 1 of the result at s[j]
+    along piece[j], exactly the piece's end vertex where end[j]. A machine that keeps what it
+    solved at vertices is told (`carry`: the tilting gondola's balance)."""
     new = verts[piece] + scaled(e[piece], s)
     new[end] = verts[1:][piece[end]]
-    verts = np.vstack((verts[:1], new))
-    return verts, cap[piece], line[piece], draw[piece], stop[piece] & end, origin[piece]
+    out = np.vstack((verts[:1], new))
+    carry = getattr(kin, "carry", None)
+    if carry is not None:
+        carry(verts, out, piece, end)
+    return out
 
 
 def _rate_cuts(v_cord, k0, k1, d, cap) -> tuple[list, list]:
