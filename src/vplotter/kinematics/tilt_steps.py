@@ -248,10 +248,10 @@ def _lay(kin, p0, e, d, ends=None, known=(None, None)) -> Layout:
     j = np.arange(first[-1]) - first[owner]
     frac = j / k[owner]
     t = d[owner] * frac
-    pts = p0[owner] + t[:, None] * e[owner]
     inner = (j > 0) & (j < k[owner])
-    r = _vertex_jets(kin, pts, e, owner, inner, frac, ends, first, known)
+    r = _vertex_jets(kin, p0, t, e, owner, inner, frac, ends, first, known)
     if r is None:
+        pts = p0[owner] + t[:, None] * e[owner]
         state = None
         if ends is not None:
             vert = owner + (j > 0)                      # the vertex at each end point
@@ -287,24 +287,26 @@ def _lay(kin, p0, e, d, ends=None, known=(None, None)) -> Layout:
                   np.concatenate(([0], np.cumsum(k > 1))), ins - iown, iown, iupq, whole)
 
 
-def _vertex_jets(kin, pts, e, owner, inner, frac, ends, first, known):
-    """(r, qj) at the layout's points from the kept jets at the pieces' starts and ends, the
-    points inside the pieces solved; None if jets() did not keep them (along e)."""
+def _vertex_jets(kin, p0, t, e, owner, inner, frac, ends, first, known):
+    """(r, qj) at the layout's points (p0 + t e of their pieces) from the kept jets at the
+    pieces' starts and ends, the points inside the pieces solved; None if jets() did not keep
+    them (along e)."""
     if ends is None or not all(k is not None and np.array_equal(k[0], e) for k in known):
         return None
     at0, at1 = known[0][1:], known[1][1:]
     ins = np.flatnonzero(inner)
     own = owner[ins]
+    pts = p0[own] + t[ins][:, None] * e[own]
     phi = ends[0]
-    state = kin.gondola.solve(pts[ins, 0], pts[ins, 1],
+    state = kin.gondola.solve(pts[:, 0], pts[:, 1],
                               phi[own] + (phi[own + 1] - phi[own]) * frac[ins])
-    r_in, _ = kin.gondola.jets(pts[ins], e[own], state)
+    r_in, _ = kin.gondola.jets(pts, e[own], state)
     idx = (first[:-1], first[1:] - 1, ins)
 
     def put(a, b, c):
         if isinstance(a, (tuple, list)):
             return tuple(put(x, y, z) for x, y, z in zip(a, b, c))
-        out = np.empty(len(pts))
+        out = np.empty(len(owner))
         out[idx[0]], out[idx[1]], out[idx[2]] = a, b, c
         return out
 
