@@ -35,7 +35,7 @@ PHI_LIMIT = 1.2           # rad: the bracket (no gondola that balances turns thi
 PHI_NEWTON = 1e-7         # rad: Newton stops after a step below this: phi within 1e-13
 PHI_STEPS = 60
 PHI_FAST = 8              # plain Newton steps before the bracketed ones
-FEW = 2                   # points solved in Python floats (the array's overhead is most)
+FEW = 8                   # points solved in Python floats (the array's overhead is most)
 GUESS_CELLS = 32          # the first guess of phi: a table, this many cells across the anchors
 _TABLES: dict = {}        # the tables made, by gondola (the planner's and the schedule's machine)
 
