@@ -276,6 +276,39 @@ def test_a_checked_drawing_plays_as_it_streams(config_path, monkeypatch, tmp_pat
         assert np.array_equal(a, b)
 
 
+def test_points_put_in_keep_the_balance_of_the_old_vertices(monkeypatch):
+    """The planner cuts a window's pieces where the cords turn and finer (refine.put_in) and
+    then asks for the cords at the new vertices: the machine takes the balance at the old
+    vertices row by row and solves only the points put in, and it is the balance a solve of
+    every vertex finds."""
+    from vplotter.kinematics import tilt
+    from vplotter.motion.refine import put_in, scaled
+
+    kin = TwoCord(D, OX, OY, 40.0, 12.0, mass_below_pen_mm=30.0)
+    rng = np.random.default_rng(3)
+    verts = np.cumsum(rng.normal(0.0, 4.0, (400, 2)), axis=0) + [D / 2, OY]
+    diff = np.diff(verts, axis=0)
+    d = np.hypot(diff[:, 0], diff[:, 1])
+    e = scaled(diff, d, divide=True)
+    kin.extrema(verts[:-1], e, d)                   # (the planner's first ask: a solve)
+    piece = np.repeat(np.arange(len(d)), np.where(np.arange(len(d)) % 7 == 0, 3, 1))
+    first = np.r_[True, piece[1:] != piece[:-1]]
+    last = np.r_[piece[1:] != piece[:-1], True]
+    s = np.where(last, d[piece], d[piece] * np.where(first, 0.3, 0.6))
+    solved = []
+    real = tilt.Gondola.solve
+    monkeypatch.setattr(tilt.Gondola, "solve",
+                        lambda self, x, y, phi=None: solved.append(np.size(x)) or
+                        real(self, x, y, phi))
+    new = put_in(kin, verts, e, piece, s, last)
+    cords = kin.inverse(new)
+    assert len(new) == len(verts) + np.count_nonzero(~last)
+    assert sum(solved) <= np.count_nonzero(~last) + 1       # (the put in, and the last vertex)
+    monkeypatch.setattr(tilt.Gondola, "solve", real)
+    fresh = TwoCord(D, OX, OY, 40.0, 12.0, mass_below_pen_mm=30.0)
+    assert np.abs(cords - fresh.inverse(new)).max() < 1e-9
+
+
 @pytest.mark.parametrize("stretch", ["", "[cords]\nstretch = 0.004\n"], ids=["tilt", "stretch"])
 def test_a_drawing_on_a_tilting_gondola(stretch, config_path, tmp_path):
     """The dry-run trace decoded through the tilting gondola by tracecheck (which knows
