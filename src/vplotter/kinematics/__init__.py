@@ -17,10 +17,15 @@ A machine kind is an object with these methods (all vectorised over rows, machin
   straight lines from `start` through the points (beyond the page rectangle, which the plan
   checks itself; the two-cord machine reaches all of it), and `cannot_reach(x, y)`, the error
   for it (G-code mm) after "file:line:col: error: ".
-Optional (`planner.motor_path` falls back when a kind has none):
+Optional (the planner falls back, or does without, where a kind has none):
 - `path(verts, q0) -> (q_before, q_after)`: motor coordinates along a polyline starting at the
   motor coordinates q0, before and after each vertex (they differ where the motors must move
-  in place, the pen standing still: the polar table at the centre).
+  in place, the pen standing still: the polar table at the centre);
+- `bend_inside(mid, e, d, k0, k1, b0, b1) -> (M, N)`: the bend at the pieces' middles, given
+  the slopes and bends at their ends (the tilting gondola's short pieces skip a solve);
+- `carry(old, new, piece, end)`: the planner put points in on the pieces through `old`
+  (`refine.put_in`: new[j + 1] on piece[j], old's vertex piece[j] + 1 where end[j]); a kind
+  that keeps what it solved at vertices takes it over (the tilting gondola's balance).
 """
 
 from __future__ import annotations
