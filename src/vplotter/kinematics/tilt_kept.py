@@ -42,7 +42,7 @@ class Window:
 _WINDOWS: list = []     # (machine, Window): the planner and the schedule have each a machine
 _BY_VERTS: dict = {}    # id of a vertices' array -> [(its weakref, machine, Window)]
 _LAID: list = [None]    # a weakref to the window whose layout was made last (one layout kept)
-_NEXT: list = [None]    # (root's weakref, machine, window, offset): where the last block found ended
+_NEXT: list = [None]    # (root's weakref, machine, window, offset): where the last found ended
 
 
 def _machine(kin) -> tuple:
