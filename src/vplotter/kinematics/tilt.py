@@ -253,12 +253,11 @@ class Gondola:
             out.append((rx * dx + ry * dy) / np.sqrt(rx * rx + ry * ry))
         return np.stack(out, axis=-1)
 
-    def jets(self, xy, e, state=None, phi=None):
+    def jets(self, xy, e, state=None):
         """The cords r_m along p(s) = xy + s e at s = 0 as triples (value, d/ds, d2/ds2):
-        ((rLx, rLy), (rRx, rRy)), with phi's own triple; `state`: solve(xy) when known,
-        `phi`: a first guess for it."""
+        ((rLx, rLy), (rRx, rRy)), with phi's own triple; `state`: solve(xy) when known."""
         x, y = xy[:, 0], xy[:, 1]
-        phi, c, s, df, fx, fy, r = self.solve(x, y, phi) if state is None else state
+        phi, c, s, df, fx, fy, r = self.solve(x, y) if state is None else state
         ex, ey = e[:, 0], e[:, 1]
         p1 = -(fx * ex + fy * ey) / df
         sq = p1 * p1

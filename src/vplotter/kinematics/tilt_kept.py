@@ -1,7 +1,7 @@
 """What the tilting gondola's machine keeps between calls (kinematics/tilt_steps.py lays out
 and solves steps with it): the planned windows' vertices and balances (`remember`), the
-balance reused between the planner's calls (`balance`: the same points, moved on by one, or
-a first guess of phi; `carry`: the same points with points put in, which the planner tells),
+balance reused between the planner's calls (`balance`: the same points, or moved on by one;
+`carry`: the same points with points put in, which the planner tells),
 and the cords' derivatives the planner asks for at the starts and the ends of a window's
 pieces (`jets`), which the window's layout takes.
 
@@ -22,7 +22,6 @@ import numpy as np
 from vplotter.kinematics.tilt import cord_jets
 
 WINDOWS = 2                               # windows kept (the last ones the planner planned)
-NEAR_MM = 10.0                            # a few points solved this close: their phi a guess
 
 
 @dataclass
@@ -80,11 +79,7 @@ def find(kin, a: np.ndarray) -> tuple | None:
     the same array; else None. The blocks come in order: where the last one found ended is
     tried first (its first row the same memory as a's; asking for a view's address costs
     more)."""
-    root = a.base
-    if root is None:
-        return None
-    while isinstance(root.base, np.ndarray):
-        root = root.base
+    root = _root(a)
     key = kin.__dict__.get("_tilt_key")
     if key is None:
         key = kin._tilt_key = _machine(kin)
@@ -138,7 +133,7 @@ def balance(kin, xy: np.ndarray) -> tuple:
     """Gondola.solve at the points xy (N, 2), reusing what the machine solved last: the same
     points, a window's vertices less the last or the first (the starts and the ends of its
     pieces), or the points of the last solve moved on by one (one new point solved); else
-    solved, from a guess where _guess has one."""
+    solved (from Gondola's table of phi)."""
     n = len(xy)
     seen = getattr(kin, "_tilt_solves", [])
     for m, st in reversed([*seen, *((w.verts, w.state) for w in windows(kin))]):
@@ -161,11 +156,9 @@ def balance(kin, xy: np.ndarray) -> tuple:
             st = tuple(_joined(v, w) for v, w in zip(st, new))
             break
     else:
-        st = kin.gondola.solve(xy[:, 0], xy[:, 1], _guess(kin, xy, seen))
+        st = kin.gondola.solve(xy[:, 0], xy[:, 1])
     if n > 2:
         kin._tilt_solves = [*seen[-2:], (xy.copy(), st)]
-    else:
-        kin._tilt_near = (xy.copy(), st[0])
     return st
 
 
@@ -181,21 +174,14 @@ def end_slopes(kin, xy: np.ndarray, e: np.ndarray, d: np.ndarray) -> tuple:
     st = balance(kin, xy)
     k0 = slopes(kin, xy, e, st)
     ends = xy + e * d[:, None]
-    same = np.zeros(n, dtype=bool)
-    if n > 1:
-        gap = np.abs(ends[:-1] - xy[1:])
-        same[:-1] = np.maximum(gap[:, 0], gap[:, 1]) <= 1e-9
+    same = following(xy, ends)
     k1 = np.empty_like(k0)
     phi1 = np.empty(n)
-    if same[:-1].all():
-        at = slice(0, n - 1)
-        nxt = tuple(_cut(v, 1, n) for v in st)
-    else:
-        at = np.flatnonzero(same)
-        nxt = tuple(_rows(v, at + 1) for v in st)
-    if n > 1:
-        k1[at] = slopes(kin, xy[1:] if isinstance(at, slice) else xy[at + 1], e[at], nxt)
-        phi1[at] = nxt[0]
+    at = np.flatnonzero(same)
+    nxt = slice(1, n) if len(at) == n - 1 else at + 1      # (all follow on: views, no copies)
+    st1 = tuple(_rows(v, nxt) for v in st)
+    k1[at] = slopes(kin, xy[nxt], e[at], st1)
+    phi1[at] = st1[0]
     other = np.flatnonzero(~same)
     end_st = g.solve(ends[other, 0], ends[other, 1], st[0][other])     # (from the start's)
     k1[other] = slopes(kin, ends[other], e[other], end_st)
@@ -219,6 +205,16 @@ def end_slopes(kin, xy: np.ndarray, e: np.ndarray, d: np.ndarray) -> tuple:
     return k0, k1, search
 
 
+def following(xy: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """Which pieces (starts xy, ends ends) end where the next one starts (within a rounding
+    error: the balance there is the next start's)."""
+    same = np.zeros(len(xy), dtype=bool)
+    if len(xy) > 1:
+        gap = np.abs(ends[:-1] - xy[1:])
+        same[:-1] = np.maximum(gap[:, 0], gap[:, 1]) <= 1e-9
+    return same
+
+
 def slopes(kin, xy, e, st) -> np.ndarray:
     """(N, 2) the motor coordinates' slopes along e at xy, the balance there st."""
     if kin.stretch == 0.0:
@@ -239,25 +235,8 @@ def carry(kin, old: np.ndarray, new: np.ndarray, piece: np.ndarray, end: np.ndar
     out = tuple(_rows(v, rows) for v in st)
     if len(put):
         for o, v in zip(out, kin.gondola.solve(new[put, 0], new[put, 1])):
-            for a, b in (zip(o, v) if isinstance(o, tuple) else ((o, v),)):
-                a[put] = b
+            _put(o, put, v)
     kin._tilt_solves = [*getattr(kin, "_tilt_solves", [])[-2:], (new.copy(), out)]
-
-
-def _guess(kin, xy, seen):
-    """A first guess of phi at the points xy: at the middles of the pieces of the last solve,
-    the mean of its ends; else near the points of the last few (the steps of a search along a
-    piece), theirs; else None (Newton from zero)."""
-    n = len(xy)
-    if seen and len(seen[-1][0]) == n + 1:
-        m, st = seen[-1]
-        mid = 0.5 * (m[:-1] + m[1:])
-        if np.abs(mid - xy).max() <= 1e-9 * (1.0 + np.abs(xy).max()):
-            return 0.5 * (st[0][:-1] + st[0][1:])
-    near = kin.__dict__.get("_tilt_near")
-    if near is not None and near[0].shape == xy.shape and np.abs(near[0] - xy).max() < NEAR_MM:
-        return near[1]
-    return None
 
 
 def jets(kin, xy: np.ndarray, e: np.ndarray, state=None) -> tuple:
@@ -294,3 +273,8 @@ def _cut(v, a, b):
 
 def _rows(v, idx):
     return tuple(x[idx] for x in v) if isinstance(v, tuple) else v[idx]
+
+
+def _put(v, idx, w) -> None:
+    for x, y in (zip(v, w) if isinstance(v, tuple) else ((v, w),)):
+        x[idx] = y

@@ -229,7 +229,7 @@ class TwoCord:
         return np.stack(ks, axis=-1), np.stack(gs, axis=-1)
 
     def slope(self, xy: np.ndarray, e: np.ndarray) -> np.ndarray:
-        if self.gondola is not None and self.stretch == 0.0 and self.sag is None:
+        if self.gondola is not None and self.sag is None:
             xy = np.asarray(xy, dtype=float)
             return tilt_kept.slopes(self, xy, np.asarray(e, dtype=float),
                                     tilt_kept.balance(self, xy))
@@ -297,8 +297,7 @@ class TwoCord:
             if self.gondola is not None and n > 1:
                 # pieces that follow one another: the next start (the balance solved already;
                 # the slope differs by the bend times a rounding error)
-                gap = np.abs(ends[:-1] - p0[1:])
-                same = np.maximum(gap[:, 0], gap[:, 1]) <= 1e-9
+                same = tilt_kept.following(p0, ends)[:-1]
                 ends[:-1] = np.where(same[:, None], p0[1:], ends[:-1])
             k1 = self.slope(ends, e)
         # the rows of both motors at once with the tilting gondola (each iterate solves the
