@@ -19,13 +19,17 @@ The tensions with the gondola tilted come from the same force balance, so cord s
 set) uses them: t_L = r_Rx |r_L| / C, t_R = -r_Lx |r_R| / C, C = r_L x r_R (in units of the
 gondola's weight), the motor paying out q = |r| / (1 + stretch t).
 
-phi solves F = 0 for each point by Newton steps kept inside a bracket (bisection where a step
-would leave it); along a line p0 + s e, phi' and phi'' follow by implicit differentiation
+phi solves F = 0 for each point by Halley steps from a table of phi (one step for most points:
+cos and sin of phi follow it by their series), falling back on Newton steps kept inside a
+bracket (bisection where a step would leave it); a few points are solved in Python floats
+(numpy's overhead on a few rows is more than the arithmetic); along a line p0 + s e, phi' and phi'' follow by implicit differentiation
 (F_phi phi' = -F_s, F_phi phi'' = -(F_ss + 2 F_sphi phi' + F_phiphi phi'^2)), and every cord
 with them by Taylor arithmetic: the planner's slopes and bends stay exact.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -34,8 +38,10 @@ from vplotter.kinematics import taylor as tl
 PHI_LIMIT = 1.2           # rad: the bracket (no gondola that balances turns this far)
 PHI_NEWTON = 1e-7         # rad: Newton stops after a step below this: phi within 1e-13
 PHI_STEPS = 60
-PHI_FAST = 8              # plain Newton steps before the bracketed ones
-FEW = 8                   # points solved in Python floats (the array's overhead is most)
+PHI_FAST = 6              # Halley steps before the bracketed ones
+PHI_HALLEY = 1e-4         # rad: Halley stops after a step below this: phi within about 2e-13
+ROTATE_MAX = 1e-3         # rad: cos and sin of phi follow a step up to this by their series
+FEW = 16                  # points solved in Python floats (the array's overhead is most)
 GUESS_CELLS = 32          # the first guess of phi: a table, this many cells across the anchors
 _TABLES: dict = {}        # the tables made, by gondola (the planner's and the schedule's machine)
 
@@ -108,35 +114,68 @@ class Gondola:
         """phi at pen points (x, y): (phi, cos, sin, dF/dphi, dF/dx, dF/dy, cords r)."""
         x = np.asarray(x, dtype=float)
         y = np.asarray(y, dtype=float)
-        if x.size <= FEW:                 # Newton in Python floats: no array overhead
+        if x.size <= FEW:                 # in Python floats: no array overhead
             start = np.zeros(x.shape) if phi is None else np.broadcast_to(phi, x.shape)
-            phi = np.reshape([self.solve_one(a, b, p)[1] for a, b, p in
-                              zip(x.ravel().tolist(), y.ravel().tolist(),
-                                  np.ravel(start).tolist())], x.shape)
-            c, s = np.cos(phi), np.sin(phi)
-            _, df, r, g = self._terms(x, y, c, s)
-            return self._state(phi, c, s, df, r, g)
+            rows = [self.state_one(a, b, p) for a, b, p in
+                    zip(x.ravel().tolist(), y.ravel().tolist(), np.ravel(start).tolist())]
+            cols = np.array([(*st[:6], *st[6]) for st in rows]).reshape(-1, 10)
+            cols = np.ascontiguousarray(cols.T).reshape((10, *x.shape))
+            return (*cols[:6], tuple(cols[6:]))
         phi = self._guess(x, y) if phi is None else np.array(phi, dtype=float)
-        # plain Newton steps first (the balance is smooth and phi small: three steps from
-        # zero); the rows that did not settle on the stable balance go the bracketed way
-        step = np.zeros(x.shape)
-        co = self._coefficients(x, y)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            for _ in range(PHI_FAST):
-                f, df = self._f(co, np.cos(phi), np.sin(phi))
-                step = f / df
-                phi = phi - step
-                if not np.abs(step).max(initial=0.0) > PHI_NEWTON:
-                    break
+        # Halley steps (the balance is smooth and phi small: one step from the table's guess
+        # for most points); cos and sin turn with phi by their series, not computed again. The
+        # rows that did not settle on the stable balance go the bracketed way
         c, s = np.cos(phi), np.sin(phi)
+        co = self._coefficients(x, y)
+        last = np.zeros(x.shape)
+        at = None                               # the rows still stepping (None: all)
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            for _ in range(PHI_FAST):
+                if at is None:
+                    h = self._halley(co, c, s)
+                    phi, c, s = _turned(phi, c, s, h)
+                    last = np.abs(h)
+                    more = ~(last <= PHI_HALLEY)
+                    if not more.any():
+                        break
+                    at = np.flatnonzero(more)
+                else:
+                    h = self._halley(tuple(v[at] for v in co), c[at], s[at])
+                    phi[at], c[at], s[at] = _turned(phi[at], c[at], s[at], h)
+                    last[at] = np.abs(h)
+                    at = at[~(np.abs(h) <= PHI_HALLEY)]
+                    if not len(at):
+                        break
         f, df, r, g = self._terms(x, y, c, s)
-        ok = (np.abs(step) <= PHI_NEWTON) & (self.sign * df > 0) & (np.abs(phi) < PHI_LIMIT)
+        ok = (last <= PHI_HALLEY) & (self.sign * df > 0) & (np.abs(phi) < PHI_LIMIT)
         if not ok.all():
             i = np.flatnonzero(~ok)
             phi[i] = self._bracketed(x[i], y[i], np.zeros(len(i)))
             c, s = np.cos(phi), np.sin(phi)
             f, df, r, g = self._terms(x, y, c, s)
         return self._state(phi, c, s, df, r, g)
+
+    def _halley(self, co, c, s):
+        """Halley's step for F at cos/sin of phi c, s (from _coefficients co): the error after
+        it is about 0.15 step^3 (measured over the page of five gondolas)."""
+        pl, ql, pr, qr, wlx, wrx = co
+        (vlx, vly), (vrx, vry) = self.v
+        k0l, k0r = self._k0
+        kl = c * pl + s * ql + k0l
+        kr = c * pr + s * qr + k0r
+        rlx = wlx - (c * vlx - s * vly)
+        rrx = wrx - (c * vrx - s * vry)
+        f = kl * rrx - kr * rlx
+        # d/dphi: dc = -s, ds = c; d2/dphi2: -c, -s (so k'' = k0 - k, r_x'' = w_x - r_x)
+        dkl = c * ql - s * pl
+        dkr = c * qr - s * pr
+        drlx = s * vlx + c * vly
+        drrx = s * vrx + c * vry
+        df = dkl * rrx + kl * drrx - dkr * rlx - kr * drlx
+        d2f = ((k0l - kl) * rrx + 2.0 * dkl * drrx + kl * (wrx - rrx)
+               - (k0r - kr) * rlx - 2.0 * dkr * drlx - kr * (wlx - rlx))
+        newton = f / df
+        return newton / (1.0 - 0.5 * newton * d2f / df)
 
     def _guess(self, x, y) -> np.ndarray:
         """A first guess of phi at (x, y): the balance solved on a grid of cells D /
@@ -216,8 +255,18 @@ class Gondola:
     def solve_one(self, x: float, y: float, phi: float = 0.0) -> tuple:
         """solve() for one point in Python floats (no array overhead), from phi: (r_Lx, r_Ly,
         r_Rx, r_Ry) and phi."""
-        import math
+        phi = self._phi_one(x, y, phi)
+        return self._terms(x, y, math.cos(phi), math.sin(phi))[2], phi
 
+    def state_one(self, x: float, y: float, phi: float = 0.0) -> tuple:
+        """solve()'s answer for one point in Python floats, from phi."""
+        phi = self._phi_one(x, y, phi)
+        c, s = math.cos(phi), math.sin(phi)
+        _, df, r, g = self._terms(x, y, c, s)
+        return self._state(phi, c, s, df, r, g)
+
+    def _phi_one(self, x: float, y: float, phi: float) -> float:
+        """phi at one point by bracketed Newton steps from phi, in Python floats."""
         lo, hi = -PHI_LIMIT, PHI_LIMIT
         co = self._coefficients(x, y)
         for _ in range(PHI_STEPS):
@@ -231,7 +280,7 @@ class Gondola:
             step, phi = abs(nxt - phi), nxt
             if not step > PHI_NEWTON:
                 break
-        return self._terms(x, y, math.cos(phi), math.sin(phi))[2], phi
+        return phi
 
     def cords(self, x, y, phi=None) -> tuple:
         """The cord vectors (r_Lx, r_Ly, r_Rx, r_Ry) of the balanced gondola, and phi."""
@@ -257,8 +306,12 @@ class Gondola:
         """The cords r_m along p(s) = xy + s e at s = 0 as triples (value, d/ds, d2/ds2):
         ((rLx, rLy), (rRx, rRy)), with phi's own triple; `state`: solve(xy) when known."""
         x, y = xy[:, 0], xy[:, 1]
-        phi, c, s, df, fx, fy, r = self.solve(x, y) if state is None else state
-        ex, ey = e[:, 0], e[:, 1]
+        return self.jets_at(x, y, e[:, 0], e[:, 1], self.solve(x, y) if state is None else state)
+
+    def jets_at(self, x, y, ex, ey, state):
+        """jets() at pen (x, y) along (ex, ey), the balance there `state`: arrays, or Python
+        floats for one point (state_one)."""
+        phi, c, s, df, fx, fy, r = state
         p1 = -(fx * ex + fy * ey) / df
         sq = p1 * p1
         # with phi'' = 0 first: a body vector turns as (R w)' = phi' J R w, (R w)'' = -phi'^2
@@ -285,6 +338,18 @@ class Gondola:
         out = [((rx[0], rx[1], rx[2] + p2 * py), (ry[0], ry[1], ry[2] - p2 * px))
                for px, py, rx, ry in cords]
         return out, (phi, p1, p2)
+
+
+def _turned(phi, c, s, h) -> tuple:
+    """phi - h with its cos and sin: by the series of the turn by h (to within 1e-17 for steps
+    up to ROTATE_MAX), else computed."""
+    phi = phi - h
+    if not np.abs(h).max(initial=0.0) <= ROTATE_MAX:
+        return phi, np.cos(phi), np.sin(phi)
+    q = h * h
+    ch = 1.0 - q * (0.5 - q / 24.0)
+    sh = h * (1.0 - q / 6.0)
+    return phi, c * ch + s * sh, s * ch - c * sh
 
 
 def cord_jets(r, stretch: float):

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vplotter.kinematics.tilt import cord_jets
+from vplotter.kinematics.tilt import FEW, cord_jets
 
 WINDOWS = 2                               # windows kept (the last ones the planner planned)
 
@@ -194,6 +194,11 @@ def end_slopes(kin, xy: np.ndarray, e: np.ndarray, d: np.ndarray) -> tuple:
         left = m == 0
 
         def f(s):
+            if len(s) <= FEW:        # a few rows: in Python floats (numpy's overhead is most)
+                out = [_turn_one(kin, *row) for row in zip(
+                    p.tolist(), u.tolist(), s.tolist(), dd.tolist(), a.tolist(), b.tolist(),
+                    left.tolist(), sign.tolist())]
+                return np.array([k for k, _ in out]), np.array([b for _, b in out])
             pts = p + u * s[:, None]
             state = g.solve(pts[:, 0], pts[:, 1], a + b * (s / dd))
             r, _ = g.jets(pts, u, state)
@@ -203,6 +208,15 @@ def end_slopes(kin, xy: np.ndarray, e: np.ndarray, d: np.ndarray) -> tuple:
         return f
 
     return k0, k1, search
+
+
+def _turn_one(kin, p, u, s, d, a, b, left, sign) -> tuple:
+    """search's function at one row in Python floats: sign times the slope and the bend."""
+    g = kin.gondola
+    x, y = p[0] + u[0] * s, p[1] + u[1] * s
+    r, _ = g.jets_at(x, y, u[0], u[1], g.state_one(x, y, a + b * (s / d)))
+    q = cord_jets(r, kin.stretch)[0 if left else 1]
+    return sign * q[1], sign * q[2]
 
 
 def following(xy: np.ndarray, ends: np.ndarray) -> np.ndarray:

@@ -32,7 +32,7 @@ from vplotter.kinematics.taylor import sub as _sub
 from vplotter.kinematics import tilt_kept, tilt_steps
 from vplotter.kinematics.sag import Sag
 from vplotter.kinematics.sag import crossing as sag_crossing
-from vplotter.kinematics.tilt import Gondola, cords_value, tensions
+from vplotter.kinematics.tilt import FEW, Gondola, cord_jets, cords_value, tensions
 
 NEWTON_STEPS = 40          # at most; they stop when every row is within TOL_MM
 TOL_MM = 1e-10
@@ -144,6 +144,9 @@ class TwoCord:
         # Newton on q(p) = c (with a tilting gondola, its angle phi the third unknown, held
         # in balance at every step); the Jacobian rows are the slopes along x and y
         flat_c = c.reshape(-1, 2)
+        if self.gondola is not None and len(flat_c) <= FEW:      # a few: in Python floats
+            return np.reshape([self._forward_one(*q, *xy) for q, xy in
+                               zip(flat_c.tolist(), p.reshape(-1, 2).tolist())], c.shape)
         p = p.reshape(-1, 2).copy()
         ex = np.broadcast_to([1.0, 0.0], p.shape)
         ey = np.broadcast_to([0.0, 1.0], p.shape)
@@ -164,6 +167,23 @@ class TwoCord:
             if not np.abs(np.concatenate((dx, dy))).max(initial=0.0) > TOL_MM:
                 break
         return p.reshape(c.shape)
+
+    def _forward_one(self, ql: float, qr: float, x: float, y: float) -> tuple:
+        """forward() of one point with the tilting gondola in Python floats, from (x, y)."""
+        g, phi = self.gondola, 0.0
+        for _ in range(NEWTON_STEPS):
+            st = g.state_one(x, y, phi)
+            phi = st[0]
+            (lx, kxl, _), (rx, kxr, _) = cord_jets(g.jets_at(x, y, 1.0, 0.0, st)[0], self.stretch)
+            (_, kyl, _), (_, kyr, _) = cord_jets(g.jets_at(x, y, 0.0, 1.0, st)[0], self.stretch)
+            fl, fr = lx - ql, rx - qr
+            det = kxl * kyr - kyl * kxr
+            dx = (fl * kyr - kyl * fr) / det
+            dy = (kxl * fr - fl * kxr) / det
+            x, y = x - dx, y - dy
+            if not max(abs(dx), abs(dy)) > TOL_MM:
+                break
+        return float(x), float(y)
 
     def _rel(self, xy: np.ndarray) -> np.ndarray:
         """(N, 2 motors, 2) vectors from each (shifted) anchor to the points (the anchor
