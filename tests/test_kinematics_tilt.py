@@ -97,6 +97,20 @@ def test_inverse_against_a_root_per_point(name):
         assert cords == pytest.approx(np.array(g) / (1.0 + kin.stretch * t), abs=1e-9)
 
 
+@pytest.mark.parametrize("name", sorted(MODELS))
+def test_the_array_solve_agrees_with_the_one_point_solve(name):
+    """Arrays take Halley steps from the table of phi, their cos and sin turned by series; a
+    few points take bracketed Newton steps from zero in Python floats: the same balance."""
+    g = MODELS[name].gondola
+    rng = np.random.default_rng(5)
+    x, y = rng.uniform(0.1 * D, 0.9 * D, 2000), rng.uniform(0.3 * D, 1.8 * D, 2000)
+    phi, c, s = g.solve(x, y)[:3]
+    one = np.array([g.state_one(a, b)[0] for a, b in zip(x[:300].tolist(), y[:300].tolist())])
+    assert np.abs(phi[:300] - one).max() < 1e-12
+    assert np.abs(c - np.cos(phi)).max() < 1e-15 and np.abs(s - np.sin(phi)).max() < 1e-15
+    assert np.abs(phi).max() > 0.01                      # (it does turn)
+
+
 @settings(max_examples=100, deadline=None)
 @given(model, gx, gy)
 def test_the_torques_about_the_centre_of_mass_cancel(name, x, y):
