@@ -22,9 +22,10 @@ gondola's weight), the motor paying out q = |r| / (1 + stretch t).
 phi solves F = 0 for each point by Halley steps from a table of phi (one step for most points:
 cos and sin of phi follow it by their series), falling back on Newton steps kept inside a
 bracket (bisection where a step would leave it); a few points are solved in Python floats
-(numpy's overhead on a few rows is more than the arithmetic); along a line p0 + s e, phi' and phi'' follow by implicit differentiation
-(F_phi phi' = -F_s, F_phi phi'' = -(F_ss + 2 F_sphi phi' + F_phiphi phi'^2)), and every cord
-with them by Taylor arithmetic: the planner's slopes and bends stay exact.
+(numpy's overhead on a few rows is more than the arithmetic); along a line p0 + s e, phi' and
+phi'' follow by implicit differentiation (F_phi phi' = -F_s, F_phi phi'' = -(F_ss + 2 F_sphi
+phi' + F_phiphi phi'^2)), and every cord with them by Taylor arithmetic: the planner's slopes and
+bends stay exact.
 """
 
 from __future__ import annotations
@@ -94,21 +95,26 @@ class Gondola:
         return (alx * wy - aly * wlx, -(alx * wlx + aly * wy),
                 arx * wy - ary * wrx, -(arx * wrx + ary * wy), wlx, wrx)
 
-    def _f(self, co, c, s) -> tuple:
-        """F and dF/dphi from _coefficients at cos/sin of phi c, s."""
+    def _f(self, co, c, s, second: bool = False) -> tuple:
+        """F and dF/dphi from _coefficients at cos/sin of phi c, s (and d2F/dphi2: second)."""
         pl, ql, pr, qr, wlx, wrx = co
         (vlx, vly), (vrx, vry) = self.v
-        kl = c * pl + s * ql + self._k0[0]
-        kr = c * pr + s * qr + self._k0[1]
+        k0l, k0r = self._k0
+        kl = c * pl + s * ql + k0l
+        kr = c * pr + s * qr + k0r
         rlx = wlx - (c * vlx - s * vly)
         rrx = wrx - (c * vrx - s * vry)
         f = kl * rrx - kr * rlx
-        # d/dphi: dc = -s, ds = c
+        # d/dphi: dc = -s, ds = c; d2/dphi2: -c, -s (so k'' = k0 - k, r_x'' = w_x - r_x)
         dkl = c * ql - s * pl
         dkr = c * qr - s * pr
         drlx = s * vlx + c * vly
         drrx = s * vrx + c * vry
-        return f, dkl * rrx + kl * drrx - dkr * rlx - kr * drlx
+        df = dkl * rrx + kl * drrx - dkr * rlx - kr * drlx
+        if not second:
+            return f, df
+        return f, df, ((k0l - kl) * rrx + 2.0 * dkl * drrx + kl * (wrx - rrx)
+                       - (k0r - kr) * rlx - 2.0 * dkr * drlx - kr * (wlx - rlx))
 
     def solve(self, x, y, phi=None):
         """phi at pen points (x, y): (phi, cos, sin, dF/dphi, dF/dx, dF/dy, cords r)."""
@@ -158,22 +164,7 @@ class Gondola:
     def _halley(self, co, c, s):
         """Halley's step for F at cos/sin of phi c, s (from _coefficients co): the error after
         it is about 0.15 step^3 (measured over the page of five gondolas)."""
-        pl, ql, pr, qr, wlx, wrx = co
-        (vlx, vly), (vrx, vry) = self.v
-        k0l, k0r = self._k0
-        kl = c * pl + s * ql + k0l
-        kr = c * pr + s * qr + k0r
-        rlx = wlx - (c * vlx - s * vly)
-        rrx = wrx - (c * vrx - s * vry)
-        f = kl * rrx - kr * rlx
-        # d/dphi: dc = -s, ds = c; d2/dphi2: -c, -s (so k'' = k0 - k, r_x'' = w_x - r_x)
-        dkl = c * ql - s * pl
-        dkr = c * qr - s * pr
-        drlx = s * vlx + c * vly
-        drrx = s * vrx + c * vry
-        df = dkl * rrx + kl * drrx - dkr * rlx - kr * drlx
-        d2f = ((k0l - kl) * rrx + 2.0 * dkl * drrx + kl * (wrx - rrx)
-               - (k0r - kr) * rlx - 2.0 * dkr * drlx - kr * (wlx - rlx))
+        f, df, d2f = self._f(co, c, s, second=True)
         newton = f / df
         return newton / (1.0 - 0.5 * newton * d2f / df)
 
