@@ -134,24 +134,16 @@ class Gondola:
         c, s = np.cos(phi), np.sin(phi)
         co = self._coefficients(x, y)
         last = np.zeros(x.shape)
-        at = None                               # the rows still stepping (None: all)
+        at = slice(None)                        # the rows still stepping
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             for _ in range(PHI_FAST):
-                if at is None:
-                    h = self._halley(co, c, s)
-                    phi, c, s = _turned(phi, c, s, h)
-                    last = np.abs(h)
-                    more = ~(last <= PHI_HALLEY)
-                    if not more.any():
-                        break
-                    at = np.flatnonzero(more)
-                else:
-                    h = self._halley(tuple(v[at] for v in co), c[at], s[at])
-                    phi[at], c[at], s[at] = _turned(phi[at], c[at], s[at], h)
-                    last[at] = np.abs(h)
-                    at = at[~(np.abs(h) <= PHI_HALLEY)]
-                    if not len(at):
-                        break
+                h = self._halley(tuple(v[at] for v in co), c[at], s[at])
+                phi[at], c[at], s[at] = _turned(phi[at], c[at], s[at], h)
+                last[at] = np.abs(h)
+                more = ~(np.abs(h) <= PHI_HALLEY)
+                if not more.any():
+                    break
+                at = np.flatnonzero(more) if isinstance(at, slice) else at[more]
         f, df, r, g = self._terms(x, y, c, s)
         ok = (last <= PHI_HALLEY) & (self.sign * df > 0) & (np.abs(phi) < PHI_LIMIT)
         if not ok.all():
@@ -170,8 +162,8 @@ class Gondola:
 
     def _guess(self, x, y) -> np.ndarray:
         """A first guess of phi at (x, y): the balance solved on a grid of cells D /
-        GUESS_CELLS (once per gondola), interpolated bilinearly (within about 4e-5 on the
-        page: two Newton steps where four or five start from zero)."""
+        GUESS_CELLS (once per gondola), interpolated bilinearly (within about 4e-5 in the
+        page's middle: one Halley step settles it there)."""
         table = self.__dict__.get("_table")
         if table is None:
             key = (self.d_mm, self.v, self.a)
@@ -243,14 +235,8 @@ class Gondola:
         fy = -gl_x * rrx + gr_x * rlx
         return phi, c, s, df, fx, fy, r
 
-    def solve_one(self, x: float, y: float, phi: float = 0.0) -> tuple:
-        """solve() for one point in Python floats (no array overhead), from phi: (r_Lx, r_Ly,
-        r_Rx, r_Ry) and phi."""
-        phi = self._phi_one(x, y, phi)
-        return self._terms(x, y, math.cos(phi), math.sin(phi))[2], phi
-
     def state_one(self, x: float, y: float, phi: float = 0.0) -> tuple:
-        """solve()'s answer for one point in Python floats, from phi."""
+        """solve()'s answer for one point in Python floats (no array overhead), from phi."""
         phi = self._phi_one(x, y, phi)
         c, s = math.cos(phi), math.sin(phi)
         _, df, r, g = self._terms(x, y, c, s)

@@ -140,12 +140,12 @@ def balance(kin, xy: np.ndarray) -> tuple:
         if len(m) == n + 1:
             for a in (0, 1):
                 if np.array_equal(m[a:a + n], xy):
-                    return tuple(_cut(v, a, a + n) for v in st)
+                    return tuple(_rows(v, slice(a, a + n)) for v in st)
         elif len(m) == n and n > 1 and np.array_equal(m, xy):
             return st
         elif len(m) == n and n > 1 and np.array_equal(m[1:], xy[:-1]):
             new = kin.gondola.solve(xy[-1:, 0], xy[-1:, 1])
-            st = tuple(_joined(_cut(v, 1, n), w) for v, w in zip(st, new))
+            st = tuple(_joined(_rows(v, slice(1, n)), w) for v, w in zip(st, new))
             break
         elif len(m) == n - 1 and n > 2 and np.array_equal(m, xy[1:]):
             new = kin.gondola.solve(xy[:1, 0], xy[:1, 1])
@@ -279,10 +279,6 @@ def brief(r, qj) -> tuple:
 
 def _joined(a, b):
     return tuple(map(np.concatenate, zip(a, b))) if isinstance(a, tuple) else np.r_[a, b]
-
-
-def _cut(v, a, b):
-    return tuple(x[a:b] for x in v) if isinstance(v, tuple) else v[a:b]
 
 
 def _rows(v, idx):

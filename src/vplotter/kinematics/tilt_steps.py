@@ -88,7 +88,7 @@ def _ends(kin, p0, e, motor, piece, q, rising):
         i = last[need]
         pc = piece[i]
         # a few points (the block's last piece): the balance in floats
-        rel = np.array([kin.gondola.solve_one(float(x), float(y))[0][2 * motor:2 * motor + 2]
+        rel = np.array([kin.gondola.state_one(float(x), float(y))[6][2 * motor:2 * motor + 2]
                         for x, y in p0[pc]]) * -1.0
         b = np.einsum("ij,ij->i", rel, e[pc])
         root = np.sqrt(np.maximum(b * b - np.einsum("ij,ij->i", rel, rel) + q[i] ** 2, 0.0))
