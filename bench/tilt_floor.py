@@ -1,0 +1,144 @@
+"""What planning with a tilting gondola cannot get below: the exact arithmetic every plan needs.
+
+For car.ngc and the 16,000-line gcodetools-like file (bench/make/samples.py), on config.toml
+with a gondola 40 mm wide, the pen 15 mm below the cords, prints:
+
+- the planner alone (`pipeline.validate` from the parsed records: cut, plan, time, as
+  bench.plan_speed calls planning), level against tilted (centre of mass 30 mm below the pen),
+  best CPU of interleaved runs;
+- the floor: on the windows the planner made (their vertices, captured from the planner's own
+  calls), the work no exact plan can skip, tilted against level, as a share of the level
+  planner:
+  - "all vertices": the balance at every vertex of the planned windows (the points put in
+    included) and the motor coordinates' value, slope and bend at both ends of every piece
+    (what the profile takes), against the level gondola's closed forms for the same;
+  - "input vertices": the same on the vertices before refine puts points in (a plan that took
+    the points put in from a curve through the pieces' ends, not from the balance).
+
+Whatever else the planner does with tilt (the search for the cords' turns, refine's slopes,
+the bends at long pieces' middles, keeping the balances between its calls) comes on top.
+Run: python -m bench.tilt_floor [--runs N]
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+from bench import ROOT
+from bench.make.samples import gcodetools_file
+
+from vplotter import config, kinematics, pipeline
+from vplotter.inputs import gcode
+from vplotter.kinematics import tilt, vplotter
+
+
+def _planner(cfg, recs, path):
+    kin = kinematics.from_config(cfg)
+    cords = kin.inverse(kin.to_machine(np.zeros((1, 2))))[0]
+    return lambda: pipeline.validate(cfg, iter(recs), (0, 0), cords, path)
+
+
+def _best(fns, runs):
+    """Best CPU of each function, the functions run in turn (a busy spell slows them alike)."""
+    best = [float("inf")] * len(fns)
+    for _ in range(runs):
+        for i, fn in enumerate(fns):
+            t = time.process_time()
+            fn()
+            best[i] = min(best[i], time.process_time() - t)
+    return best
+
+
+def _windows(run):
+    """The planned windows' vertices (inverse of more than two points: the profile's call, after
+    refine) and the pieces' starts before refine (extrema's call), from one tilted run."""
+    seen = {"refined": [], "input": []}
+    inverse, extrema = vplotter.TwoCord.inverse, vplotter.TwoCord.extrema
+
+    def keep_inverse(self, xy):
+        if self.gondola is not None and np.ndim(xy) == 2 and len(xy) > 2:
+            seen["refined"].append(np.array(xy, dtype=float))
+        return inverse(self, xy)
+
+    def keep_extrema(self, p0, e, d):
+        if self.gondola is not None and len(p0) > 2:
+            seen["input"].append(np.vstack((p0, p0[-1] + e[-1] * d[-1])))
+        return extrema(self, p0, e, d)
+
+    vplotter.TwoCord.inverse, vplotter.TwoCord.extrema = keep_inverse, keep_extrema
+    try:
+        run()
+    finally:
+        vplotter.TwoCord.inverse, vplotter.TwoCord.extrema = inverse, extrema
+    return seen
+
+
+def _pieces(verts):
+    diff = np.diff(verts, axis=0)
+    d = np.hypot(diff[:, 0], diff[:, 1])
+    ok = d > 0
+    return verts, diff[ok] / d[ok, None], ok
+
+
+def exact_tilted(kin, windows):
+    """The balance at every vertex, the motor coordinates' triples at both ends of each
+    piece (Gondola.solve, Gondola.jets_at, tilt.cord_jets: the planner's own arithmetic)."""
+    g = kin.gondola
+    for verts in windows:
+        verts, e, ok = _pieces(verts)
+        state = g.solve(verts[:, 0], verts[:, 1])
+        for rows in (np.flatnonzero(ok), np.flatnonzero(ok) + 1):
+            st = tuple(tuple(x[rows] for x in v) if isinstance(v, tuple) else v[rows]
+                       for v in state)
+            r, _ = g.jets_at(verts[rows, 0], verts[rows, 1], e[:, 0], e[:, 1], st)
+            tilt.cord_jets(r, kin.stretch)
+
+
+def exact_level(kin, windows):
+    """The same for the level gondola: its cords at the vertices, the slopes and bends at both
+    ends of each piece (its closed forms)."""
+    for verts in windows:
+        verts, e, ok = _pieces(verts)
+        kin.inverse(verts)
+        rows = np.flatnonzero(ok)
+        kin.slope_bend(verts[rows], e)
+        kin.slope_bend(verts[rows + 1], e)
+
+
+def main(argv) -> None:
+    runs = int(argv[argv.index("--runs") + 1]) if "--runs" in argv else 15
+    base = config.load(os.path.join(ROOT, "config.toml"))
+    level = dataclasses.replace(base, gondola=config.Gondola(40.0, 15.0))
+    tilted = dataclasses.replace(base, gondola=config.Gondola(40.0, 15.0, 30.0))
+    files = [os.path.join(ROOT, "gcode_samples", "car.ngc"),
+             gcodetools_file(os.path.join(tempfile.mkdtemp(), "gcodetools.ngc"))]
+    print("| file | planner, level | planner, tilted | tilt costs | floor, all vertices "
+          "| floor, input vertices |")
+    print("| --- | --- | --- | --- | --- | --- |")
+    for path in files:
+        recs = list(gcode.read(path, warn=lambda m: None))
+        plan_level, plan_tilted = _planner(level, recs, path), _planner(tilted, recs, path)
+        n = max(3, runs // 3) if len(recs) > 5000 else runs
+        t_level, t_tilted = _best([plan_level, plan_tilted], n)
+        seen = _windows(plan_tilted)
+        k_level, k_tilted = kinematics.from_config(level), kinematics.from_config(tilted)
+        floors = []
+        for name in ("refined", "input"):
+            w = seen[name]
+            a, b = _best([lambda: exact_level(k_level, w), lambda: exact_tilted(k_tilted, w)],
+                         runs)
+            verts = sum(len(v) for v in w)
+            floors.append(f"+{(b - a) / t_level * 100:.1f} % ({verts:,} vertices: "
+                          f"{b * 1e3:.2f} ms against {a * 1e3:.2f} ms)")
+        print(f"| {os.path.basename(path)} | {t_level * 1e3:.1f} ms | {t_tilted * 1e3:.1f} ms "
+              f"| +{(t_tilted / t_level - 1) * 100:.0f} % | {floors[0]} | {floors[1]} |")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
