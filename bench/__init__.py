@@ -8,6 +8,15 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent   # the repository's root
 
 
+def start_of(cfg):
+    """Where the benchmarks' dry runs start: the motor counts (0, 0) with the pen at G-code
+    X0 Y0, and the motor coordinates there."""
+    from vplotter import kinematics
+
+    kin = kinematics.from_config(cfg)
+    return (0, 0), kin.inverse(kin.to_machine([[0.0, 0.0]]))[0]
+
+
 def test_support(name: str):
     """The module NAME of tests/support/ ("tracecheck", "bezier_svg", "wall"), imported as
     `support.NAME`, the way the tests import it. Not `import tests.support`: a `tests` package

@@ -26,12 +26,10 @@ import sys
 import tempfile
 import time
 
-import numpy as np
-
-from vplotter import config, kinematics, pipeline
+from vplotter import config, pipeline
 from vplotter.inputs import gcode
 
-from bench import ROOT
+from bench import ROOT, start_of
 from bench.make import samples
 
 
@@ -108,15 +106,9 @@ def _costs(cpu: dict, without: dict, name: str) -> str:
             if name in without else "")
 
 
-def _home(cfg) -> np.ndarray:
-    """The cords with the pen at G-code (0, 0), where the runs start."""
-    kin = kinematics.from_config(cfg)
-    return kin.inverse(kin.to_machine(np.zeros((1, 2))))[0]
-
-
 def _run(cfg, path: str) -> tuple:
     """CPU time of one dry run (parse, plan, schedule), and its summary."""
-    cords = _home(cfg)
+    cords = start_of(cfg)[1]
     summary = pipeline.Summary()
     t0 = time.process_time()
     for _rows in pipeline.stream(cfg, gcode.read(path, warn=lambda m: None), (0, 0), cords,
@@ -128,7 +120,7 @@ def _run(cfg, path: str) -> tuple:
 def _draw(cfg, path: str) -> float:
     """CPU time of what `draw` does (the dry run's rows made, not written): the whole file
     validated and planned, then the kept plan replayed (streamed again if too long to keep)."""
-    cords = _home(cfg)
+    cords = start_of(cfg)[1]
     t0 = time.process_time()
     summary = pipeline.validate(cfg, gcode.read(path, warn=lambda m: None), (0, 0), cords, path)
     rows = (pipeline.replay(cfg, summary.plan, (0, 0), cords) if summary.plan is not None

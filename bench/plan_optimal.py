@@ -20,11 +20,11 @@ import tempfile
 
 import numpy as np
 
-from bench import ROOT
+from bench import ROOT, start_of
 from bench.make import samples, varied
 from bench.reference import topp
 
-from vplotter import config, kinematics, pipeline
+from vplotter import config, pipeline
 from vplotter.inputs import gcode
 from vplotter.motion.steps import Dwell, Motion, PenMove, Wait
 
@@ -35,11 +35,6 @@ SMALL = ["tiny_shapes", "far_arcs", "micro_arcs", "gcodetools_far", "zigzag", "l
          "mixed", "corners"]
 LARGE = {"tiny_shapes": 20, "far_arcs": 20, "micro_arcs": 20, "gcodetools_far": 60,
          "zigzag": 20, "long_travel": 20, "mixed": 20, "gcodetools_small": 20}
-
-
-def start_of(cfg):
-    kin = kinematics.from_config(cfg)
-    return (0, 0), kin.inverse(kin.to_machine([[0.0, 0.0]]))[0]
 
 
 def records(path):

@@ -22,17 +22,12 @@ import sys
 import tempfile
 import time
 
-from bench import ROOT
+from bench import ROOT, start_of
 from bench.make.samples import gcodetools_file, rosettes_file
 from bench.reference.topp import reference
 
-from vplotter import config, kinematics, pipeline
+from vplotter import config, pipeline
 from vplotter.inputs import gcode
-
-
-def start_of(cfg):
-    kin = kinematics.from_config(cfg)
-    return (0, 0), kin.inverse(kin.to_machine([[0.0, 0.0]]))[0]
 
 
 def records(path):

@@ -30,18 +30,17 @@ import time
 
 import numpy as np
 
-from bench import ROOT
+from bench import ROOT, start_of
 from bench.make.samples import gcodetools_file
 
 from vplotter import config, kinematics, pipeline
 from vplotter.inputs import gcode
-from vplotter.kinematics import tilt, vplotter
+from vplotter.kinematics import tilt, tilt_kept, vplotter
 
 
 def _planner(cfg, recs, path):
-    kin = kinematics.from_config(cfg)
-    cords = kin.inverse(kin.to_machine(np.zeros((1, 2))))[0]
-    return lambda: pipeline.validate(cfg, iter(recs), (0, 0), cords, path)
+    counts, cords = start_of(cfg)
+    return lambda: pipeline.validate(cfg, iter(recs), counts, cords, path)
 
 
 def _best(fns, runs):
@@ -94,8 +93,7 @@ def exact_tilted(kin, windows):
         verts, e, ok = _pieces(verts)
         state = g.solve(verts[:, 0], verts[:, 1])
         for rows in (np.flatnonzero(ok), np.flatnonzero(ok) + 1):
-            st = tuple(tuple(x[rows] for x in v) if isinstance(v, tuple) else v[rows]
-                       for v in state)
+            st = tuple(tilt_kept._rows(v, rows) for v in state)
             r, _ = g.jets_at(verts[rows, 0], verts[rows, 1], e[:, 0], e[:, 1], st)
             tilt.cord_jets(r, kin.stretch)
 

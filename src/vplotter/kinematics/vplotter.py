@@ -159,9 +159,7 @@ class TwoCord:
             q, jx, _ = self._jets(p, ex, state)
             _, jy, _ = self._jets(p, ey, state)
             f = q - flat_c
-            det = jx[:, 0] * jy[:, 1] - jy[:, 0] * jx[:, 1]
-            dx = (f[:, 0] * jy[:, 1] - jy[:, 0] * f[:, 1]) / det
-            dy = (jx[:, 0] * f[:, 1] - f[:, 0] * jx[:, 1]) / det
+            dx, dy = _newton_step(f[:, 0], f[:, 1], jx[:, 0], jx[:, 1], jy[:, 0], jy[:, 1])
             p[:, 0] -= dx
             p[:, 1] -= dy
             if not np.abs(np.concatenate((dx, dy))).max(initial=0.0) > TOL_MM:
@@ -176,10 +174,7 @@ class TwoCord:
             phi = st[0]
             (lx, kxl, _), (rx, kxr, _) = cord_jets(g.jets_at(x, y, 1.0, 0.0, st)[0], self.stretch)
             (_, kyl, _), (_, kyr, _) = cord_jets(g.jets_at(x, y, 0.0, 1.0, st)[0], self.stretch)
-            fl, fr = lx - ql, rx - qr
-            det = kxl * kyr - kyl * kxr
-            dx = (fl * kyr - kyl * fr) / det
-            dy = (kxl * fr - fl * kxr) / det
+            dx, dy = _newton_step(lx - ql, rx - qr, kxl, kxr, kyl, kyr)
             x, y = x - dx, y - dy
             if not max(abs(dx), abs(dy)) > TOL_MM:
                 break
@@ -387,6 +382,13 @@ class TwoCord:
             return sign * (v[:, motor] - q), sign * k[:, motor]
 
         return _bracketed(f, np.zeros(len(q)), None, TOL_MM, np.maximum(s, 0.0))
+
+
+def _newton_step(f0, f1, x0, x1, y0, y1) -> tuple:
+    """forward()'s Newton step (dx, dy) for the two motors' residuals f0, f1, the Jacobian's
+    columns their slopes along x (x0, x1) and along y (y0, y1): arrays, or Python floats."""
+    det = x0 * y1 - y0 * x1
+    return (f0 * y1 - y0 * f1) / det, (x0 * f1 - f0 * x1) / det
 
 
 def _bracketed(f, lo, hi, tol, s=None):
