@@ -17,7 +17,19 @@ with a gondola 40 mm wide, the pen 15 mm below the cords, prints:
 
 Whatever else the planner does with tilt (the search for the cords' turns, refine's slopes,
 the bends at long pieces' middles, keeping the balances between its calls) comes on top.
-Run: python -m bench.tilt_floor [--runs N]
+
+Then the same planner with its tilt arithmetic cut back step by step (`--designs`), each as
+a share over the level planner, all runs interleaved (the planner's own code throughout;
+only the machine's answers change, so the plans differ a little):
+- "exact": the planner as it is;
+- "bends without phi''": the profile's slopes exact, its bends from the ends' first-order
+  terms (phi' exact, phi'' left out: not exact), the larger end's bend for a long piece;
+- "and level turns, slopes": also the cords' turns and refine's slopes from the level
+  gondola's closed forms (wrong cuts: no plan could ship this);
+- "least": the balance solved once at every vertex of the planned window and the exact
+  slopes at both ends of every piece, everything else the level gondola's: what any plan
+  with exact cords and step rates pays, whatever it borrows for the rest.
+Run: python -m bench.tilt_floor [--runs N] [--designs]
 """
 
 from __future__ import annotations
@@ -109,6 +121,101 @@ def exact_level(kin, windows):
         kin.slope_bend(verts[rows + 1], e)
 
 
+class _NoPhi2(vplotter.TwoCord):
+    """The profile's slopes exact, its bends from the ends' first-order terms (phi'' left out)."""
+
+    def slope_bend(self, xy, e):
+        return _first_order(self, xy, e, tilt_kept.balance(self, xy))
+
+    def bend_inside(self, mid, e, d, k0, k1, b0, b1):
+        return np.maximum(np.abs(b0), np.abs(b1))
+
+
+class _LevelTurns(_NoPhi2):
+    """And the cords' turns and refine's slopes from the level gondola's closed forms."""
+
+    def slope(self, xy, e):
+        return self._along(xy, e)[0]
+
+    def extrema(self, p0, e, d):
+        a = self.anchors
+        s = np.stack([-((p0[:, 0] - a[m, 0]) * e[:, 0] + (p0[:, 1] - a[m, 1]) * e[:, 1])
+                      for m in (0, 1)], axis=-1)
+        return np.where((s > 1e-9) & (s < d[:, None] - 1e-9), s, np.nan)
+
+
+class _Least(_LevelTurns):
+    """The balance once at every vertex of the window (the profile's cords), the exact slopes
+    at both ends of every piece from it; bends, turns and refine's slopes level."""
+
+    def inverse(self, xy):
+        m = np.asarray(xy, dtype=float)
+        if m.ndim != 2 or len(m) <= 2:
+            return super().inverse(xy)
+        self._solved = (m, self.gondola.solve(m[:, 0], m[:, 1]))
+        return tilt.cords_value(self._solved[1][6], self.stretch)
+
+    def slope_bend(self, xy, e):
+        m, state = self._solved
+        at = (xy.ctypes.data - m.ctypes.data) // m.strides[0]
+        st = tuple(tilt_kept._rows(v, slice(at, at + len(xy))) for v in state)
+        k, g = self._along(xy, e)
+        return self.gondola.slopes(xy, e, st), (1.0 - k * k) / g
+
+    def carry(self, old, new, piece, end):
+        pass
+
+
+def _first_order(kin, xy, e, state):
+    """Slopes and bends (N, 2) at xy along e with phi'' taken as 0."""
+    x, y = xy[:, 0], xy[:, 1]
+    _, _, _, df, fx, fy, r = state
+    ex, ey = e[:, 0], e[:, 1]
+    p1 = -(fx * ex + fy * ey) / df
+    ks, bs = [], []
+    for rx, ry, anchor in ((r[0], r[1], 0.0), (r[2], r[3], kin.gondola.d_mm)):
+        ux, uy = anchor - x - rx, -y - ry                 # the gondola's arm to the cord
+        inv = 1.0 / np.sqrt(rx * rx + ry * ry)
+        dx, dy = p1 * uy - ex, -ey - p1 * ux              # the cord's derivative
+        k = (rx * dx + ry * dy) * inv
+        ks.append(k)
+        bs.append((dx * dx + dy * dy - k * k + p1 * p1 * (rx * ux + ry * uy)) * inv)
+    return np.stack(ks, axis=-1), np.stack(bs, axis=-1)
+
+
+def _as(cls, cfg, recs, path):
+    """The planner on cfg with its machine of class cls (a TwoCord)."""
+    counts, cords = start_of(cfg)
+    made = kinematics.from_config
+
+    def run():
+        kin = made(cfg)
+        kin.__class__ = cls
+        kinematics.from_config = lambda _cfg: kin
+        try:
+            pipeline.validate(cfg, iter(recs), counts, cords, path)
+        finally:
+            kinematics.from_config = made
+
+    return run
+
+
+def designs(level, tilted, files, runs) -> None:
+    """The planner with its tilt arithmetic cut back step by step (see the docstring)."""
+    names = ("exact", "bends without phi''", "and level turns, slopes", "least")
+    print("| file | planner, level | " + " | ".join(names) + " |")
+    print("| --- | --- | " + " | ".join("---" for _ in names) + " |")
+    for path in files:
+        recs = list(gcode.read(path, warn=lambda m: None))
+        fns = [_planner(level, recs, path)] + [
+            _as(cls, tilted, recs, path)
+            for cls in (vplotter.TwoCord, _NoPhi2, _LevelTurns, _Least)]
+        n = max(3, runs // 3) if len(recs) > 5000 else runs
+        best = _best(fns, n)
+        print(f"| {os.path.basename(path)} | {best[0] * 1e3:.1f} ms | "
+              + " | ".join(f"+{(b / best[0] - 1) * 100:.0f} %" for b in best[1:]) + " |")
+
+
 def main(argv) -> None:
     runs = int(argv[argv.index("--runs") + 1]) if "--runs" in argv else 15
     base = config.load(os.path.join(ROOT, "config.toml"))
@@ -116,6 +223,9 @@ def main(argv) -> None:
     tilted = dataclasses.replace(base, gondola=config.Gondola(40.0, 15.0, 30.0))
     files = [os.path.join(ROOT, "gcode_samples", "car.ngc"),
              gcodetools_file(os.path.join(tempfile.mkdtemp(), "gcodetools.ngc"))]
+    if "--designs" in argv:
+        designs(level, tilted, files, runs)
+        return
     print("| file | planner, level | planner, tilted | tilt costs | floor, all vertices "
           "| floor, input vertices |")
     print("| --- | --- | --- | --- | --- | --- |")
