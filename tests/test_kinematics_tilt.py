@@ -345,3 +345,23 @@ def test_a_drawing_on_a_tilting_gondola(stretch, config_path, tmp_path):
     del level["gondola"]["mass_below_pen_mm"]
     dec = tc.decode(tr, level)
     assert tc.distances_to_polylines(dec.down_points[::20], tc.reference_path(gfile)).max() > 0.5
+
+
+@settings(max_examples=60, deadline=None)
+@given(model, st.lists(st.tuples(gx, gy), min_size=4, max_size=12, unique=True))
+def test_both_ends_of_each_piece_at_once(name, pts):
+    """`ends` (each vertex's share worked out once for its two pieces: phi's gradient and
+    Hessian) gives the slopes and bends `slope_bend` gives at the pieces' starts and ends."""
+    kin = MODELS[name]
+    verts = kin.to_machine(np.array(pts))
+    diff = np.diff(verts, axis=0)
+    d = np.hypot(diff[:, 0], diff[:, 1])
+    keep = np.r_[True, d > 1e-3]
+    verts = verts[keep]
+    diff = np.diff(verts, axis=0)
+    e = diff / np.hypot(diff[:, 0], diff[:, 1])[:, None]
+    k0, b0, k1, b1 = kin.ends(verts, e)
+    for at, k, b in ((verts[:-1], k0, b0), (verts[1:], k1, b1)):
+        ks, bs = kin.slope_bend(at, e)
+        assert np.abs(k - ks.T).max() < 1e-12
+        assert np.abs(b - bs.T).max() < 1e-12

@@ -25,7 +25,9 @@ bracket (bisection where a step would leave it); a few points are solved in Pyth
 (numpy's overhead on a few rows is more than the arithmetic); along a line p0 + s e, phi' and
 phi'' follow by implicit differentiation (F_phi phi' = -F_s, F_phi phi'' = -(F_ss + 2 F_sphi
 phi' + F_phiphi phi'^2)), and every cord with them by Taylor arithmetic: the planner's slopes and
-bends stay exact.
+bends stay exact. At a window's vertices the planner asks along two directions (the pieces
+before and after): `vertex_terms` works out what they share once (phi's gradient and Hessian
+in x and y), and `along` gives each direction's slopes and bends from it.
 """
 
 from __future__ import annotations
@@ -265,6 +267,42 @@ class Gondola:
         return r, phi
 
     # ------------------------------------------------------------------ along a line
+    def vertex_terms(self, x, y, state) -> tuple:
+        """What the slopes and bends of the cords (no stretch) along any direction at pen
+        points (x, y) share, the balance there `state`: phi's gradient and Hessian in x, y
+        (implicit differentiation of F = 0 with F's second partials, F being quadratic in the
+        pen point), and per cord its unit vector, 1 / |r|, the arm R v_m and the arm's parts
+        along and across the cord. `along` turns them into slopes and bends: a vertex's two
+        pieces share them."""
+        _, c, s, df, fx, fy, (rlx, rly, rrx, rry) = state
+        (alx, aly), (arx, ary) = self.a
+        ulx, uly = -x - rlx, -y - rly                        # R v_m = A_m - p - r_m
+        urx, ury = self.d_mm - x - rrx, -y - rry
+        glx, gly = c * alx - s * aly, s * alx + c * aly      # R a_m
+        grx, gry = c * arx - s * ary, s * arx + c * ary
+        gwl = -(glx * x + gly * y)                           # R a_m . (A_m - p)
+        gwr = grx * (self.d_mm - x) - gry * y
+        kl = glx * rly - gly * rlx                           # R a_m x r_m
+        kr = grx * rry - gry * rrx
+        k0l, k0r = self._k0                                  # - a_m x v_m
+        # F's second partials (F_yy = 0), p standing for phi
+        fxp = glx * rrx + gly * ury + gwl - grx * rlx - gry * uly - gwr
+        fyp = gly * rrx - glx * ury - gry * rlx + grx * uly
+        fpp = ((k0l - kl) * rrx - 2.0 * gwl * ury + kl * urx
+               - (k0r - kr) * rlx + 2.0 * gwr * uly - kr * ulx)
+        inv = -1.0 / df
+        px, py = fx * inv, fy * inv                          # phi_x, phi_y
+        hxx = (2.0 * (gry - gly) + (2.0 * fxp + fpp * px) * px) * inv
+        hxy = (glx - grx + fxp * py + fyp * px + fpp * px * py) * inv
+        hyy = (2.0 * fyp + fpp * py) * py * inv
+        cords = []
+        for rx, ry, ux, uy in ((rlx, rly, ulx, uly), (rrx, rry, urx, ury)):
+            q = np.sqrt(rx * rx + ry * ry)
+            iq = 1.0 / q
+            hx, hy = rx * iq, ry * iq
+            cords.append((q, hx, hy, iq, ux, uy, hx * ux + hy * uy, hy * ux - hx * uy))
+        return (px, py, hxx, hxy, hyy), tuple(cords)
+
     def slopes(self, xy, e, state=None) -> np.ndarray:
         """(N, 2) d|r_m|/ds along p(s) = xy + s e (the cords' slopes without stretch)."""
         x, y = xy[:, 0], xy[:, 1]
@@ -315,6 +353,28 @@ class Gondola:
         out = [((rx[0], rx[1], rx[2] + p2 * py), (ry[0], ry[1], ry[2] - p2 * px))
                for px, py, rx, ry in cords]
         return out, (phi, p1, p2)
+
+
+def along(terms, rows, e) -> tuple:
+    """(slopes, bends), each (2 motors, N), of the cords (no stretch) along the directions e
+    (N, 2) at the points `rows` (a slice) of Gondola.vertex_terms: with phi' and phi'' from
+    phi's gradient and Hessian, r' = -e - phi' J u and r'' = phi'^2 u - phi'' J u (u the arm
+    R v_m, J the quarter turn), the slope r.r' / |r| and the bend (|r'|^2 - slope^2) / |r| +
+    r.r'' / |r|."""
+    (px, py, hxx, hxy, hyy), cords = terms
+    ex, ey = e[:, 0], e[:, 1]
+    p1 = px[rows] * ex + py[rows] * ey
+    p2 = (hxx[rows] * ex + 2.0 * hxy[rows] * ey) * ex + hyy[rows] * ey * ey
+    sq = p1 * p1
+    k = np.empty((2, len(ex)))
+    b = np.empty((2, len(ex)))
+    for m, (_, hx, hy, iq, ux, uy, ru, rju) in enumerate(cords):
+        dx = p1 * uy[rows] - ex
+        dy = -ey - p1 * ux[rows]
+        km = hx[rows] * dx + hy[rows] * dy
+        k[m] = km
+        b[m] = (dx * dx + dy * dy - km * km) * iq[rows] + sq * ru[rows] - p2 * rju[rows]
+    return k, b
 
 
 def _turned(phi, c, s, h) -> tuple:

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vplotter.kinematics.tilt import FEW, cord_jets
+from vplotter.kinematics.tilt import FEW, along, cord_jets
 
 WINDOWS = 2                               # windows kept (the last ones the planner planned)
 
@@ -269,6 +269,26 @@ def jets(kin, xy: np.ndarray, e: np.ndarray, state=None) -> tuple:
                 setattr(w, name, (e.copy(), *brief(r, qj)))
                 break
     return qj
+
+
+def ends(kin, verts: np.ndarray, e: np.ndarray) -> tuple:
+    """The cords' slopes and bends (2, N) at the starts and the ends of the pieces through
+    verts (directions e), without stretch: each vertex's share worked out once for its two
+    pieces (Gondola.vertex_terms). Kept with the window for its layout as `jets` keeps its."""
+    state = balance(kin, verts)
+    terms = kin.gondola.vertex_terms(verts[:, 0], verts[:, 1], state)
+    n = len(e)
+    k0, b0 = along(terms, slice(0, n), e)
+    k1, b1 = along(terms, slice(1, n + 1), e)
+    mine = windows(kin)
+    if mine and mine[-1].verts is verts:
+        w = mine[-1]
+        r = state[6]
+        (ql, *_), (qr, *_) = terms[1]
+        for name, at, k in (("jets0", slice(0, n), k0), ("jets1", slice(1, n + 1), k1)):
+            setattr(w, name, (e.copy(), (((r[0][at],), (r[1][at],)), ((r[2][at],), (r[3][at],))),
+                              ((ql[at], k[0]), (qr[at], k[1]))))
+    return k0, b0, k1, b1
 
 
 def brief(r, qj) -> tuple:

@@ -266,6 +266,16 @@ class TwoCord:
         k, g = self._along(xy, e)
         return k, (1.0 - k * k) / g
 
+    def ends(self, verts: np.ndarray, e: np.ndarray) -> tuple:
+        """(slopes, bends) at the pieces' starts, then at their ends (each (M, N)) of the
+        pieces through verts along e: the tilting gondola without stretch works out each
+        vertex's share once for its two pieces (tilt_kept.ends)."""
+        if self.gondola is not None and self.sag is None and self.stretch == 0.0:
+            return tilt_kept.ends(self, verts, e)
+        k0, b0 = self.slope_bend(verts[:-1], e)
+        k1, b1 = self.slope_bend(verts[1:], e)
+        return k0.T.copy(), b0.T.copy(), k1.T.copy(), b1.T.copy()
+
     def bend_inside(self, mid, e, d, k0, k1, b0, b1) -> np.ndarray:
         """(M, N) the bend at the middles `mid` of pieces of length d along e, whose slopes and
         bends at their ends are k0, k1, b0, b1 (M, N). The tilting gondola's short pieces

@@ -61,8 +61,12 @@ def window(kin, v_cord, a_cord, verts, cap, stop, u_entry, turns) -> Window:
     diff = np.diff(verts, axis=0)
     d = np.hypot(diff[:, 0], diff[:, 1])
     e = scaled(diff, d, divide=True)
-    k0, b0 = _slope_bend(kin, verts[:-1], e)
-    k1, b1 = _slope_bend(kin, verts[1:], e)
+    both_ends = getattr(kin, "ends", None)
+    if both_ends is not None:
+        k0, b0, k1, b1 = both_ends(verts, e)
+    else:
+        k0, b0 = _slope_bend(kin, verts[:-1], e)
+        k1, b1 = _slope_bend(kin, verts[1:], e)
     kmax = np.maximum(np.abs(k0), np.abs(k1))
     # the bend is largest at an end or (for other machine kinds) inside: ends and middle
     mid = 0.5 * (verts[:-1] + verts[1:])
