@@ -98,16 +98,18 @@ def _pieces(verts):
 
 
 def exact_tilted(kin, windows):
-    """The balance at every vertex, the motor coordinates' triples at both ends of each
-    piece (Gondola.solve, Gondola.jets_at, tilt.cord_jets: the planner's own arithmetic)."""
+    """The balance at every vertex, the motor coordinates' value, slope and bend at both ends
+    of each piece (Gondola.solve, Gondola.vertex_terms, tilt.along: the planner's own
+    arithmetic)."""
     g = kin.gondola
     for verts in windows:
         verts, e, ok = _pieces(verts)
         state = g.solve(verts[:, 0], verts[:, 1])
-        for rows in (np.flatnonzero(ok), np.flatnonzero(ok) + 1):
-            st = tuple(tilt_kept._rows(v, rows) for v in state)
-            r, _ = g.jets_at(verts[rows, 0], verts[rows, 1], e[:, 0], e[:, 1], st)
-            tilt.cord_jets(r, kin.stretch)
+        tilt.cords_value(state[6], kin.stretch)
+        terms = g.vertex_terms(verts[:, 0], verts[:, 1], state)
+        rows = np.flatnonzero(ok)
+        tilt.along(terms, rows, e)
+        tilt.along(terms, rows + 1, e)
 
 
 def exact_level(kin, windows):
@@ -124,8 +126,11 @@ def exact_level(kin, windows):
 class _NoPhi2(vplotter.TwoCord):
     """The profile's slopes exact, its bends from the ends' first-order terms (phi'' left out)."""
 
-    def slope_bend(self, xy, e):
-        return _first_order(self, xy, e, tilt_kept.balance(self, xy))
+    def ends(self, verts, e):
+        state = tilt_kept.balance(self, verts)
+        n = len(e)
+        return (*_first_order(self, verts[:-1], e, _rows(state, slice(0, n))),
+                *_first_order(self, verts[1:], e, _rows(state, slice(1, n + 1))))
 
     def bend_inside(self, mid, e, d, k0, k1, b0, b1):
         return np.maximum(np.abs(b0), np.abs(b1))
@@ -155,19 +160,24 @@ class _Least(_LevelTurns):
         self._solved = (m, self.gondola.solve(m[:, 0], m[:, 1]))
         return tilt.cords_value(self._solved[1][6], self.stretch)
 
-    def slope_bend(self, xy, e):
-        m, state = self._solved
-        at = (xy.ctypes.data - m.ctypes.data) // m.strides[0]
-        st = tuple(tilt_kept._rows(v, slice(at, at + len(xy))) for v in state)
-        k, g = self._along(xy, e)
-        return self.gondola.slopes(xy, e, st), (1.0 - k * k) / g
+    def ends(self, verts, e):
+        state = self._solved[1]
+        out = []
+        for xy, at in ((verts[:-1], slice(0, len(e))), (verts[1:], slice(1, len(e) + 1))):
+            k, g = self._along(xy, e)
+            out += [self.gondola.slopes(xy, e, _rows(state, at)).T, ((1.0 - k * k) / g).T]
+        return tuple(out)
 
     def carry(self, old, new, piece, end):
         pass
 
 
+def _rows(state, at):
+    return tuple(tilt_kept._rows(v, at) for v in state)
+
+
 def _first_order(kin, xy, e, state):
-    """Slopes and bends (N, 2) at xy along e with phi'' taken as 0."""
+    """Slopes and bends (2, N) at xy along e with phi'' taken as 0."""
     x, y = xy[:, 0], xy[:, 1]
     _, _, _, df, fx, fy, r = state
     ex, ey = e[:, 0], e[:, 1]
@@ -180,7 +190,7 @@ def _first_order(kin, xy, e, state):
         k = (rx * dx + ry * dy) * inv
         ks.append(k)
         bs.append((dx * dx + dy * dy - k * k + p1 * p1 * (rx * ux + ry * uy)) * inv)
-    return np.stack(ks, axis=-1), np.stack(bs, axis=-1)
+    return np.stack(ks), np.stack(bs)
 
 
 def _as(cls, cfg, recs, path):
