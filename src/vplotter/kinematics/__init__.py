@@ -21,9 +21,9 @@ Optional (the planner falls back, or does without, where a kind has none):
 - `path(verts, q0) -> (q_before, q_after)`: motor coordinates along a polyline starting at the
   motor coordinates q0, before and after each vertex (they differ where the motors must move
   in place, the pen standing still: the polar table at the centre);
-- `ends(verts, e) -> (k0, b0, k1, b1)`, each (M, N): `slope` and `bend` at the starts and at
-  the ends of the pieces through verts (directions e), where a kind shares the work of a
-  vertex between its two pieces (the tilting gondola);
+- `ends(verts, e) -> (k0, b0, k1, b1)`, each (M, N), or None: `slope` and `bend` at the starts
+  and at the ends of the pieces through verts (directions e), where a kind shares the work of
+  a vertex between its two pieces (the tilting gondola; None: asked at each end instead);
 - `bend_inside(mid, e, d, k0, k1, b0, b1) -> (M, N)`: the bend at the pieces' middles, given
   the slopes and bends at their ends (the tilting gondola's short pieces skip a solve);
 - `carry(old, new, piece, end)`: the planner put points in on the pieces through `old`

@@ -282,12 +282,11 @@ def ends(kin, verts: np.ndarray, e: np.ndarray) -> tuple:
     k1, b1 = along(terms, slice(1, n + 1), e)
     mine = windows(kin)
     if mine and mine[-1].verts is verts:
-        w = mine[-1]
         r = state[6]
         (ql, *_), (qr, *_) = terms[1]
         for name, at, k in (("jets0", slice(0, n), k0), ("jets1", slice(1, n + 1), k1)):
-            setattr(w, name, (e.copy(), (((r[0][at],), (r[1][at],)), ((r[2][at],), (r[3][at],))),
-                              ((ql[at], k[0]), (qr[at], k[1]))))
+            cords = (((r[0][at],), (r[1][at],)), ((r[2][at],), (r[3][at],)))
+            setattr(mine[-1], name, (e.copy(), *brief(cords, ((ql[at], k[0]), (qr[at], k[1])))))
     return k0, b0, k1, b1
 
 

@@ -266,15 +266,14 @@ class TwoCord:
         k, g = self._along(xy, e)
         return k, (1.0 - k * k) / g
 
-    def ends(self, verts: np.ndarray, e: np.ndarray) -> tuple:
+    def ends(self, verts: np.ndarray, e: np.ndarray) -> tuple | None:
         """(slopes, bends) at the pieces' starts, then at their ends (each (M, N)) of the
-        pieces through verts along e: the tilting gondola without stretch works out each
-        vertex's share once for its two pieces (tilt_kept.ends)."""
+        pieces through verts along e, where the tilting gondola without stretch works out each
+        vertex's share once for its two pieces (tilt_kept.ends); None otherwise (the planner
+        asks slope_bend at both ends)."""
         if self.gondola is not None and self.sag is None and self.stretch == 0.0:
             return tilt_kept.ends(self, verts, e)
-        k0, b0 = self.slope_bend(verts[:-1], e)
-        k1, b1 = self.slope_bend(verts[1:], e)
-        return k0.T.copy(), b0.T.copy(), k1.T.copy(), b1.T.copy()
+        return None
 
     def bend_inside(self, mid, e, d, k0, k1, b0, b1) -> np.ndarray:
         """(M, N) the bend at the middles `mid` of pieces of length d along e, whose slopes and

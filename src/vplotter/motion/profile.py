@@ -62,8 +62,9 @@ def window(kin, v_cord, a_cord, verts, cap, stop, u_entry, turns) -> Window:
     d = np.hypot(diff[:, 0], diff[:, 1])
     e = scaled(diff, d, divide=True)
     both_ends = getattr(kin, "ends", None)
-    if both_ends is not None:
-        k0, b0, k1, b1 = both_ends(verts, e)
+    got = both_ends(verts, e) if both_ends is not None else None
+    if got is not None:
+        k0, b0, k1, b1 = got
     else:
         k0, b0 = _slope_bend(kin, verts[:-1], e)
         k1, b1 = _slope_bend(kin, verts[1:], e)
