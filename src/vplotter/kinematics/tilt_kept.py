@@ -26,16 +26,24 @@ WINDOWS = 2                               # windows kept (the last ones the plan
 
 @dataclass
 class Window:
-    """A planned window's vertices (a copy), their balance (Gondola.solve), its pieces'
-    directions, and its layout once a block asked for it."""
+    """A planned window's vertices, their balance (Gondola.solve), its pieces' directions,
+    and its layout once a block asked for it. The vertices are the planner's array, held by a
+    weak reference: the window is kept in this module's tables for as long as that array
+    lives, and must not be what keeps it alive (every window of a long drawing would then be
+    kept for the process's life)."""
 
-    verts: np.ndarray
+    ref: object                     # the planner's vertices' array (weakref.ref or _Held)
     state: tuple
     e: np.ndarray | None = None
     d: np.ndarray | None = None
     lay: object | None = None       # its tilt_steps.Layout
     jets0: tuple | None = None      # (e, r, qj) of jets() at the pieces' starts (`brief`)
     jets1: tuple | None = None      # and at their ends
+
+    @property
+    def verts(self) -> np.ndarray | None:
+        """The window's vertices (None once the planner's array is gone)."""
+        return self.ref()
 
 
 _WINDOWS: list = []     # (machine, Window): the planner and the schedule have each a machine
@@ -53,7 +61,7 @@ def windows(kin) -> list:
     key = kin.__dict__.get("_tilt_key")
     if key is None:
         key = kin._tilt_key = _machine(kin)
-    return [w for m, w in _WINDOWS if m == key]
+    return [w for m, w in _WINDOWS if m == key and w.ref() is not None]
 
 
 def remember(kin, xy: np.ndarray, state: tuple) -> None:
@@ -63,15 +71,26 @@ def remember(kin, xy: np.ndarray, state: tuple) -> None:
     mine = [i for i, (m, _) in enumerate(_WINDOWS) if m == key]
     for i in reversed(mine[:len(mine) - WINDOWS + 1]):
         del _WINDOWS[i]
-    w = Window(xy, state)
+    root = _root(xy)
+    # (the planner's windows are arrays of their own; a view would die before its array)
+    w = Window(weakref.ref(xy) if root is xy else _Held(xy), state)
     _WINDOWS.append((key, w))
     del _WINDOWS[:-4 * WINDOWS]
-    root = _root(xy)
     kept = _BY_VERTS.get(id(root))
     if kept is None:
         kept = _BY_VERTS[id(root)] = []
         weakref.finalize(root, _BY_VERTS.pop, id(root), None)
     kept.append((weakref.ref(root), key, w))
+
+
+class _Held:
+    """A strong reference that reads like a weak one (Window.ref)."""
+
+    def __init__(self, a):
+        self.a = a
+
+    def __call__(self):
+        return self.a
 
 
 def find(kin, a: np.ndarray) -> tuple | None:
