@@ -332,6 +332,22 @@ def test_the_windows_go_with_the_drawing(config_path, tmp_path):
     assert kept() == before
 
 
+def test_the_tables_of_phi_kept_are_few():
+    """Each gondola's first guesses come from a table of phi made once; a fit tries many
+    gondolas, so only the last TABLES are kept, and a table made again answers the same."""
+    from vplotter.kinematics import tilt
+
+    x = np.linspace(120.0, 300.0, tilt.FEW + 4)            # (more than a few: the table's way)
+    y = np.linspace(250.0, 550.0, tilt.FEW + 4)
+    first = tilt.Gondola(D, 40.0, 12.0, 30.0).solve(x, y)[0]
+    for c in np.linspace(31.0, 90.0, tilt.TABLES + 8):
+        tilt.Gondola(D, 40.0, 12.0, float(c)).solve(x, y)
+        assert len(tilt._TABLES) <= tilt.TABLES
+    again = tilt.Gondola(D, 40.0, 12.0, 30.0)
+    assert (again.d_mm, again.v, again.a) not in tilt._TABLES        # (let go: made again)
+    assert np.array_equal(again.solve(x, y)[0], first)
+
+
 def test_points_put_in_keep_the_balance_of_the_old_vertices(monkeypatch):
     """The planner cuts a window's pieces where the cords turn and finer (refine.put_in) and
     then asks for the cords at the new vertices: the machine takes the balance at the old

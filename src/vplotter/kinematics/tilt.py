@@ -47,6 +47,7 @@ ROTATE_MAX = 1e-3         # rad: cos and sin of phi follow a step up to this by 
 FEW = 16                  # points solved in Python floats (the array's overhead is most)
 GUESS_CELLS = 32          # the first guess of phi: a table, this many cells across the anchors
 _TABLES: dict = {}        # the tables made, by gondola (the planner's and the schedule's machine)
+TABLES = 32               # kept at most (each 17 kB; `calibrate fit --fit-mass` makes about 15)
 
 
 class Gondola:
@@ -169,7 +170,12 @@ class Gondola:
         table = self.__dict__.get("_table")
         if table is None:
             key = (self.d_mm, self.v, self.a)
-            table = self._table = _TABLES.get(key) or _TABLES.setdefault(key, self._grid())
+            table = _TABLES.get(key)
+            if table is None:
+                table = _TABLES[key] = self._grid()
+                while len(_TABLES) > TABLES:      # (a fit tries many gondolas: the oldest go)
+                    del _TABLES[next(iter(_TABLES))]
+            self._table = table
         h, t = table
         rows, cols = t.shape
         fx = x / h
