@@ -252,3 +252,44 @@ def test_pattern_options_are_checked(config_path, tmp_path, capsys):
     err = capsys.readouterr().err
     assert "--rows" in err and "--margin" in err
     assert not (tmp_path / "p.csv").exists()
+
+
+def test_the_marks_grow_with_a_large_page(config_path, tmp_path, capsys):
+    """Up to pattern.PAGE_MM across the marks are 3 mm circles (the seed page's), then they
+    grow with the page, their margin too, so that a phone photo of the whole pattern on a
+    2 m wall shows them as large as on the seed machine's: the trace's circles say so."""
+    text = config_path.read_text()
+    for key, value in (("anchor_distance_mm", 2000.0), ("x_mm", 1000.0), ("y_mm", 1300.0),
+                       ("x_min_mm", -600.0), ("x_max_mm", 600.0), ("y_min_mm", -500.0),
+                       ("y_max_mm", 500.0)):
+        text = "\n".join(f"{key} = {value}" if line.split("=")[0].strip() == key else line
+                         for line in text.splitlines())
+    big = tmp_path / "big.toml"
+    big.write_text(text + "\n")
+    assert pattern.mark_size(_page(-200, 200, -250, 300)) == 1.0        # config.toml's
+    assert pattern.mark_size(_page(-600, 600, -500, 500)) == 2.0
+    trace = tmp_path / "t.csv"
+    assert run(big, "calibrate", "pattern", "--dry-run", "--trace", trace,
+               "-o", tmp_path / "p.csv") == 0
+    dec = tc.decode(tc.read_trace(trace), tc.load_config(big))
+    marks = pattern.read(tmp_path / "p.csv").marks
+    first = marks[1]
+    assert first.x_mm == pytest.approx(-600 + 2 * pattern.MARGIN_MM)        # the margin grew
+    down = np.asarray(dec.pen_down)
+    xy = np.column_stack((dec.x, dec.y))[down]
+    # round mark 1: its circle at 6 mm, its ring at 12 mm (twice CIRCLE_MM, FIRST_MM), its
+    # number from 17 mm on
+    near = np.hypot(*(xy - [first.x_mm, first.y_mm]).T)
+    assert near[near < 1.25 * 2 * pattern.FIRST_MM].max() == pytest.approx(
+        2 * pattern.FIRST_MM, abs=0.05)
+    assert near[near < 1.5 * 2 * pattern.CIRCLE_MM].max() == pytest.approx(
+        2 * pattern.CIRCLE_MM, abs=0.05)
+    assert run(big, "calibrate", "pattern", "--dry-run", "--margin", "25",
+               "-o", tmp_path / "q.csv") == 2
+    assert "31.4 mm or more" in capsys.readouterr().err
+
+
+def _page(x0, x1, y0, y1):
+    from types import SimpleNamespace
+
+    return SimpleNamespace(x_min_mm=x0, x_max_mm=x1, y_min_mm=y0, y_max_mm=y1)

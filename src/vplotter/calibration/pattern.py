@@ -33,6 +33,8 @@ FIRST_MM = 6.0           # mark 1 only: a second circle round the first (numbers
 DIGIT_GAP_MM = 2.5       # from the circle to the number (a photo tells them apart)
 DIGIT_MM = 4.0           # height of the numbers
 MOST_PAIRS = 30
+PAGE_MM = 600.0          # a page wider or taller than this gets marks as much larger (mark_size)
+MARGIN_MM = 25.0         # the marks this far inside the page by default (times mark_size)
 
 # a tiny stroke font: polylines in a box 0.6 wide, 1 high
 _W = 0.6
@@ -113,20 +115,34 @@ def _circle(x: float, y: float, r: float, line: int) -> Stroke:
     return circle
 
 
-def mark_strokes(mark: Mark) -> list[Stroke]:
+def mark_size(page) -> float:
+    """How much larger than CIRCLE_MM and the rest the marks are drawn on this page: 1 up to
+    PAGE_MM across, then in proportion, so that a phone photo of the whole pattern shows them
+    as many pixels across on a wall of 2 m as on the seed machine's (a 12 MP photo of marks
+    of 3 mm over 1.2 m loses them at 25 degrees off-axis)."""
+    return max(1.0, max(page.x_max_mm - page.x_min_mm, page.y_max_mm - page.y_min_mm) / PAGE_MM)
+
+
+def room_mm(size: float = 1.0) -> float:
+    """The margin a mark of mark_size `size` needs inside the page (mark 1 and its number)."""
+    return max(FIRST_MM + DIGIT_GAP_MM + 2 * 0.9 * DIGIT_MM, 2 * FIRST_MM) * size
+
+
+def mark_strokes(mark: Mark, size: float = 1.0) -> list[Stroke]:
     """The dot (one point: pen down and up without a step), the circle (mark 1: a second one
-    round it, so that a photo shows which mark is the first), the number."""
+    round it, so that a photo shows which mark is the first), the number; `size`: mark_size."""
     x, y = mark.x_mm, mark.y_mm
+    circle, first, digit = CIRCLE_MM * size, FIRST_MM * size, DIGIT_MM * size
     dot = Stroke(np.array([[x, y]]), line=mark.id)
-    out = [dot, _circle(x, y, CIRCLE_MM, mark.id)]
+    out = [dot, _circle(x, y, circle, mark.id)]
     if mark.id == 1:
-        out.append(_circle(x, y, FIRST_MM, mark.id))
-    left = x + (FIRST_MM if mark.id == 1 else CIRCLE_MM) + DIGIT_GAP_MM
+        out.append(_circle(x, y, first, mark.id))
+    left = x + (first if mark.id == 1 else circle) + DIGIT_GAP_MM * size
     for ch in str(mark.id):
         for poly in FONT[ch]:
-            p = np.array(poly, dtype=float) * DIGIT_MM
-            out.append(Stroke(p + [left, y - DIGIT_MM / 2], line=mark.id))
-        left += (_W + 0.3) * DIGIT_MM
+            p = np.array(poly, dtype=float) * digit
+            out.append(Stroke(p + [left, y - digit / 2], line=mark.id))
+        left += (_W + 0.3) * digit
     return out
 
 

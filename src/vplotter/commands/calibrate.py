@@ -128,14 +128,15 @@ def calibrate_pattern(args, cfg, command: str) -> int:
         if not 2 <= v <= 10:
             raise ConfigError(f"error: {name} must be 2..10 (got {v})")
     pg = cfg.page
-    room = max(pattern.FIRST_MM + pattern.DIGIT_GAP_MM + 2 * 0.9 * pattern.DIGIT_MM,
-               2 * pattern.FIRST_MM)
-    if not room <= args.margin < min(pg.x_max_mm - pg.x_min_mm, pg.y_max_mm - pg.y_min_mm) / 2:
+    size = pattern.mark_size(pg)
+    margin = pattern.MARGIN_MM * size if args.margin is None else args.margin
+    room = pattern.room_mm(size)
+    if not room <= margin < min(pg.x_max_mm - pg.x_min_mm, pg.y_max_mm - pg.y_min_mm) / 2:
         raise ConfigError(f"error: --margin must leave room for the marks: {room:g} mm or more, "
-                          f"and less than half the page (got {args.margin:g})")
+                          f"and less than half the page (got {margin:g})")
     pos = position(cfg, args, args.dry_run)
-    marks = pattern.grid(pg, args.rows, args.cols, args.margin)
-    records = list(to_records(s for m in marks for s in pattern.mark_strokes(m)))
+    marks = pattern.grid(pg, args.rows, args.cols, margin)
+    records = list(to_records(s for m in marks for s in pattern.mark_strokes(m, size)))
     summary = pipeline.validate(cfg, records, pos.counts, pos.ref_mm, PATTERN_NAME)
     print(f"{PATTERN_NAME}: {summary.text()}")
     dots: dict[int, tuple[int, int]] = {}

@@ -30,8 +30,9 @@ def add_calibrate(p) -> None:
     p.add_argument("--steps", type=int, default=2000, help="with `steps`: how many (default 2000)")
     p.add_argument("--rows", type=int, default=4, help="with `pattern`: rows of marks (default 4)")
     p.add_argument("--cols", type=int, default=4, help="with `pattern`: columns (default 4)")
-    p.add_argument("--margin", type=float, default=25.0, metavar="MM",
-                   help="with `pattern`: marks this far inside the page (default 25)")
+    p.add_argument("--margin", type=float, metavar="MM",
+                   help="with `pattern`: marks this far inside the page (default 25; more on "
+                        "a page over 600 mm, whose marks are larger)")
     p.add_argument("-o", "--output",
                    help="with `pattern`: the file to write (default pattern.csv); with "
                         "`photo`: a picture of the marks found (found.png)")
