@@ -30,6 +30,7 @@ SIGMA_TAPE_MM = 0.3         # a tape measure
 OUTLIER_SIGMAS, OUTLIER_MIN_MM = 5.0, 0.5
 MOST_LEFT_OUT = 3
 MOST_EVALUATIONS = 40       # per parameter and solve: a fit that good data gives in fewer
+FTOL = 1e-6                 # a step that lowers the cost by less than this share ends a solve
 
 
 @dataclass
@@ -88,7 +89,7 @@ def _solve(m0, keys, steps, photos, used, tapes, x0, most=MOST_EVALUATIONS):
     from scipy.optimize import least_squares
 
     sol = least_squares(_residuals, x0, args=(m0, keys, steps, photos, used, tapes),
-                        method="lm", x_scale="jac", diff_step=1e-5,
+                        method="lm", x_scale="jac", diff_step=1e-5, ftol=FTOL,
                         max_nfev=most * (len(x0) + 1))
     return sol
 
