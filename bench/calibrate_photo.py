@@ -12,16 +12,24 @@ far it is off its true shape. Two walls: the level one, and the same with a gond
 (its centre of mass 30 mm below the pen; config.toml without a [gondola], so the photo route
 fits the cord spacing, the pen offset and the centre of mass with the rest).
 
-Run: python -m bench.calibrate_photo [--mp 12] [--wall level|tilted|both]
+`--wide`: the tilted wall again on machines of 1 m and 2 m between the anchors (pages of
+640 x 600 mm and 1200 x 1000 mm, the pattern's marks twice as large on the second; every
+true value off config.toml's: anchors 9 mm, the origin (6, -5) mm, spools, stretch, cords
+50 mm apart, the pen 14 mm below them), the camera as much farther back as the page is
+larger than config.toml's.
+
+Run: python -m bench.calibrate_photo [--mp 12] [--wall level|tilted|both] [--wide]
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import dataclasses
 import io
 import math
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -61,16 +69,47 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--mp", type=float, default=12.0, help="megapixels (default 12)")
     ap.add_argument("--wall", choices=("level", "tilted", "both"), default="both")
+    ap.add_argument("--wide", action="store_true", help="tilted walls of 1 m and 2 m")
     args = ap.parse_args()
     tmp = Path(tempfile.mkdtemp(prefix="photo"))
     print("| wall | photo | pixels | time | CPU time | peak memory | test drawing off its shape |")
     print("| --- | --- | --- | --- | --- | --- | --- |")
+    if args.wide:
+        for d_mm, origin, page in ((1000.0, (500.0, 650.0), (320.0, -300.0, 300.0)),
+                                   (2000.0, (1000.0, 1300.0), (600.0, -500.0, 500.0))):
+            _wide(d_mm, origin, page)
+            far = max(2 * page[0], page[2] - page[1]) / 550.0
+            run_wall(tmp / f"wide{d_mm:.0f}", True, args.mp, f"tilted, {d_mm / 1000:g} m", far)
+        return
     for tilted in {"level": [False], "tilted": [True], "both": [False, True]}[args.wall]:
         run_wall(tmp / ("tilted" if tilted else "level"), tilted, args.mp)
 
 
-def run_wall(tmp: Path, tilted: bool, mp: float) -> None:
-    label = "tilted" if tilted else "level"
+def _wide(d_mm: float, origin: tuple, page: tuple) -> None:
+    """The simulated wall's config.toml and its true machine on a machine d_mm wide."""
+    text = (wall.REPO / "config.toml").read_text()
+    for key, value in (("anchor_distance_mm", d_mm), ("x_mm", origin[0]), ("y_mm", origin[1]),
+                       ("x_min_mm", -page[0]), ("x_max_mm", page[0]), ("y_min_mm", page[1]),
+                       ("y_max_mm", page[2])):
+        text = re.sub(rf"^{key} = \S+", f"{key} = {value}", text, flags=re.M)
+    wall._config = lambda gondola: text + (f"\n[gondola]\n{gondola}" if gondola else "")
+
+    def true_config(mass_below_mm=None, sag=None):
+        gondola = {"cord_spacing_mm": 50.0, "pen_below_mm": 14.0}
+        if mass_below_mm is not None:
+            gondola["mass_below_pen_mm"] = mass_below_mm
+        return tc.load_config({
+            "machine": {"anchor_distance_mm": d_mm + 9.0},
+            "origin": {"x_mm": origin[0] + 6.0, "y_mm": origin[1] - 5.0},
+            "motors": {"left_spool_circumference_mm": 25.0 * 1.012,
+                       "right_spool_circumference_mm": 25.0 * 0.991},
+            "gondola": gondola, "cords": {"stretch": 0.004}})
+
+    wall.true_config = true_config
+
+
+def run_wall(tmp: Path, tilted: bool, mp: float, label: str = "", far: float = 1.0) -> None:
+    label = label or ("tilted" if tilted else "level")
     tmp.mkdir()
     os.environ["XDG_STATE_HOME"] = str(tmp / "state")
     with contextlib.redirect_stdout(io.StringIO()):
@@ -78,15 +117,17 @@ def run_wall(tmp: Path, tilted: bool, mp: float) -> None:
         drawn = wall.draw_pattern(tmp / "pattern", tilted=tilted)
     strokes = tc.drawn_polylines(drawn["dec"])
     for i, (name, view) in enumerate(views(mp).items()):
+        view = dataclasses.replace(view, distance_mm=view.distance_mm * max(far, 1.0))
         here = tmp / f"w{i}"
         here.mkdir()
         os.environ["XDG_STATE_HOME"] = str(here / "state")
         w = wall.new_wall(here, drawn)
         photo = here / "photo.jpg"
         pp.render(strokes, photo, view, seed=i)
-        d = float(np.hypot(*(w["dots"][1] - w["dots"][16]))) + 0.3
+        last = max(w["dots"])
+        d = float(np.hypot(*(w["dots"][1] - w["dots"][last]))) + 0.3
         cmd = [sys.executable, "-m", "vplotter", "--config", str(w["cfg"]), "calibrate",
-               "photo", str(photo), "--pattern", str(w["csv"]), "--distance", "1", "16",
+               "photo", str(photo), "--pattern", str(w["csv"]), "--distance", "1", str(last),
                f"{d:.1f}"]
         t0 = time.perf_counter()
         r = subprocess.run([sys.executable, "-c", MEASURE, *cmd], capture_output=True, text=True)
