@@ -51,7 +51,10 @@ def locate(photo: Photo, ids: list[int], page_xy: np.ndarray) -> Located:
     """The marks of the pattern in the photo (`error` says what was found where not every
     mark was); an InputError where no pattern is seen at all."""
     cands = photo_marks.find(photo.small, photo.scale)
-    num = photo_identify.number(cands, ids, page_xy) if len(cands.xy) else None
+    num = photo_identify.number(
+        cands, ids, page_xy,
+        lambda which: photo_marks.rings(photo.small, photo.scale, cands, which)
+    ) if len(cands.xy) else None
     # a few marks matched among many more mark-like shapes off the grid: a texture's holes
     # that happened to lie near a grid (a photo of noise), not a pattern partly hidden
     chance = num is not None and len(num.found) < len(ids) and num.extra > 2 * len(num.found)

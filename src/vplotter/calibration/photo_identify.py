@@ -29,6 +29,8 @@ MATCH_SHARE = 0.3             # a candidate this near a prediction is that mark
 FIT_SHARE = 0.12              # and then this near the homography through all of them
 SAME_SIZE = 1.8               # a mark's ellipse area within this factor of the others'
 FIRST_TRIES, NEAR_TRIES = 8, 6
+RING_LEAD = 2.0               # mark 1 by its second circle: this much darker than the next
+RING_MIN = 0.02               # (darkness against the paper, 0..1)
 
 
 @dataclass
@@ -130,9 +132,11 @@ def _hypotheses(c: Candidates, one: int, typical: float, sense: float):
     return np.append(pool, one), xy, seeds
 
 
-def number(c: Candidates, ids: list[int], g: np.ndarray) -> Numbering | None:
+def number(c: Candidates, ids: list[int], g: np.ndarray, rings=None) -> Numbering | None:
     """Number the candidates c after the page positions g (G-code mm, y up) of the marks
-    `ids`; None where no mark 1 is seen."""
+    `ids`; None where no mark 1 is seen. Where no candidate is large enough for mark 1,
+    rings(indices) (photo_marks.rings) may name it: the one round hole whose second circle
+    stands out (RING_LEAD times the next one's darkness)."""
     first = ids.index(1) if 1 in ids else 0
     b, cc = _neighbours(g, first)
     sense = np.sign(_cross(g[b] - g[first], g[cc] - g[first]))
@@ -140,6 +144,13 @@ def number(c: Candidates, ids: list[int], g: np.ndarray) -> Numbering | None:
     typical = _typical(c, len(ids))
     ones = np.flatnonzero(c.area >= FIRST_SIZE * typical)
     ones = ones[np.argsort(-c.area[ones])][:FIRST_TRIES]
+    if not len(ones) and rings is not None:
+        marks = np.flatnonzero(c.fill > MARK_FILL)
+        if len(marks) >= 2:
+            dark = rings(marks)
+            top = np.argsort(-dark)
+            if dark[top[0]] > RING_LEAD * max(dark[top[1]], RING_MIN):
+                ones = marks[top[:1]]
     best, score = None, (-1, 0.0)
     for one in ones:
         pool, xy, seeds = _hypotheses(c, one, typical, sense)

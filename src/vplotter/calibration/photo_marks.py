@@ -29,6 +29,9 @@ BACKGROUND_PX = 61          # the box of the local paper brightness (reduced pho
 MIN_HOLE_PX = 8
 MIN_AXES = 0.3              # the hole's short axis over its long one
 MIN_FILL = 0.2
+FAINT_REACH = 1.5           # centre() of a faint circle: ink within this times the radius
+RING_ANGLES = 64            # rings(): directions round a candidate
+RING_BAND = (1.7, 2.3)      # and the radii, over its own circle's, where mark 1's second is
 
 
 @dataclass
@@ -103,15 +106,17 @@ def centre(full: np.ndarray, xy, radius_px: float) -> np.ndarray | None:
     paper = float(np.percentile(crop, 90))
     if not paper > 0:
         return None
-    dark = crop < INK_RATIO * paper
-    filled = ndimage.binary_fill_holes(dark)
-    lab, _ = ndimage.label(filled)
-    mid = lab[half - 2:half + 3, half - 2:half + 3]
-    labels = mid[mid > 0]
-    if labels.size == 0:
-        return None
-    region = lab == np.bincount(labels).argmax()
-    if not (dark[region].sum() < region.sum()):        # no hole: not a circle
+    region = _closed(crop < INK_RATIO * paper, half)
+    if region is None:              # a faint circle (a coarse or blurred photo): as `ink` does
+        lab, n = ndimage.label(crop < FAINT_RATIO * paper, structure=np.ones((3, 3)))
+        strong = np.zeros(n + 1, dtype=bool)
+        strong[lab[crop < INK_RATIO * paper]] = True
+        strong[0] = False
+        # (the faint halo may join the number beside the circle: only what is near it)
+        ys, xs = np.indices(crop.shape)
+        near = np.hypot(xs - half, ys - half) <= FAINT_REACH * radius_px
+        region = _closed(strong[lab] & near, half)
+    if region is None:
         return None
     region = ndimage.binary_dilation(region, iterations=2)
     weight = np.clip((paper - crop) / paper - 0.05, 0, None) * region
@@ -121,3 +126,43 @@ def centre(full: np.ndarray, xy, radius_px: float) -> np.ndarray | None:
     ys, xs = np.indices(crop.shape)
     return np.array([float((weight * xs).sum()) / total + x0,
                      float((weight * ys).sum()) / total + y0])
+
+
+def _closed(dark: np.ndarray, half: int) -> np.ndarray | None:
+    """The ink `dark` round the crop's middle with all it encloses, where it encloses
+    something (a closed circle); else None."""
+    from scipy import ndimage
+
+    lab, _ = ndimage.label(ndimage.binary_fill_holes(dark))
+    mid = lab[half - 2:half + 3, half - 2:half + 3]
+    labels = mid[mid > 0]
+    if labels.size == 0:
+        return None
+    region = lab == np.bincount(labels).argmax()
+    return region if dark[region].sum() < region.sum() else None
+
+
+def rings(small: np.ndarray, scale: int, c: Candidates, which: np.ndarray) -> np.ndarray:
+    """How plainly each candidate `which` has a second circle round its own at twice its
+    radius (mark 1's: where the photo is too coarse or blurred to close the ring between
+    them, it still shows): the ink's darkness against the paper round it (0..1), its median
+    over RING_ANGLES directions at each radius (a number beside a mark darkens a few of them,
+    a circle all), then at its darkest between RING_BAND times the radius where the
+    candidate's own circle is darkest."""
+    from scipy import ndimage
+
+    cx = (c.xy[which, 0] + 0.5) / scale - 0.5
+    cy = (c.xy[which, 1] + 0.5) / scale - 0.5
+    r = np.sqrt(c.area[which] / np.pi) / scale                 # the hole's radius
+    ang = np.linspace(0.0, 2 * np.pi, RING_ANGLES, endpoint=False)
+    rho = np.linspace(0.0, 5.0, 26)                            # over the hole's radius
+    px = cx[:, None, None] + r[:, None, None] * rho[None, :, None] * np.cos(ang)
+    py = cy[:, None, None] + r[:, None, None] * rho[None, :, None] * np.sin(ang)
+    b = ndimage.map_coordinates(small, [py.ravel(), px.ravel()], order=1, mode="nearest")
+    b = b.reshape(px.shape)
+    paper = np.maximum(np.percentile(b.reshape(len(which), -1), 90, axis=1), 1e-6)
+    dark = np.median(1.0 - b / paper[:, None, None], axis=2)   # (candidates, radii)
+    own = rho[np.argmax(np.where(rho <= 2.4, dark, -np.inf), axis=1)]
+    band = ((rho[None, :] >= RING_BAND[0] * own[:, None])
+            & (rho[None, :] <= RING_BAND[1] * own[:, None]))
+    return np.where(band, dark, -np.inf).max(axis=1)
