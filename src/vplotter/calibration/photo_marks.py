@@ -46,10 +46,17 @@ def ink(img: np.ndarray) -> np.ndarray:
     (FAINT_RATIO) that touch them (a thin line's faint stretches close the circles)."""
     from scipy import ndimage
 
-    bg = ndimage.uniform_filter(img, BACKGROUND_PX, mode="nearest")
-    lab, n = ndimage.label(img < FAINT_RATIO * bg, structure=np.ones((3, 3)))
+    return _hysteresis(img, ndimage.uniform_filter(img, BACKGROUND_PX, mode="nearest"))
+
+
+def _hysteresis(img: np.ndarray, paper) -> np.ndarray:
+    """Pixels darker than INK_RATIO of the paper (an array, or one value), and the fainter
+    ones (FAINT_RATIO) that touch them."""
+    from scipy import ndimage
+
+    lab, n = ndimage.label(img < FAINT_RATIO * paper, structure=np.ones((3, 3)))
     strong = np.zeros(n + 1, dtype=bool)
-    strong[lab[img < INK_RATIO * bg]] = True
+    strong[lab[img < INK_RATIO * paper]] = True
     strong[0] = False
     return strong[lab]
 
@@ -106,16 +113,12 @@ def centre(full: np.ndarray, xy, radius_px: float) -> np.ndarray | None:
     paper = float(np.percentile(crop, 90))
     if not paper > 0:
         return None
+    ys, xs = np.indices(crop.shape)
     region = _closed(crop < INK_RATIO * paper, half)
-    if region is None:              # a faint circle (a coarse or blurred photo): as `ink` does
-        lab, n = ndimage.label(crop < FAINT_RATIO * paper, structure=np.ones((3, 3)))
-        strong = np.zeros(n + 1, dtype=bool)
-        strong[lab[crop < INK_RATIO * paper]] = True
-        strong[0] = False
-        # (the faint halo may join the number beside the circle: only what is near it)
-        ys, xs = np.indices(crop.shape)
+    if region is None:              # a faint circle (a coarse or blurred photo): as `ink` does,
+        # only near it (the faint halo may join the number beside the circle)
         near = np.hypot(xs - half, ys - half) <= FAINT_REACH * radius_px
-        region = _closed(strong[lab] & near, half)
+        region = _closed(_hysteresis(crop, paper) & near, half)
     if region is None:
         return None
     region = ndimage.binary_dilation(region, iterations=2)
@@ -123,7 +126,6 @@ def centre(full: np.ndarray, xy, radius_px: float) -> np.ndarray | None:
     total = float(weight.sum())
     if not total > 0:
         return None
-    ys, xs = np.indices(crop.shape)
     return np.array([float((weight * xs).sum()) / total + x0,
                      float((weight * ys).sum()) / total + y0])
 

@@ -32,7 +32,7 @@ class Window:
     lives, and must not be what keeps it alive (every window of a long drawing would then be
     kept for the process's life)."""
 
-    ref: object                     # the planner's vertices' array (weakref.ref or _Held)
+    ref: weakref.ref                # to the planner's vertices' array
     state: tuple
     e: np.ndarray | None = None
     d: np.ndarray | None = None
@@ -72,8 +72,9 @@ def remember(kin, xy: np.ndarray, state: tuple) -> None:
     for i in reversed(mine[:len(mine) - WINDOWS + 1]):
         del _WINDOWS[i]
     root = _root(xy)
-    # (the planner's windows are arrays of their own; a view would die before its array)
-    w = Window(weakref.ref(xy) if root is xy else _Held(xy), state)
+    if root is not xy:        # (the planner's windows are arrays of their own: a view's
+        return                # window would die with the view, before its blocks)
+    w = Window(weakref.ref(xy), state)
     _WINDOWS.append((key, w))
     del _WINDOWS[:-4 * WINDOWS]
     kept = _BY_VERTS.get(id(root))
@@ -81,16 +82,6 @@ def remember(kin, xy: np.ndarray, state: tuple) -> None:
         kept = _BY_VERTS[id(root)] = []
         weakref.finalize(root, _BY_VERTS.pop, id(root), None)
     kept.append((weakref.ref(root), key, w))
-
-
-class _Held:
-    """A strong reference that reads like a weak one (Window.ref)."""
-
-    def __init__(self, a):
-        self.a = a
-
-    def __call__(self):
-        return self.a
 
 
 def find(kin, a: np.ndarray) -> tuple | None:
