@@ -1,9 +1,10 @@
 """What the tilting gondola's machine keeps between calls (kinematics/tilt_steps.py lays out
 and solves steps with it): the planned windows' vertices and balances (`remember`), the
 balance reused between the planner's calls (`balance`: the same points, or moved on by one;
-`carry`: the same points with points put in, which the planner tells),
-and the cords' derivatives the planner asks for at the starts and the ends of a window's
-pieces (`jets`), which the window's layout takes.
+`carry`: the same points with points put in, which the planner tells), the slopes the
+search for the cords' turning points works out, which refine asks for again (`known_slopes`,
+carried through the points put in), and the cords' derivatives the planner asks for at the
+starts and the ends of a window's pieces (`jets`), which the window's layout takes.
 
 The planner and the schedule have each a machine: the windows are kept here, by machine.
 A window lives as long as its vertices' array: the planner's, which its blocks' vertices are
@@ -174,29 +175,37 @@ def balance(kin, xy: np.ndarray) -> tuple:
 
 def end_slopes(kin, xy: np.ndarray, e: np.ndarray, d: np.ndarray) -> tuple:
     """For the pieces xy + s e, 0 <= s <= d (N): the cords' slopes (N, 2) at their starts and
-    at their ends (the balance at the starts solved as `balance` solves and keeps it; an end
-    where the next piece starts takes that start's), and f(rows, motors, sign) that makes the
+    at their ends (the balance at the starts solved as `balance` solves and keeps it, with the
+    last piece's end where xy is the planner's vertices but the last: the vertices' balance
+    at once; an end where the next piece starts takes that start's; the slopes kept for
+    refine: `known_slopes`), and f(rows, motors, sign) that makes the
     function a search for the cords' turning points needs: at s along those rows' pieces, sign
     times the slope and the bend of each row's cord (the balance solved from phi interpolated
     between the piece's ends)."""
     g = kin.gondola
     n = len(xy)
-    st = balance(kin, xy)
-    k0 = slopes(kin, xy, e, st)
+    whole = _whole(xy)            # the planner's vertices: xy and the last piece's end
+    whole = xy if whole is None else whole
+    st = balance(kin, whole)
+    phi0 = st[0][:n]
+    k0 = slopes(kin, xy, e, tuple(_rows(v, slice(0, n)) for v in st))
     ends = xy + e * d[:, None]
-    same = following(xy, ends)
+    same = following(whole, ends)
     k1 = np.empty_like(k0)
     phi1 = np.empty(n)
     at = np.flatnonzero(same)
-    nxt = slice(1, n) if len(at) == n - 1 else at + 1      # (all follow on: views, no copies)
+    nxt = at + 1
+    if len(at) == len(whole) - 1:                # all follow on: views, no copies
+        at, nxt = slice(0, len(at)), slice(1, len(at) + 1)
     st1 = tuple(_rows(v, nxt) for v in st)
-    k1[at] = slopes(kin, xy[nxt], e[at], st1)
+    k1[at] = slopes(kin, whole[nxt], e[at], st1)
     phi1[at] = st1[0]
     other = np.flatnonzero(~same)
-    end_st = g.solve(ends[other, 0], ends[other, 1], st[0][other])     # (from the start's)
-    k1[other] = slopes(kin, ends[other], e[other], end_st)
-    phi1[other] = end_st[0]
-    phi0 = st[0]
+    if len(other):
+        end_st = g.solve(ends[other, 0], ends[other, 1], phi0[other])     # (from the start's)
+        k1[other] = slopes(kin, ends[other], e[other], end_st)
+        phi1[other] = end_st[0]
+    kin._tilt_slopes = (whole, lambda: (e, k0, k1)) if whole is not xy else None
 
     def search(rows, m, sign):
         p, u, dd = xy[rows], e[rows], d[rows]
@@ -231,12 +240,24 @@ def _turn_one(kin, p, u, s, d, a, b, left, sign) -> tuple:
 
 def following(xy: np.ndarray, ends: np.ndarray) -> np.ndarray:
     """Which pieces (starts xy, ends ends) end where the next one starts (within a rounding
-    error: the balance there is the next start's)."""
-    same = np.zeros(len(xy), dtype=bool)
-    if len(xy) > 1:
-        gap = np.abs(ends[:-1] - xy[1:])
-        same[:-1] = np.maximum(gap[:, 0], gap[:, 1]) <= 1e-9
+    error: the balance there is the next start's); xy may have one row more (the last
+    piece's end vertex)."""
+    n = len(ends)
+    same = np.zeros(n, dtype=bool)
+    m = min(n, len(xy) - 1)
+    if m > 0:
+        gap = np.abs(ends[:m] - xy[1:m + 1])
+        same[:m] = np.maximum(gap[:, 0], gap[:, 1]) <= 1e-9
     return same
+
+
+def _whole(xy: np.ndarray) -> np.ndarray | None:
+    """The array whose rows but the last xy is (a view of its first rows), else None."""
+    base = xy.base
+    if (isinstance(base, np.ndarray) and base.ndim == 2 and len(base) == len(xy) + 1
+            and base.strides == xy.strides and xy.ctypes.data == base.ctypes.data):
+        return base
+    return None
 
 
 def slopes(kin, xy, e, st) -> np.ndarray:
@@ -261,6 +282,43 @@ def carry(kin, old: np.ndarray, new: np.ndarray, piece: np.ndarray, end: np.ndar
         for o, v in zip(out, kin.gondola.solve(new[put, 0], new[put, 1])):
             _put(o, put, v)
     kin._tilt_solves = [*getattr(kin, "_tilt_solves", [])[-2:], (new.copy(), out)]
+    known = getattr(kin, "_tilt_slopes", None)
+    kin._tilt_slopes = None
+    if known is not None and known[0] is old:
+        kin._tilt_slopes = (new, lambda: _carried(kin, known[1](), new, out, piece, put))
+
+
+def _carried(kin, slopes_old: tuple, new, st, piece, put) -> tuple:
+    """The slopes (e, k0, k1) of the pieces through new from those through old (carry's
+    arguments): a piece's part keeps the slope at an old vertex, the points put in are
+    worked out (along the piece they lie on)."""
+    e, k0, k1 = (np.take(a, piece, axis=0) for a in slopes_old)    # (a[piece]: slower)
+    if len(put):
+        kp = slopes(kin, np.take(new, put, axis=0), np.take(e, put - 1, axis=0),
+                    tuple(_rows(v, put) for v in st))
+        k1[put - 1] = kp                       # the end of the part before the point
+        k0[put] = kp                           # and the start of the part after it
+    return e, k0, k1
+
+
+def known_slopes(kin, xy: np.ndarray, e: np.ndarray) -> np.ndarray | None:
+    """The slopes at xy along e when the planner's search for the turning points (end_slopes)
+    worked them out for its vertices (carried through the points put in since): xy their rows
+    but the last, or but the first. None otherwise."""
+    known = getattr(kin, "_tilt_slopes", None)
+    if known is None or _root(xy) is not known[0]:
+        return None
+    verts = known[0]
+    if len(xy) != len(verts) - 1 or xy.strides != verts.strides:
+        return None
+    first = (xy.ctypes.data - verts.ctypes.data) // verts.strides[0]
+    if first not in (0, 1):
+        return None
+    e_k, k0, k1 = known[1]()
+    if e_k.shape != e.shape or not np.abs(e_k - e).max(initial=0.0) <= 1e-12:
+        return None
+    kin._tilt_slopes = (verts, lambda: (e_k, k0, k1))       # (worked out once)
+    return k1 if first else k0
 
 
 def jets(kin, xy: np.ndarray, e: np.ndarray, state=None) -> tuple:

@@ -246,8 +246,11 @@ class TwoCord:
     def slope(self, xy: np.ndarray, e: np.ndarray) -> np.ndarray:
         if self.gondola is not None and self.sag is None:
             xy = np.asarray(xy, dtype=float)
-            return tilt_kept.slopes(self, xy, np.asarray(e, dtype=float),
-                                    tilt_kept.balance(self, xy))
+            e = np.asarray(e, dtype=float)
+            known = tilt_kept.known_slopes(self, xy, e)
+            if known is not None:
+                return known
+            return tilt_kept.slopes(self, xy, e, tilt_kept.balance(self, xy))
         if not self.plain:
             return self._jets(xy, e)[1]
         return self._along(xy, e)[0]
