@@ -419,7 +419,7 @@ def _length(x, y):
 def cords_value(r, stretch: float) -> np.ndarray:
     """(N, 2) motor coordinates from the cord vectors (r_Lx, r_Ly, r_Rx, r_Ry)."""
     lx, ly, rx, ry = r
-    gl, gr = np.hypot(lx, ly), np.hypot(rx, ry)
+    gl, gr = np.sqrt(lx * lx + ly * ly), np.sqrt(rx * rx + ry * ry)    # (np.hypot: 3x slower)
     if stretch != 0.0:
         cross = lx * ry - ly * rx
         gl, gr = gl * cross / (cross + stretch * rx * gl), gr * cross / (cross - stretch * lx * gr)

@@ -37,7 +37,10 @@ from vplotter.kinematics.tilt import FEW, Gondola, cord_jets, cords_value, tensi
 NEWTON_STEPS = 40          # at most; they stop when every row is within TOL_MM
 TOL_MM = 1e-10
 FAST_TILT = True           # tilt: the step solver of tilt_steps (False: the exact one)
-MID_MM = 3.0               # tilt: longer pieces solve the bend at their middle (bend_inside)
+MID_SHARE = 0.1            # tilt: pieces longer than this share of the shorter cord at their
+#                            middle solve the bend there (bend_inside)
+TURN_MM = 1e-5             # tilt: the turning points' Newton stops after a step below this
+#                            (the point is then within about 1e-13 mm: the error squares)
 
 
 class TwoCord:
@@ -280,13 +283,17 @@ class TwoCord:
 
     def bend_inside(self, mid, e, d, k0, k1, b0, b1) -> np.ndarray:
         """(M, N) the bend at the middles `mid` of pieces of length d along e, whose slopes and
-        bends at their ends are k0, k1, b0, b1 (M, N). The tilting gondola's short pieces
-        (up to MID_MM) take the middle of the slope's cubic through its ends (within about
-        1e-4 of the bend there: its balance is not solved again); others solve it."""
+        bends at their ends are k0, k1, b0, b1 (M, N). The tilting gondola's pieces up to
+        MID_SHARE of the shorter cord take the middle of the slope's cubic through their ends
+        (within 1e-4 of the largest bend at the ends and the middle, on walls from 300 to
+        1000 mm: its balance is not solved again); longer ones solve it."""
         if self.gondola is None or self.sag is not None:
             return self.bend(mid, e).T
         out = 1.5 * (k1 - k0) / np.maximum(d, 1e-300) - 0.25 * (b0 + b1)
-        long = np.flatnonzero(d > MID_MM)
+        a = self.anchors
+        near = np.minimum(np.hypot(mid[:, 0] - a[0, 0], mid[:, 1] - a[0, 1]),
+                          np.hypot(mid[:, 0] - a[1, 0], mid[:, 1] - a[1, 1]))
+        long = np.flatnonzero(d > MID_SHARE * near)
         if len(long):
             out[:, long] = self.bend(mid[long], e[long]).T
         return out
@@ -354,7 +361,8 @@ class TwoCord:
                 t0, t1 = (k / np.sqrt(np.maximum(1.0 - k * k, 1e-12))
                           for k in (k0[rows, m], k1[rows, m]))
                 s0 = np.clip(d[rows] * t0 / (t0 - t1), 0.0, d[rows])
-            out[rows, m] = _bracketed(f, np.zeros(len(rows)), d[rows].astype(float), TOL_MM, s0)
+            out[rows, m] = _bracketed(f, np.zeros(len(rows)), d[rows].astype(float),
+                                      TURN_MM if tilt else TOL_MM, s0)
         return out
 
     def crossing(self, p0: np.ndarray, e: np.ndarray, motor: int, piece: np.ndarray,
