@@ -324,6 +324,20 @@ class Gondola:
             out.append((rx * dx + ry * dy) / np.sqrt(rx * rx + ry * ry))
         return np.stack(out, axis=-1)
 
+    def slope_terms(self, x, y, state) -> tuple:
+        """What the cords' slopes (no stretch) along any direction at pen points (x, y) share,
+        the balance there `state`: phi's gradient, and per cord its unit vector and the arm R v_m
+        across it (`slopes_along`: a vertex's two pieces share them)."""
+        _, _, _, df, fx, fy, (rlx, rly, rrx, rry) = state
+        inv = -1.0 / df
+        cords = []
+        for rx, ry, anchor in ((rlx, rly, 0.0), (rrx, rry, self.d_mm)):
+            iq = 1.0 / np.sqrt(rx * rx + ry * ry)
+            hx, hy = rx * iq, ry * iq
+            ux, uy = anchor - x - rx, -y - ry                  # R v_m = A_m - p - r_m
+            cords.append((hx, hy, hx * uy - hy * ux))
+        return fx * inv, fy * inv, cords
+
     def jets(self, xy, e, state=None):
         """The cords r_m along p(s) = xy + s e at s = 0 as triples (value, d/ds, d2/ds2):
         ((rLx, rLy), (rRx, rRy)), with phi's own triple; `state`: solve(xy) when known."""
@@ -382,6 +396,19 @@ def along(terms, rows, e) -> tuple:
         k[m] = km
         b[m] = (dx * dx + dy * dy - km * km) * iq[rows] + sq * ru[rows] - p2 * rju[rows]
     return k, b
+
+
+def slopes_along(terms, rows, e) -> np.ndarray:
+    """(N, 2) the cords' slopes (no stretch) along the directions e (N, 2) at the points `rows`
+    (a slice or indices) of Gondola.slope_terms: r.r' / |r| with r' = -e - phi' J u (u the arm
+    R v_m, J the quarter turn), phi' = grad phi . e."""
+    px, py, cords = terms
+    ex, ey = e[:, 0], e[:, 1]
+    p1 = px[rows] * ex + py[rows] * ey
+    out = np.empty((len(ex), 2))
+    for m, (hx, hy, w) in enumerate(cords):
+        out[:, m] = p1 * w[rows] - (hx[rows] * ex + hy[rows] * ey)
+    return out
 
 
 def _turned(phi, c, s, h) -> tuple:

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vplotter.kinematics.tilt import FEW, along, cord_jets
+from vplotter.kinematics.tilt import FEW, along, cord_jets, slopes_along
 
 WINDOWS = 2                               # windows kept (the last ones the planner planned)
 
@@ -188,7 +188,15 @@ def end_slopes(kin, xy: np.ndarray, e: np.ndarray, d: np.ndarray) -> tuple:
     whole = xy if whole is None else whole
     st = balance(kin, whole)
     phi0 = st[0][:n]
-    k0 = slopes(kin, xy, e, tuple(_rows(v, slice(0, n)) for v in st))
+    if kin.stretch == 0.0:          # (the vertices' share worked out once for both ends)
+        terms = g.slope_terms(whole[:, 0], whole[:, 1], st)
+
+        def at_rows(xs, es, rows):
+            return slopes_along(terms, rows, es)
+    else:
+        def at_rows(xs, es, rows):
+            return slopes(kin, xs, es, tuple(_rows(v, rows) for v in st))
+    k0 = at_rows(xy, e, slice(0, n))
     ends = xy + e * d[:, None]
     same = following(whole, ends)
     k1 = np.empty_like(k0)
@@ -197,9 +205,8 @@ def end_slopes(kin, xy: np.ndarray, e: np.ndarray, d: np.ndarray) -> tuple:
     nxt = at + 1
     if len(at) == len(whole) - 1:                # all follow on: views, no copies
         at, nxt = slice(0, len(at)), slice(1, len(at) + 1)
-    st1 = tuple(_rows(v, nxt) for v in st)
-    k1[at] = slopes(kin, whole[nxt], e[at], st1)
-    phi1[at] = st1[0]
+    k1[at] = at_rows(whole[nxt], e[at], nxt)
+    phi1[at] = st[0][nxt]
     other = np.flatnonzero(~same)
     if len(other):
         end_st = g.solve(ends[other, 0], ends[other, 1], phi0[other])     # (from the start's)
