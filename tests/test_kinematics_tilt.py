@@ -283,6 +283,9 @@ def test_a_checked_drawing_plays_as_it_streams(config_path, monkeypatch, tmp_pat
     summary = pipeline.validate(cfg, gcode.read(gfile, warn=print), (0, 0), q0, gfile)
     assert summary.plan is not None
     monkeypatch.setattr(tilt_steps, "_block_layout", lambda *a: pytest.fail("laid alone"))
+    # the windows the planner is done with keep of their balance what their layouts take
+    kept = [w for entries in tilt_kept._BY_VERTS.values() for _, _, w in entries]
+    assert sum(w.state[1] is None and w.state[0] is not None for w in kept) >= 3
     replayed = rows(pipeline.replay(cfg, summary.plan, (0, 0), q0))
     assert sum(1 for _ in tilt_kept._BY_VERTS) > tilt_kept.WINDOWS     # (kept by the plan)
     assert len(streamed[0]) > 50_000
@@ -330,6 +333,27 @@ def test_the_windows_go_with_the_drawing(config_path, tmp_path):
     assert summary.plan is not None and kept() > before          # (kept by the plan)
     del summary
     assert kept() == before
+
+
+def test_a_slim_window_is_solved_again_off_its_directions():
+    """A window the planner is done with keeps phi and the cords; a layout along other
+    directions than its kept derivatives' takes the whole balance, solved again."""
+    import weakref
+
+    from vplotter.kinematics import tilt_kept
+
+    kin = TwoCord(D, OX, OY, 40.0, 12.0, mass_below_pen_mm=30.0)
+    verts = kin.to_machine(np.array([[0.0, 0.0], [10.0, 5.0], [20.0, -5.0], [30.0, 0.0]]))
+    full = kin.gondola.solve(verts[:, 0], verts[:, 1])
+    e = np.diff(verts, axis=0)
+    e /= np.hypot(e[:, 0], e[:, 1])[:, None]
+    w = tilt_kept.Window(weakref.ref(verts), full, jets0=(e,), jets1=(e,))
+    tilt_kept._slim(w)
+    assert w.state[1] is None and w.state[0] is full[0] and w.state[6] is full[6]
+    assert tilt_kept.layout_state(kin, w, e) is w.state
+    again = tilt_kept.layout_state(kin, w, -e)
+    for a, b in zip(again[:6], full[:6]):
+        assert np.array_equal(a, b)
 
 
 def test_the_tables_of_phi_kept_are_few():

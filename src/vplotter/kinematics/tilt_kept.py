@@ -71,18 +71,37 @@ def remember(kin, xy: np.ndarray, state: tuple) -> None:
     key = _machine(kin)
     mine = [i for i, (m, _) in enumerate(_WINDOWS) if m == key]
     for i in reversed(mine[:len(mine) - WINDOWS + 1]):
-        del _WINDOWS[i]
+        _slim(_WINDOWS.pop(i)[1])
     root = _root(xy)
     if root is not xy:        # (the planner's windows are arrays of their own: a view's
         return                # window would die with the view, before its blocks)
     w = Window(weakref.ref(xy), state)
     _WINDOWS.append((key, w))
+    for _, old in _WINDOWS[:-4 * WINDOWS]:
+        _slim(old)
     del _WINDOWS[:-4 * WINDOWS]
     kept = _BY_VERTS.get(id(root))
     if kept is None:
         kept = _BY_VERTS[id(root)] = []
         weakref.finalize(root, _BY_VERTS.pop, id(root), None)
     kept.append((weakref.ref(root), key, w))
+
+
+def _slim(w: Window) -> None:
+    """A window the planner is done with keeps of its balance what its layout takes once the
+    cords' derivatives at its pieces' ends are kept (phi and the cords: `layout_state`)."""
+    if w.jets0 is not None and w.jets1 is not None:
+        w.state = (w.state[0], *(None,) * 5, w.state[6])
+
+
+def layout_state(kin, w: Window, e: np.ndarray) -> tuple:
+    """The balance a window's layout takes along its pieces' directions e: its kept one,
+    solved again where a slimmed window's kept derivatives are not along e (they always are
+    for the planner's windows)."""
+    if w.state[1] is not None or all(np.array_equal(j[0], e) for j in (w.jets0, w.jets1)):
+        return w.state
+    v = w.verts
+    return kin.gondola.solve(v[:, 0], v[:, 1])
 
 
 def find(kin, a: np.ndarray) -> tuple | None:
@@ -339,9 +358,10 @@ def jets(kin, xy: np.ndarray, e: np.ndarray, state=None) -> tuple:
     mine = windows(kin) if len(xy) > 2 else ()
     if mine and len(mine[-1].verts) == len(xy) + 1:
         w = mine[-1]
-        for a, name in ((0, "jets0"), (1, "jets1")):
+        for a, name, other in ((0, "jets0", w.jets1), (1, "jets1", w.jets0)):
             if np.array_equal(w.verts[a:a + len(xy)], xy):
-                setattr(w, name, (e.copy(), *brief(r, qj)))
+                same = other is not None and np.array_equal(other[0], e)
+                setattr(w, name, (other[0] if same else e.copy(), *brief(r, qj)))
                 break
     return qj
 
@@ -359,9 +379,10 @@ def ends(kin, verts: np.ndarray, e: np.ndarray) -> tuple:
     if mine and mine[-1].verts is verts:
         r = state[6]
         (ql, *_), (qr, *_) = terms[1]
+        kept = e.copy()                                   # (one copy for both ends)
         for name, at, k in (("jets0", slice(0, n), k0), ("jets1", slice(1, n + 1), k1)):
             cords = (((r[0][at],), (r[1][at],)), ((r[2][at],), (r[3][at],)))
-            setattr(mine[-1], name, (e.copy(), *brief(cords, ((ql[at], k[0]), (qr[at], k[1])))))
+            setattr(mine[-1], name, (kept, *brief(cords, ((ql[at], k[0]), (qr[at], k[1])))))
     return k0, b0, k1, b1
 
 

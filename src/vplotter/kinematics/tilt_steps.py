@@ -33,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vplotter.kinematics.tilt import cord_jets
-from vplotter.kinematics.tilt_kept import brief, find, laid
+from vplotter.kinematics.tilt_kept import brief, find, laid, layout_state
 
 SUB_MM = 3.0
 _ASKED: list = [None]     # (directions, window (weakly), offset) of the last call: its
@@ -117,8 +117,9 @@ def _window(kin, p0, e):
 
     def make():
         ok = w.d > 0
-        return _lay(kin, w.verts[:-1], np.where(ok[:, None], we, 0.0), np.where(ok, w.d, 0.0),
-                    w.state, (w.jets0, w.jets1))
+        e = np.where(ok[:, None], we, 0.0)
+        return _lay(kin, w.verts[:-1], e, np.where(ok, w.d, 0.0), layout_state(kin, w, e),
+                    (w.jets0, w.jets1))
 
     _ASKED[0] = (e, weakref.ref(w), i)
     return laid(w, make), i
