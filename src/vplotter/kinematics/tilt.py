@@ -438,8 +438,9 @@ def cord_jets(r, stretch: float):
 
 
 def _length(x, y):
-    """|(x, y)| as a triple from the triples x and y."""
-    g = np.sqrt(x[0] * x[0] + y[0] * y[0])
+    """|(x, y)| as a triple from the triples x and y (arrays, or Python floats)."""
+    g = x[0] * x[0] + y[0] * y[0]
+    g = math.sqrt(g) if isinstance(g, float) else np.sqrt(g)
     g1 = (x[0] * x[1] + y[0] * y[1]) / g
     return g, g1, (x[1] * x[1] + y[1] * y[1] + x[0] * x[2] + y[0] * y[2] - g1 * g1) / g
 

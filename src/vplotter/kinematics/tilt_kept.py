@@ -264,6 +264,13 @@ def _turn_one(kin, p, u, s, d, a, b, left, sign) -> tuple:
     return sign * q[1], sign * q[2]
 
 
+def bend_one(kin, x: float, y: float, ex: float, ey: float) -> tuple:
+    """The motor coordinates' bends along (ex, ey) at one point, in Python floats."""
+    g = kin.gondola
+    r, _ = g.jets_at(x, y, ex, ey, g.state_one(x, y))
+    return tuple(q[2] for q in cord_jets(r, kin.stretch))
+
+
 def following(xy: np.ndarray, ends: np.ndarray) -> np.ndarray:
     """Which pieces (starts xy, ends ends) end where the next one starts (within a rounding
     error: the balance there is the next start's); xy may have one row more (the last

@@ -291,11 +291,15 @@ class TwoCord:
             return self.bend(mid, e).T
         out = 1.5 * (k1 - k0) / np.maximum(d, 1e-300) - 0.25 * (b0 + b1)
         a = self.anchors
-        near = np.minimum(np.hypot(mid[:, 0] - a[0, 0], mid[:, 1] - a[0, 1]),
-                          np.hypot(mid[:, 0] - a[1, 0], mid[:, 1] - a[1, 1]))
-        long = np.flatnonzero(d > MID_SHARE * near)
-        if len(long):
+        x, y = mid[:, 0], mid[:, 1]
+        near = np.minimum((x - a[0, 0]) ** 2 + (y - a[0, 1]) ** 2,
+                          (x - a[1, 0]) ** 2 + (y - a[1, 1]) ** 2)          # (squared)
+        long = np.flatnonzero(d * d > MID_SHARE * MID_SHARE * near)
+        if len(long) > FEW:
             out[:, long] = self.bend(mid[long], e[long]).T
+        elif len(long):            # a few: in Python floats (numpy's overhead is most)
+            out[:, long] = np.array([tilt_kept.bend_one(self, *p, *u) for p, u in
+                                     zip(mid[long].tolist(), e[long].tolist())]).T
         return out
 
     def carry(self, old: np.ndarray, new: np.ndarray, piece: np.ndarray,
