@@ -156,6 +156,32 @@ def test_extrema_and_crossing(name, x, y, a, d, frac):
     props.extrema_and_crossing(MODELS[name], x, y, a, d, frac, cord_tol=1e-5, piece_tol=1e-6)
 
 
+@settings(max_examples=10, deadline=None)
+@given(model, st.integers(0, 2**32 - 1))
+def test_the_turns_one_by_one_and_many_at_once(name, seed):
+    """The search for where the cords turn takes a few rows one by one in Python floats and
+    many at once in arrays: both find the same points (pieces across each cord)."""
+    from vplotter.kinematics import tilt
+
+    kin = MODELS[name]
+    rng = np.random.default_rng(seed)
+    n = 3 * tilt.FEW
+    mid = kin.to_machine(np.c_[rng.uniform(-150, 150, n), rng.uniform(-150, 250, n)])
+    m = rng.integers(0, 2, n)                           # the cord each piece crosses
+    arm = np.c_[np.where(m == 0, -0.5, 0.5) * kin.spacing_mm, np.full(n, -kin.pen_below_mm)]
+    r = mid + arm - kin.anchors[m]                      # (about: the gondola turns a little)
+    e = np.c_[-r[:, 1], r[:, 0]] / np.hypot(r[:, 0], r[:, 1])[:, None]
+    e = e @ np.array([[1.0, 0.05], [-0.05, 1.0]]).T * rng.choice([-1.0, 1.0], (n, 1))
+    e /= np.hypot(e[:, 0], e[:, 1])[:, None]
+    d = rng.uniform(60.0, 120.0, n)           # (the turn is off the foot: the tilt)
+    p0 = mid - e * (d * rng.uniform(0.4, 0.6, n))[:, None]
+    many = kin.extrema(p0, e, d)
+    one = np.array([kin.extrema(p0[i:i + 1], e[i:i + 1], d[i:i + 1])[0] for i in range(n)])
+    assert np.count_nonzero(np.isfinite(many)) > tilt.FEW
+    assert np.array_equal(np.isnan(many), np.isnan(one))
+    assert np.nanmax(np.abs(many - one)) < 1e-9
+
+
 @pytest.mark.parametrize("name", sorted(MODELS))
 def test_the_step_solver_on_a_polyline(name):
     """Steps all along a long polyline of pieces that follow one another (as the schedule

@@ -15,6 +15,7 @@ calls, and blocks that are copies)."""
 
 from __future__ import annotations
 
+import functools
 import weakref
 from dataclasses import dataclass
 
@@ -239,23 +240,22 @@ def end_slopes(kin, xy: np.ndarray, e: np.ndarray, d: np.ndarray) -> tuple:
         left = m == 0
 
         def f(s):
-            if len(s) <= FEW:        # a few rows: in Python floats (numpy's overhead is most)
-                out = [_turn_one(kin, *row) for row in zip(
-                    p.tolist(), u.tolist(), s.tolist(), dd.tolist(), a.tolist(), b.tolist(),
-                    left.tolist(), sign.tolist())]
-                return np.array([k for k, _ in out]), np.array([b for _, b in out])
             pts = p + u * s[:, None]
             state = g.solve(pts[:, 0], pts[:, 1], a + b * (s / dd))
             r, _ = g.jets(pts, u, state)
             ql, qr = cord_jets(r, kin.stretch)
             return (sign * np.where(left, ql[1], qr[1]), sign * np.where(left, ql[2], qr[2]))
 
+        if len(rows) <= FEW:        # a few rows: each in Python floats (numpy's overhead is most)
+            f.one = [functools.partial(_turn_one, kin, *row) for row in zip(
+                p.tolist(), u.tolist(), dd.tolist(), a.tolist(), b.tolist(), left.tolist(),
+                sign.tolist())]
         return f
 
     return k0, k1, search
 
 
-def _turn_one(kin, p, u, s, d, a, b, left, sign) -> tuple:
+def _turn_one(kin, p, u, d, a, b, left, sign, s) -> tuple:
     """search's function at one row in Python floats: sign times the slope and the bend."""
     g = kin.gondola
     x, y = p[0] + u[0] * s, p[1] + u[1] * s

@@ -21,6 +21,8 @@ slopes and bends are exact derivatives along the line (second-order Taylor arith
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from vplotter.kinematics.taylor import add as _add
@@ -365,8 +367,13 @@ class TwoCord:
                 t0, t1 = (k / np.sqrt(np.maximum(1.0 - k * k, 1e-12))
                           for k in (k0[rows, m], k1[rows, m]))
                 s0 = np.clip(d[rows] * t0 / (t0 - t1), 0.0, d[rows])
-            out[rows, m] = _bracketed(f, np.zeros(len(rows)), d[rows].astype(float),
-                                      TURN_MM if tilt else TOL_MM, s0)
+            one = getattr(f, "one", None)
+            if one is not None:                 # (the tilting gondola's few rows, one by one)
+                out[rows, m] = [_bracketed_one(fi, 0.0, di, TURN_MM, si) for fi, di, si in
+                                zip(one, d[rows].tolist(), s0.tolist())]
+            else:
+                out[rows, m] = _bracketed(f, np.zeros(len(rows)), d[rows].astype(float),
+                                          TURN_MM if tilt else TOL_MM, s0)
         return out
 
     def crossing(self, p0: np.ndarray, e: np.ndarray, motor: int, piece: np.ndarray,
@@ -413,6 +420,25 @@ def _newton_step(f0, f1, x0, x1, y0, y1) -> tuple:
     columns their slopes along x (x0, x1) and along y (y0, y1): arrays, or Python floats."""
     det = x0 * y1 - y0 * x1
     return (f0 * y1 - y0 * f1) / det, (x0 * f1 - f0 * x1) / det
+
+
+def _bracketed_one(f, lo: float, hi: float, tol: float, s: float) -> float:
+    """_bracketed for one row in Python floats, f(s) -> (value, derivative), hi known."""
+    for _ in range(NEWTON_STEPS):
+        v, k = f(s)
+        if v >= 0 or k < -1e-9:
+            hi = s
+        else:
+            lo = s
+        nxt = s - v / k if k > 0 else math.nan
+        if not lo < nxt < hi:
+            nxt = (lo + hi) / 2.0
+        if v == 0:
+            nxt = s
+        step, s = abs(nxt - s), nxt
+        if not step > tol:
+            break
+    return s
 
 
 def _bracketed(f, lo, hi, tol, s=None):
