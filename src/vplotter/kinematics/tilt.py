@@ -44,7 +44,6 @@ PHI_STEPS = 60
 PHI_FAST = 6              # Halley steps before the bracketed ones
 PHI_HALLEY = 1e-4         # rad: Halley stops after a step below this: phi within about 2e-13
 ROTATE_MAX = 1e-3         # rad: cos and sin of phi follow a step up to this by their series
-ROTATE_GUESS = 0.05       # rad: and the table's guess, from its node's, when this near it
 FEW = 16                  # points solved in Python floats (the array's overhead is most)
 GUESS_CELLS = 64          # the first guess of phi: a table, this many cells across the anchors
 _TABLES: dict = {}        # the tables made, by gondola (the planner's and the schedule's machine)
@@ -131,14 +130,11 @@ class Gondola:
             cols = np.array([(*st[:6], *st[6]) for st in rows]).reshape(-1, 10)
             cols = np.ascontiguousarray(cols.T).reshape((10, *x.shape))
             return (*cols[:6], tuple(cols[6:]))
-        if phi is None:
-            phi, c, s = self._guess(x, y)
-        else:
-            phi = np.array(phi, dtype=float)
-            c, s = np.cos(phi), np.sin(phi)
+        phi = self._guess(x, y) if phi is None else np.array(phi, dtype=float)
         # Halley steps (the balance is smooth and phi small: one step from the table's guess
         # for most points); cos and sin turn with phi by their series, not computed again. The
         # rows that did not settle on the stable balance go the bracketed way
+        c, s = np.cos(phi), np.sin(phi)
         co = self._coefficients(x, y)
         last = np.zeros(x.shape)
         at = slice(None)                        # the rows still stepping
@@ -167,12 +163,11 @@ class Gondola:
         newton = f / df
         return newton / (1.0 - 0.5 * newton * d2f / df)
 
-    def _guess(self, x, y) -> tuple:
-        """A first guess of phi at (x, y), with its cos and sin: the balance solved on a grid
-        of cells D / GUESS_CELLS (once per gondola: 3 ms), interpolated bilinearly (within
-        3e-5 in the seed page's middle, 1.3e-4 at 99 % of its points: one Halley step settles
-        it; with half as many cells, 14 % of a 97,000-line drawing's points took a second
-        one); cos and sin turned from the node's (np.cos and np.sin cost 50 operations)."""
+    def _guess(self, x, y) -> np.ndarray:
+        """A first guess of phi at (x, y): the balance solved on a grid of cells D /
+        GUESS_CELLS (once per gondola: 3 ms), interpolated bilinearly (within 3e-5 in the
+        seed page's middle, 1.3e-4 at 99 % of its points: one Halley step settles it; with half
+        as many cells, 14 % of a 97,000-line drawing's points took a second one)."""
         table = self.__dict__.get("_table")
         if table is None:
             key = (self.d_mm, self.v, self.a)
@@ -182,7 +177,7 @@ class Gondola:
                 while len(_TABLES) > TABLES:      # (a fit tries many gondolas: the oldest go)
                     del _TABLES[next(iter(_TABLES))]
             self._table = table
-        h, t, ct, st = table
+        h, t = table
         rows, cols = t.shape
         fx = x / h
         fy = y / h
@@ -202,16 +197,7 @@ class Gondola:
         d -= a
         d -= b
         d -= c                                   # d - b - c + a
-        off = fx * b + fy * (c + fx * d)         # phi - a
-        phi = a + off
-        if not np.abs(off).max(initial=0.0) <= ROTATE_GUESS:
-            return phi, np.cos(phi), np.sin(phi)
-        # cos and sin of phi: the node's turned by off, by their series (to 1e-19)
-        q = off * off
-        ch = 1.0 - 0.5 * q * (1.0 - q / 12.0 * (1.0 - q / 30.0 * (1.0 - q / 56.0)))
-        sh = off * (1.0 - q / 6.0 * (1.0 - q / 20.0 * (1.0 - q / 42.0 * (1.0 - q / 72.0))))
-        ca, sa = ct.ravel()[k], st.ravel()[k]
-        return phi, ca * ch - sa * sh, sa * ch + ca * sh
+        return a + fx * b + fy * (c + fx * d)
 
     def _grid(self) -> tuple:
         """(h, phi on the grid): between the anchors (columns x = j h), from 2 h below them down
@@ -222,8 +208,8 @@ class Gondola:
         ys = np.arange(2 * GUESS_CELLS + 1) * h
         gx, gy = np.meshgrid(xs, np.maximum(ys, 2.0 * h))
         phi = self.solve(gx.ravel(), gy.ravel(), np.zeros(gx.size))[0]
-        phi = np.where(np.isfinite(phi), phi, 0.0).reshape(gx.shape)
-        return h, phi, np.cos(phi), np.sin(phi)
+        phi = np.where(np.isfinite(phi), phi, 0.0)
+        return h, phi.reshape(gx.shape)
 
     def _bracketed(self, x, y, phi):
         """phi by Newton steps kept inside a bracket (bisection where a step would leave it)."""
