@@ -147,7 +147,9 @@ class Gondola:
                 if not more.any():
                     break
                 at = np.flatnonzero(more) if isinstance(at, slice) else at[more]
+        del co, more, h                         # (let go before the terms: see vertex_terms)
         f, df, r, g = self._terms(x, y, c, s)
+        del f
         ok = (last <= PHI_HALLEY) & (self.sign * df > 0) & (np.abs(phi) < PHI_LIMIT)
         if not ok.all():
             i = np.flatnonzero(~ok)
@@ -297,11 +299,15 @@ class Gondola:
         fyp = gly * rrx - glx * ury - gry * rlx + grx * uly
         fpp = ((k0l - kl) * rrx - 2.0 * gwl * ury + kl * urx
                - (k0r - kr) * rlx + 2.0 * gwr * uly - kr * ulx)
+        # (the arrays let go as soon as they are used: with all of them held at once the heap
+        # grows past what the C library keeps, and this took twice as long)
+        del kl, kr, gwl, gwr
         inv = -1.0 / df
         px, py = fx * inv, fy * inv                          # phi_x, phi_y
         hxx = (2.0 * (gry - gly) + (2.0 * fxp + fpp * px) * px) * inv
         hxy = (glx - grx + fxp * py + fyp * px + fpp * px * py) * inv
         hyy = (2.0 * fyp + fpp * py) * py * inv
+        del glx, gly, grx, gry, fxp, fyp, fpp, inv
         cords = []
         for rx, ry, ux, uy in ((rlx, rly, ulx, uly), (rrx, rry, urx, ury)):
             q = np.sqrt(rx * rx + ry * ry)
