@@ -310,9 +310,7 @@ class Gondola:
         del glx, gly, grx, gry, fxp, fyp, fpp, inv
         cords = []
         for rx, ry, ux, uy in ((rlx, rly, ulx, uly), (rrx, rry, urx, ury)):
-            q = np.sqrt(rx * rx + ry * ry)
-            iq = 1.0 / q
-            hx, hy = rx * iq, ry * iq
+            q, iq, hx, hy = _unit(rx, ry)
             cords.append((q, hx, hy, iq, ux, uy, hx * ux + hy * uy, hy * ux - hx * uy))
         return (px, py, hxx, hxy, hyy), tuple(cords)
 
@@ -338,8 +336,7 @@ class Gondola:
         inv = -1.0 / df
         cords = []
         for rx, ry, anchor in ((rlx, rly, 0.0), (rrx, rry, self.d_mm)):
-            iq = 1.0 / np.sqrt(rx * rx + ry * ry)
-            hx, hy = rx * iq, ry * iq
+            _, iq, hx, hy = _unit(rx, ry)
             ux, uy = anchor - x - rx, -y - ry                  # R v_m = A_m - p - r_m
             cords.append((hx, hy, hx * uy - hy * ux))
         return fx * inv, fy * inv, cords
@@ -380,6 +377,13 @@ class Gondola:
         out = [((rx[0], rx[1], rx[2] + p2 * py), (ry[0], ry[1], ry[2] - p2 * px))
                for px, py, rx, ry in cords]
         return out, (phi, p1, p2)
+
+
+def _unit(rx, ry) -> tuple:
+    """A cord's length, its inverse and its unit vector (q, 1 / q, hx, hy)."""
+    q = np.sqrt(rx * rx + ry * ry)
+    iq = 1.0 / q
+    return q, iq, rx * iq, ry * iq
 
 
 def along(terms, rows, e) -> tuple:

@@ -125,13 +125,11 @@ def find(kin, a: np.ndarray) -> tuple | None:
     kept = _BY_VERTS.get(id(root))
     if not kept:
         return None
-    at = _at(a)
     for ref, m, w in reversed(kept):
-        v = w.verts
-        if ref() is not root or m != key or v.strides != a.strides:
+        if ref() is not root or m != key:
             continue
-        i, rest = divmod(at - _at(v), v.strides[0])
-        if not rest and 0 <= i and i + n <= len(v):
+        i = _row_in(a, w.verts)
+        if i is not None:
             _NEXT[0] = (ref, key, w, i + n)
             return w, i
     return None
@@ -152,6 +150,15 @@ def laid(w: Window, make) -> object:
 def _at(a: np.ndarray) -> int:
     """The address of a's first element."""
     return a.ctypes.data
+
+
+def _row_in(a: np.ndarray, v: np.ndarray) -> int | None:
+    """i when the rows a are v's rows i .. i + len(a) - 1 (a view of the same memory, the
+    same strides), else None."""
+    if v.strides != a.strides:
+        return None
+    i, rest = divmod(_at(a) - _at(v), v.strides[0])
+    return i if not rest and 0 <= i and i + len(a) <= len(v) else None
 
 
 def _root(a: np.ndarray) -> np.ndarray:
@@ -255,20 +262,24 @@ def end_slopes(kin, xy: np.ndarray, e: np.ndarray, d: np.ndarray) -> tuple:
     return k0, k1, search
 
 
+def _jets_one(kin, x: float, y: float, ex: float, ey: float, phi: float = 0.0) -> tuple:
+    """The motor coordinates' triples along (ex, ey) at one point, in Python floats (the
+    balance solved from phi)."""
+    g = kin.gondola
+    r, _ = g.jets_at(x, y, ex, ey, g.state_one(x, y, phi))
+    return cord_jets(r, kin.stretch)
+
+
 def _turn_one(kin, p, u, d, a, b, left, sign, s) -> tuple:
     """search's function at one row in Python floats: sign times the slope and the bend."""
-    g = kin.gondola
-    x, y = p[0] + u[0] * s, p[1] + u[1] * s
-    r, _ = g.jets_at(x, y, u[0], u[1], g.state_one(x, y, a + b * (s / d)))
-    q = cord_jets(r, kin.stretch)[0 if left else 1]
+    q = _jets_one(kin, p[0] + u[0] * s, p[1] + u[1] * s, u[0], u[1],
+                  a + b * (s / d))[0 if left else 1]
     return sign * q[1], sign * q[2]
 
 
 def bend_one(kin, x: float, y: float, ex: float, ey: float) -> tuple:
     """The motor coordinates' bends along (ex, ey) at one point, in Python floats."""
-    g = kin.gondola
-    r, _ = g.jets_at(x, y, ex, ey, g.state_one(x, y))
-    return tuple(q[2] for q in cord_jets(r, kin.stretch))
+    return tuple(q[2] for q in _jets_one(kin, x, y, ex, ey))
 
 
 def following(xy: np.ndarray, ends: np.ndarray) -> np.ndarray:
@@ -288,7 +299,7 @@ def _whole(xy: np.ndarray) -> np.ndarray | None:
     """The array whose rows but the last xy is (a view of its first rows), else None."""
     base = xy.base
     if (isinstance(base, np.ndarray) and base.ndim == 2 and len(base) == len(xy) + 1
-            and base.strides == xy.strides and xy.ctypes.data == base.ctypes.data):
+            and _row_in(xy, base) == 0):
         return base
     return None
 
@@ -311,24 +322,25 @@ def carry(kin, old: np.ndarray, new: np.ndarray, piece: np.ndarray, end: np.ndar
     rows = np.concatenate(([0], piece + 1))
     put = np.flatnonzero(~end) + 1
     out = tuple(_rows(v, rows) for v in st)
+    solved = None
     if len(put):
-        for o, v in zip(out, kin.gondola.solve(new[put, 0], new[put, 1])):
+        solved = kin.gondola.solve(new[put, 0], new[put, 1])
+        for o, v in zip(out, solved):
             _put(o, put, v)
     kin._tilt_solves = [*getattr(kin, "_tilt_solves", [])[-2:], (new.copy(), out)]
     known = getattr(kin, "_tilt_slopes", None)
     kin._tilt_slopes = None
     if known is not None and known[0] is old:
-        kin._tilt_slopes = (new, lambda: _carried(kin, known[1](), new, out, piece, put))
+        kin._tilt_slopes = (new, lambda: _carried(kin, known[1](), new, solved, piece, put))
 
 
-def _carried(kin, slopes_old: tuple, new, st, piece, put) -> tuple:
+def _carried(kin, slopes_old: tuple, new, solved, piece, put) -> tuple:
     """The slopes (e, k0, k1) of the pieces through new from those through old (carry's
-    arguments): a piece's part keeps the slope at an old vertex, the points put in are
-    worked out (along the piece they lie on)."""
+    arguments; solved: the balance at the points put in): a piece's part keeps the slope at
+    an old vertex, the points put in are worked out (along the piece they lie on)."""
     e, k0, k1 = (np.take(a, piece, axis=0) for a in slopes_old)    # (a[piece]: slower)
     if len(put):
-        kp = slopes(kin, np.take(new, put, axis=0), np.take(e, put - 1, axis=0),
-                    tuple(_rows(v, put) for v in st))
+        kp = slopes(kin, np.take(new, put, axis=0), np.take(e, put - 1, axis=0), solved)
         k1[put - 1] = kp                       # the end of the part before the point
         k0[put] = kp                           # and the start of the part after it
     return e, k0, k1
@@ -342,10 +354,8 @@ def known_slopes(kin, xy: np.ndarray, e: np.ndarray) -> np.ndarray | None:
     if known is None or _root(xy) is not known[0]:
         return None
     verts = known[0]
-    if len(xy) != len(verts) - 1 or xy.strides != verts.strides:
-        return None
-    first = (xy.ctypes.data - verts.ctypes.data) // verts.strides[0]
-    if first not in (0, 1):
+    first = _row_in(xy, verts) if len(xy) == len(verts) - 1 else None
+    if first is None:
         return None
     e_k, k0, k1 = known[1]()
     if e_k.shape != e.shape or not np.abs(e_k - e).max(initial=0.0) <= 1e-12:
