@@ -200,6 +200,16 @@ def balance(kin, xy: np.ndarray) -> tuple:
     return st
 
 
+def _planned(kin, xy: np.ndarray) -> tuple:
+    """`balance` at the planner's vertices xy: the planner hands the array it asked
+    end_slopes or carry about to carry and ends (its arrays do not change), so that array
+    itself is the one asked about last; else balance."""
+    last = kin.__dict__.get("_tilt_last")
+    if last is not None and last[0] is xy:
+        return last[1]
+    return balance(kin, xy)
+
+
 def end_slopes(kin, xy: np.ndarray, e: np.ndarray, d: np.ndarray) -> tuple:
     """For the pieces xy + s e, 0 <= s <= d (N): the cords' slopes (N, 2) at their starts and
     at their ends (the balance at the starts solved as `balance` solves and keeps it, with the
@@ -214,6 +224,7 @@ def end_slopes(kin, xy: np.ndarray, e: np.ndarray, d: np.ndarray) -> tuple:
     whole = _whole(xy)            # the planner's vertices: xy and the last piece's end
     whole = xy if whole is None else whole
     st = balance(kin, whole)
+    kin._tilt_last = (whole, st)
     phi0 = st[0][:n]
     if kin.stretch == 0.0:          # (the vertices' share worked out once for both ends)
         terms = g.slope_terms(whole[:, 0], whole[:, 1], st)
@@ -224,7 +235,10 @@ def end_slopes(kin, xy: np.ndarray, e: np.ndarray, d: np.ndarray) -> tuple:
         def at_rows(xs, es, rows):
             return slopes(kin, xs, es, tuple(_rows(v, rows) for v in st))
     k0 = at_rows(xy, e, slice(0, n))
-    ends = xy + e * d[:, None]
+    ends = np.empty_like(xy)              # xy + e d, column by column (d[:, None]: slower)
+    for j in (0, 1):
+        np.multiply(e[:, j], d, out=ends[:, j])
+    ends += xy
     same = following(whole, ends)
     k1 = np.empty_like(k0)
     phi1 = np.empty(n)
@@ -318,7 +332,7 @@ def carry(kin, old: np.ndarray, new: np.ndarray, piece: np.ndarray, end: np.ndar
     old[0], new[j + 1] lies on piece[j], and is old's vertex piece[j] + 1 where end[j]:
     refine.put_in), taken from the balance at old (`balance`: the planner asked for it, or for
     all but one of its rows) and solved at the points put in."""
-    st = balance(kin, old)
+    st = _planned(kin, old)
     rows = np.concatenate(([0], piece + 1))
     put = np.flatnonzero(~end) + 1
     out = tuple(_rows(v, rows) for v in st)
@@ -328,6 +342,7 @@ def carry(kin, old: np.ndarray, new: np.ndarray, piece: np.ndarray, end: np.ndar
         for o, v in zip(out, solved):
             _put(o, put, v)
     kin._tilt_solves = [*getattr(kin, "_tilt_solves", [])[-2:], (new.copy(), out)]
+    kin._tilt_last = (new, out)
     known = getattr(kin, "_tilt_slopes", None)
     kin._tilt_slopes = None
     if known is not None and known[0] is old:
@@ -387,7 +402,7 @@ def ends(kin, verts: np.ndarray, e: np.ndarray) -> tuple:
     """The cords' slopes and bends (2, N) at the starts and the ends of the pieces through
     verts (directions e), without stretch: each vertex's share worked out once for its two
     pieces (Gondola.vertex_terms). Kept with the window for its layout as `jets` keeps its."""
-    state = balance(kin, verts)
+    state = _planned(kin, verts)
     terms = kin.gondola.vertex_terms(verts[:, 0], verts[:, 1], state)
     n = len(e)
     k0, b0 = along(terms, slice(0, n), e)
@@ -414,7 +429,10 @@ def _joined(a, b):
 
 
 def _rows(v, idx):
-    return tuple(x[idx] for x in v) if isinstance(v, tuple) else v[idx]
+    """The rows idx (a slice: views; or indices) of an array, or of each in a tuple."""
+    if isinstance(v, tuple):
+        return tuple(_rows(x, idx) for x in v)
+    return v[idx] if isinstance(idx, slice) else np.take(v, idx, axis=0)   # (v[idx]: slower)
 
 
 def _put(v, idx, w) -> None:
