@@ -57,6 +57,7 @@ class Gondola:
                  mass_below_pen_mm: float):
         half = spacing_mm / 2.0
         h, c = pen_below_mm, mass_below_pen_mm
+        self._half, self._h, self._ha = half, h, h + c           # (see _terms)
         self.d_mm = float(d_mm)
         self.v = ((-half, -h), (half, -h))                    # pen -> the cords' points
         self.a = ((-half, -h - c), (half, -h - c))            # centre of mass -> them
@@ -65,27 +66,41 @@ class Gondola:
         # the orientation of the stable balance: sign * F rises through zero there (the
         # restoring torque), the same everywhere on the wall; taken below the middle
         mid = np.array([self.d_mm / 2.0]), np.array([self.d_mm])
-        self.sign = 1.0 if self._terms(*mid, np.ones(1), np.zeros(1))[1][0] > 0 else -1.0
+        self.sign = 1.0 if self._terms(*mid, np.ones(1), np.zeros(1))[0][0] > 0 else -1.0
 
     # ------------------------------------------------------------------ the balance
     def _terms(self, x, y, c, s):
-        """F and dF/dphi at pen (x, y) with cos/sin of phi c, s; and the cords r_m."""
-        (vlx, vly), (vrx, vry) = self.v
-        (alx, aly), (arx, ary) = self.a
-        pl_x, pl_y = c * vlx - s * vly, s * vlx + c * vly        # R v_L
-        pr_x, pr_y = c * vrx - s * vry, s * vrx + c * vry
-        gl_x, gl_y = c * alx - s * aly, s * alx + c * aly        # R a_L
-        gr_x, gr_y = c * arx - s * ary, s * arx + c * ary
-        rlx, rly = -x - pl_x, -y - pl_y
-        rrx, rry = self.d_mm - x - pr_x, -y - pr_y
+        """dF/dphi at pen (x, y) with cos/sin of phi c, s; the cords r_m and R a_m."""
+        (pl_x, pl_y, pr_x, pr_y), g = self._arms(c, s, pen=True)
+        gl_x, gl_y, gr_x, gr_y = g
+        wlx, wrx, wy = -x, self.d_mm - x, -y                     # w_m = A_m - p
+        rlx, rly = wlx - pl_x, wy - pl_y
+        rrx, rry = wrx - pr_x, wy - pr_y
         kl = gl_x * rly - gl_y * rlx
         kr = gr_x * rry - gr_y * rrx
-        f = kl * rrx - kr * rlx
-        # d/dphi: d(R w) = (-(R w)_y, (R w)_x), dr_m = -d(R v_m)
-        dkl = -gl_y * rly - gl_x * rlx - gl_x * pl_x - gl_y * pl_y
-        dkr = -gr_y * rry - gr_x * rrx - gr_x * pr_x - gr_y * pr_y
+        # d/dphi: d(R w) = (-(R w)_y, (R w)_x), dr_m = -d(R v_m), so dk_m = -(R a_m) . w_m
+        dkl = -(gl_x * wlx + gl_y * wy)
+        dkr = -(gr_x * wrx + gr_y * wy)
         df = dkl * rrx + kl * pr_y - dkr * rlx - kr * pl_y
-        return f, df, (rlx, rly, rrx, rry), (gl_x, gl_y, gr_x, gr_y)
+        return df, (rlx, rly, rrx, rry), g
+
+    def _arms(self, c, s, pen: bool = False) -> tuple:
+        """(R v_m, R a_m) (or R a_m alone: pen False) at cos/sin of phi c, s, each as (Lx, Ly,
+        Rx, Ry): the gondola is symmetric, R v_m = (-+ half c + h s, -+ half s - h c), R a_m
+        the same with h + mass_below_pen for h."""
+        half, h, ha = self._half, self._h, self._ha
+        hc, hs = half * c, half * s
+        t = ha * s
+        g = [t - hc, None, t + hc, None]
+        t = ha * c
+        g[1], g[3] = -hs - t, hs - t
+        if not pen:
+            return tuple(g)
+        t = h * s
+        v = [t - hc, None, t + hc, None]
+        t = h * c
+        v[1], v[3] = -hs - t, hs - t
+        return tuple(v), tuple(g)
 
     def _coefficients(self, x, y) -> tuple:
         """F at pen (x, y) as a quadratic in cos and sin of phi: with w_m = A_m - p, k_m =
@@ -136,26 +151,26 @@ class Gondola:
         # rows that did not settle on the stable balance go the bracketed way
         c, s = np.cos(phi), np.sin(phi)
         co = self._coefficients(x, y)
-        last = np.zeros(x.shape)
-        at = slice(None)                        # the rows still stepping
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            for _ in range(PHI_FAST):
+            h = self._halley(co, c, s)
+            phi, c, s = _turned(phi, c, s, h)
+            last = np.abs(h)
+            at = np.flatnonzero(~(last <= PHI_HALLEY))          # the rows still stepping
+            for _ in range(PHI_FAST - 1):
+                if not len(at):
+                    break
                 h = self._halley(tuple(v[at] for v in co), c[at], s[at])
                 phi[at], c[at], s[at] = _turned(phi[at], c[at], s[at], h)
                 last[at] = np.abs(h)
-                more = ~(np.abs(h) <= PHI_HALLEY)
-                if not more.any():
-                    break
-                at = np.flatnonzero(more) if isinstance(at, slice) else at[more]
-        del co, more, h                         # (let go before the terms: see vertex_terms)
-        f, df, r, g = self._terms(x, y, c, s)
-        del f
+                at = at[~(np.abs(h) <= PHI_HALLEY)]
+        del co, h                               # (let go before the terms: see vertex_terms)
+        df, r, g = self._terms(x, y, c, s)
         ok = (last <= PHI_HALLEY) & (self.sign * df > 0) & (np.abs(phi) < PHI_LIMIT)
         if not ok.all():
             i = np.flatnonzero(~ok)
             phi[i] = self._bracketed(x[i], y[i], np.zeros(len(i)))
             c, s = np.cos(phi), np.sin(phi)
-            f, df, r, g = self._terms(x, y, c, s)
+            df, r, g = self._terms(x, y, c, s)
         return self._state(phi, c, s, df, r, g)
 
     def _halley(self, co, c, s):
@@ -250,7 +265,7 @@ class Gondola:
         """solve()'s answer for one point in Python floats (no array overhead), from phi."""
         phi = self._phi_one(x, y, phi)
         c, s = math.cos(phi), math.sin(phi)
-        _, df, r, g = self._terms(x, y, c, s)
+        df, r, g = self._terms(x, y, c, s)
         return self._state(phi, c, s, df, r, g)
 
     def _phi_one(self, x: float, y: float, phi: float) -> float:
@@ -284,13 +299,13 @@ class Gondola:
         along and across the cord. `along` turns them into slopes and bends: a vertex's two
         pieces share them."""
         _, c, s, df, fx, fy, (rlx, rly, rrx, rry) = state
-        (alx, aly), (arx, ary) = self.a
-        ulx, uly = -x - rlx, -y - rly                        # R v_m = A_m - p - r_m
-        urx, ury = self.d_mm - x - rrx, -y - rry
-        glx, gly = c * alx - s * aly, s * alx + c * aly      # R a_m
-        grx, gry = c * arx - s * ary, s * arx + c * ary
+        wrx, wy = self.d_mm - x, -y
+        ulx, uly = -x - rlx, wy - rly                        # R v_m = A_m - p - r_m
+        urx, ury = wrx - rrx, wy - rry
+        glx, gly, grx, gry = self._arms(c, s)                # R a_m
         gwl = -(glx * x + gly * y)                           # R a_m . (A_m - p)
-        gwr = grx * (self.d_mm - x) - gry * y
+        gwr = grx * wrx - gry * y
+        del wrx, wy
         kl = glx * rly - gly * rlx                           # R a_m x r_m
         kr = grx * rry - gry * rrx
         k0l, k0r = self._k0                                  # - a_m x v_m
@@ -397,14 +412,15 @@ def along(terms, rows, e) -> tuple:
     p1 = px[rows] * ex + py[rows] * ey
     p2 = (hxx[rows] * ex + 2.0 * hxy[rows] * ey) * ex + hyy[rows] * ey * ey
     sq = p1 * p1
+    ney = -ey
     k = np.empty((2, len(ex)))
     b = np.empty((2, len(ex)))
     for m, (_, hx, hy, iq, ux, uy, ru, rju) in enumerate(cords):
         dx = p1 * uy[rows] - ex
-        dy = -ey - p1 * ux[rows]
-        km = hx[rows] * dx + hy[rows] * dy
-        k[m] = km
-        b[m] = (dx * dx + dy * dy - km * km) * iq[rows] + sq * ru[rows] - p2 * rju[rows]
+        dy = ney - p1 * ux[rows]
+        km = np.add(hx[rows] * dx, hy[rows] * dy, out=k[m])
+        np.subtract((dx * dx + dy * dy - km * km) * iq[rows] + sq * ru[rows],
+                    p2 * rju[rows], out=b[m])
     return k, b
 
 
