@@ -452,6 +452,12 @@ def test_points_put_in_keep_the_balance_of_the_old_vertices(monkeypatch):
     twice = put_in(kin2, once, scaled(np.diff(once, axis=0), d2, divide=True), piece2,
                    np.where(last2, d2[piece2], 0.5 * d2[piece2]), last2)
     assert np.abs(kin2.inverse(twice) - exact(twice)).max() < 1e-9
+    # the whole balance (the planner's slopes and bends take phi's derivatives from it)
+    from vplotter.kinematics import tilt_kept
+    kept = tilt_kept.balance(kin2, twice)
+    st = fresh.gondola.solve(twice[:, 0], twice[:, 1])
+    for got, want in zip((*kept[:6], *kept[6]), (*st[:6], *st[6])):
+        assert np.allclose(got, want, rtol=1e-9, atol=1e-9)
 
 
 @settings(max_examples=10, deadline=None)

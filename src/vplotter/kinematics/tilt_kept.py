@@ -178,20 +178,20 @@ def balance(kin, xy: np.ndarray) -> tuple:
         if len(m) == n + 1:
             for a in (0, 1):
                 if np.array_equal(m[a:a + n], xy):
-                    return tuple(_rows(v, slice(a, a + n)) for v in st)
+                    return tuple(_rows(v, slice(a, a + n)) for v in _got(st))
         elif len(m) == n and n > 1 and np.array_equal(m, xy):
-            return st
+            return _got(st)
         elif len(m) == n and n > 1 and np.array_equal(m[1:], xy[:-1]):
             new = kin.gondola.solve(xy[-1:, 0], xy[-1:, 1])
-            st = tuple(_joined(_rows(v, slice(1, n)), w) for v, w in zip(st, new))
+            st = tuple(_joined(_rows(v, slice(1, n)), w) for v, w in zip(_got(st), new))
             break
         elif len(m) == n - 1 and n > 2 and np.array_equal(m, xy[1:]):
             new = kin.gondola.solve(xy[:1, 0], xy[:1, 1])
-            st = tuple(_joined(w, v) for v, w in zip(st, new))
+            st = tuple(_joined(w, v) for v, w in zip(_got(st), new))
             break
         elif len(m) == n - 1 and n > 2 and np.array_equal(m, xy[:-1]):
             new = kin.gondola.solve(xy[-1:, 0], xy[-1:, 1])
-            st = tuple(_joined(v, w) for v, w in zip(st, new))
+            st = tuple(_joined(v, w) for v, w in zip(_got(st), new))
             break
     else:
         st = kin.gondola.solve(xy[:, 0], xy[:, 1])
@@ -200,14 +200,52 @@ def balance(kin, xy: np.ndarray) -> tuple:
     return st
 
 
-def _planned(kin, xy: np.ndarray) -> tuple:
+def _planned(kin, xy: np.ndarray, put: bool = False):
     """`balance` at the planner's vertices xy: the planner hands the array it asked
     end_slopes or carry about to carry and ends (its arrays do not change), so that array
-    itself is the one asked about last; else balance."""
+    itself is the one asked about last; else balance. put: a carried balance may come as it
+    was kept (a _Put not gathered yet)."""
     last = kin.__dict__.get("_tilt_last")
     if last is not None and last[0] is xy:
-        return last[1]
+        return last[1] if put else _got(last[1])
     return balance(kin, xy)
+
+
+class _Put:
+    """The balance at the planner's vertices with points put in (`carry`), gathered when first
+    asked for (`got`): the rows `rows` of the balance `st` at the vertices before, then at
+    each (where, balance) of `puts` the balance solved at points put in. When the planner
+    puts points in twice before it asks (its turning points, then refine's), the second is
+    gathered once, from the first's balance."""
+
+    def __init__(self, st, rows: np.ndarray, put: np.ndarray, solved):
+        self.puts = []
+        if isinstance(st, _Put) and st.out is None:
+            for where, sol in st.puts:                # where rows take st's points put in
+                at = np.full(len(st.rows), -1)
+                at[where] = np.arange(len(where))
+                w = np.take(at, rows)
+                hit = np.flatnonzero(w >= 0)
+                if len(hit):
+                    self.puts.append((hit, _rows(sol, np.take(w, hit))))
+            st, rows = st.st, np.take(st.rows, rows)
+        self.st, self.rows, self.out = _got(st), rows, None
+        if len(put):
+            self.puts.append((put, solved))
+
+    def got(self) -> tuple:
+        if self.out is None:
+            out = tuple(_rows(v, self.rows) for v in self.st)
+            for where, sol in self.puts:
+                for o, v in zip(out, sol):
+                    _put(o, where, v)
+            self.out, self.st, self.puts = out, None, None
+        return self.out
+
+
+def _got(st) -> tuple:
+    """A balance, gathered if it is a _Put."""
+    return st.got() if isinstance(st, _Put) else st
 
 
 def end_slopes(kin, xy: np.ndarray, e: np.ndarray, d: np.ndarray) -> tuple:
@@ -332,15 +370,11 @@ def carry(kin, old: np.ndarray, new: np.ndarray, piece: np.ndarray, end: np.ndar
     old[0], new[j + 1] lies on piece[j], and is old's vertex piece[j] + 1 where end[j]:
     refine.put_in), taken from the balance at old (`balance`: the planner asked for it, or for
     all but one of its rows) and solved at the points put in."""
-    st = _planned(kin, old)
+    st = _planned(kin, old, put=True)
     rows = np.concatenate(([0], piece + 1))
     put = np.flatnonzero(~end) + 1
-    out = tuple(_rows(v, rows) for v in st)
-    solved = None
-    if len(put):
-        solved = kin.gondola.solve(new[put, 0], new[put, 1])
-        for o, v in zip(out, solved):
-            _put(o, put, v)
+    solved = kin.gondola.solve(new[put, 0], new[put, 1]) if len(put) else None
+    out = _Put(st, rows, put, solved)
     kin._tilt_solves = [*getattr(kin, "_tilt_solves", [])[-2:], (new.copy(), out)]
     kin._tilt_last = (new, out)
     known = getattr(kin, "_tilt_slopes", None)
