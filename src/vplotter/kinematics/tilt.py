@@ -47,7 +47,7 @@ ROTATE_MAX = 1e-3         # rad: cos and sin of phi follow a step up to this by 
 FEW = 16                  # points solved in Python floats (the array's overhead is most)
 GUESS_CELLS = 64          # the first guess of phi: a table, this many cells across the anchors
 _TABLES: dict = {}        # the tables made, by gondola (the planner's and the schedule's machine)
-TABLES = 32               # kept at most (each 67 kB; `calibrate fit --fit-mass` makes about 15)
+TABLES = 32               # kept at most (each 260 kB; `calibrate fit --fit-mass` makes about 15)
 
 
 class Gondola:
@@ -149,7 +149,7 @@ class Gondola:
         # Halley steps (the balance is smooth and phi small: one step from the table's guess
         # for most points); cos and sin turn with phi by their series, not computed again. The
         # rows that did not settle on the stable balance go the bracketed way
-        c, s = np.cos(phi), np.sin(phi)
+        c, s = _cos_sin(phi)
         co = self._coefficients(x, y)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             h = self._halley(co, c, s)
@@ -194,39 +194,39 @@ class Gondola:
                 while len(_TABLES) > TABLES:      # (a fit tries many gondolas: the oldest go)
                     del _TABLES[next(iter(_TABLES))]
             self._table = table
-        h, t = table
-        rows, cols = t.shape
+        h, rows, cols, cells = table
         fx = x / h
         fy = y / h
         np.maximum(fx, 0.0, out=fx)             # (np.clip costs more on a few points)
-        np.minimum(fx, cols - 1.000001, out=fx)
+        np.minimum(fx, cols + 1 - 1.000001, out=fx)       # (nodes - 1.000001)
         np.maximum(fy, 0.0, out=fy)
-        np.minimum(fy, rows - 1.000001, out=fy)
+        np.minimum(fy, rows + 1 - 1.000001, out=fy)
         ix, iy = fx.astype(np.intp), fy.astype(np.intp)
         fx -= ix
         fy -= iy
         k = iy * cols
         k += ix
-        flat = t.ravel()
-        a, b, c, d = flat[k], flat[k + 1], flat[k + cols], flat[k + cols + 1]
-        b -= a
-        c -= a
-        d -= a
-        d -= b
-        d -= c                                   # d - b - c + a
+        a, b, c, d = (np.take(v, k) for v in cells)
         return a + fx * b + fy * (c + fx * d)
 
     def _grid(self) -> tuple:
-        """(h, phi on the grid): between the anchors (columns x = j h), from 2 h below them down
-        to 2 D (rows y = i h, clamped at 2 h: nearer, the points the gondola cannot hang at
-        begin)."""
+        """(h, rows, columns, cells) of the grid of phi: between the anchors (columns x = j h),
+        from 2 h below them down to 2 D (rows y = i h, clamped at 2 h: nearer, the points the
+        gondola cannot hang at begin); per cell (flat, row by row) its bilinear terms: phi at
+        its first corner a, and b - a, c - a, d - b - c + a of the others (b along x, c along
+        y, d across)."""
         h = self.d_mm / GUESS_CELLS
         xs = np.arange(GUESS_CELLS + 1) * h
         ys = np.arange(2 * GUESS_CELLS + 1) * h
         gx, gy = np.meshgrid(xs, np.maximum(ys, 2.0 * h))
         phi = self.solve(gx.ravel(), gy.ravel(), np.zeros(gx.size))[0]
-        phi = np.where(np.isfinite(phi), phi, 0.0)
-        return h, phi.reshape(gx.shape)
+        t = np.where(np.isfinite(phi), phi, 0.0).reshape(gx.shape)
+        a = t[:-1, :-1]
+        b, c = t[:-1, 1:] - a, t[1:, :-1] - a
+        d = t[1:, 1:] - a
+        d -= b
+        d -= c
+        return h, *a.shape, tuple(np.ascontiguousarray(v).ravel() for v in (a, b, c, d))
 
     def _bracketed(self, x, y, phi):
         """phi by Newton steps kept inside a bracket (bisection where a step would leave it)."""
@@ -443,10 +443,35 @@ def _turned(phi, c, s, h) -> tuple:
     phi = phi - h
     if not np.abs(h).max(initial=0.0) <= ROTATE_MAX:
         return phi, np.cos(phi), np.sin(phi)
+    return (phi, *_back(c, s, h))
+
+
+def _back(c, s, h) -> tuple:
+    """cos and sin of phi - h from those of phi (c, s), by the series of the turn by h."""
     q = h * h
     ch = 1.0 - q * (0.5 - q / 24.0)
     sh = h * (1.0 - q / 6.0)
-    return phi, c * ch + s * sh, s * ch - c * sh
+    return c * ch + s * sh, s * ch - c * sh
+
+
+ANGLES = 1024             # per rad: cos and sin of a guess turned from the nearest of these
+ANGLE_ROWS = 2000         # on at least this many points (fewer: np.cos and np.sin cost less)
+_AT = int(PHI_LIMIT * ANGLES) + 1
+_COS = np.cos(np.arange(-_AT, _AT + 1) / ANGLES)
+_SIN = np.sin(np.arange(-_AT, _AT + 1) / ANGLES)
+
+
+def _cos_sin(phi) -> tuple:
+    """cos and sin of phi: on many points, those of the nearest multiple of 1 / ANGLES turned
+    by the rest (below ROTATE_MAX: _back) (np.cos and np.sin cost some 25 operations each)."""
+    if phi.size < ANGLE_ROWS or not np.abs(phi).max(initial=0.0) < PHI_LIMIT:
+        return np.cos(phi), np.sin(phi)
+    k = np.rint(phi * ANGLES)
+    at = k.astype(np.intp)
+    at += _AT
+    k *= 1.0 / ANGLES
+    k -= phi                                     # the nearest multiple less phi
+    return _back(np.take(_COS, at), np.take(_SIN, at), k)
 
 
 def cord_jets(r, stretch: float):
