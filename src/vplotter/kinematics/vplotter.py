@@ -346,9 +346,10 @@ class TwoCord:
         groups = ([turn] if self.gondola is not None
                   else [turn & [True, False], turn & [False, True]])
         for group in groups:
-            rows, m = np.nonzero(group)
-            if not len(rows):
+            at = np.flatnonzero(group)                      # (np.nonzero: slower)
+            if not len(at):
                 continue
+            rows, m = at >> 1, at & 1
             sign = np.where(k1[rows, m] > 0, 1.0, -1.0)      # sign * slope rises through zero
             if tilt:
                 f = search(rows, m, sign)
@@ -366,7 +367,7 @@ class TwoCord:
                 # the perpendicular: tan = u / h is linear in u)
                 t0, t1 = (k / np.sqrt(np.maximum(1.0 - k * k, 1e-12))
                           for k in (k0[rows, m], k1[rows, m]))
-                s0 = np.clip(d[rows] * t0 / (t0 - t1), 0.0, d[rows])
+                s0 = np.minimum(np.maximum(d[rows] * t0 / (t0 - t1), 0.0), d[rows])
             one = getattr(f, "one", None)
             if one is not None:                 # (the tilting gondola's few rows, one by one)
                 out[rows, m] = [_bracketed_one(fi, 0.0, di, TURN_MM, si) for fi, di, si in
