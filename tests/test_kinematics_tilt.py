@@ -111,6 +111,24 @@ def test_the_array_solve_agrees_with_the_one_point_solve(name):
     assert np.abs(phi).max() > 0.01                      # (it does turn)
 
 
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.floats(1e-9, 1.19))
+def test_cos_and_sin_of_many_angles_from_the_table(seed, span):
+    """On many points solve takes cos and sin of the table's guess from the nearest multiple
+    of 1/1024 rad turned by the rest: within an ulp or two of np.cos and np.sin, on the
+    unit circle; on a few points (or past the bracket) np.cos and np.sin themselves."""
+    from vplotter.kinematics import tilt
+
+    phi = np.random.default_rng(seed).uniform(-span, span, tilt.ANGLE_ROWS)
+    c, s = tilt._cos_sin(phi)
+    assert np.abs(c - np.cos(phi)).max() <= 4.5e-16
+    assert np.abs(s - np.sin(phi)).max() <= 4.5e-16
+    assert np.abs(c * c + s * s - 1.0).max() <= 1e-15
+    for few in (phi[:tilt.ANGLE_ROWS - 1], np.r_[phi, 1.3]):
+        c, s = tilt._cos_sin(few)
+        assert np.array_equal(c, np.cos(few)) and np.array_equal(s, np.sin(few))
+
+
 @settings(max_examples=100, deadline=None)
 @given(model, gx, gy)
 def test_the_torques_about_the_centre_of_mass_cancel(name, x, y):
