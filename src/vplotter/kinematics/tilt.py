@@ -165,8 +165,11 @@ class Gondola:
                 at = at[~(np.abs(h) <= PHI_HALLEY)]
         del co, h                               # (let go before the terms: see vertex_terms)
         df, r, g = self._terms(x, y, c, s)
-        ok = (last <= PHI_HALLEY) & (self.sign * df > 0) & (np.abs(phi) < PHI_LIMIT)
-        if not ok.all():
+        sdf = self.sign * df
+        # unless every row settled (at: those whose last step was not below PHI_HALLEY) on the
+        # stable balance inside the bracket, those that did not go the bracketed way
+        if len(at) or not (sdf.min() > 0 and np.abs(phi).max() < PHI_LIMIT):
+            ok = (last <= PHI_HALLEY) & (sdf > 0) & (np.abs(phi) < PHI_LIMIT)
             i = np.flatnonzero(~ok)
             phi[i] = self._bracketed(x[i], y[i], np.zeros(len(i)))
             c, s = np.cos(phi), np.sin(phi)
@@ -206,7 +209,7 @@ class Gondola:
         fy -= iy
         k = iy * cols
         k += ix
-        a, b, c, d = (np.take(v, k) for v in cells)
+        a, b, c, d = (v.take(k) for v in cells)
         return a + fx * b + fy * (c + fx * d)
 
     def _grid(self) -> tuple:
@@ -471,7 +474,7 @@ def _cos_sin(phi) -> tuple:
     at += _AT
     k *= 1.0 / ANGLES
     k -= phi                                     # the nearest multiple less phi
-    return _back(np.take(_COS, at), np.take(_SIN, at), k)
+    return _back(_COS.take(at), _SIN.take(at), k)
 
 
 def cord_jets(r, stretch: float):

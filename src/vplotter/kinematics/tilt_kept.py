@@ -224,11 +224,11 @@ class _Put:
             for where, sol in st.puts:                # where rows take st's points put in
                 at = np.full(len(st.rows), -1)
                 at[where] = np.arange(len(where))
-                w = np.take(at, rows)
+                w = at.take(rows)
                 hit = np.flatnonzero(w >= 0)
                 if len(hit):
-                    self.puts.append((hit, _rows(sol, np.take(w, hit))))
-            st, rows = st.st, np.take(st.rows, rows)
+                    self.puts.append((hit, _rows(sol, w.take(hit))))
+            st, rows = st.st, st.rows.take(rows)
         self.st, self.rows, self.out = _got(st), rows, None
         if len(put):
             self.puts.append((put, solved))
@@ -387,9 +387,9 @@ def _carried(kin, slopes_old: tuple, new, solved, piece, put) -> tuple:
     """The slopes (e, k0, k1) of the pieces through new from those through old (carry's
     arguments; solved: the balance at the points put in): a piece's part keeps the slope at
     an old vertex, the points put in are worked out (along the piece they lie on)."""
-    e, k0, k1 = (np.take(a, piece, axis=0) for a in slopes_old)    # (a[piece]: slower)
+    e, k0, k1 = (a.take(piece, axis=0) for a in slopes_old)    # (a[piece]: slower)
     if len(put):
-        kp = slopes(kin, np.take(new, put, axis=0), np.take(e, put - 1, axis=0), solved)
+        kp = slopes(kin, new.take(put, axis=0), e.take(put - 1, axis=0), solved)
         k1[put - 1] = kp                       # the end of the part before the point
         k0[put] = kp                           # and the start of the part after it
     return e, k0, k1
@@ -466,7 +466,7 @@ def _rows(v, idx):
     """The rows idx (a slice: views; or indices) of an array, or of each in a tuple."""
     if isinstance(v, tuple):
         return tuple(_rows(x, idx) for x in v)
-    return v[idx] if isinstance(idx, slice) else np.take(v, idx, axis=0)   # (v[idx]: slower)
+    return v[idx] if isinstance(idx, slice) else v.take(idx, axis=0)   # (v[idx]: slower)
 
 
 def _put(v, idx, w) -> None:
