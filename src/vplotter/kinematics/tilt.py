@@ -412,18 +412,41 @@ def along(terms, rows, e) -> tuple:
     r.r'' / |r|."""
     (px, py, hxx, hxy, hyy), cords = terms
     ex, ey = e[:, 0], e[:, 1]
-    p1 = px[rows] * ex + py[rows] * ey
-    p2 = (hxx[rows] * ex + 2.0 * hxy[rows] * ey) * ex + hyy[rows] * ey * ey
+    # (in place where it can: fewer arrays made and let go, the same operations in the same
+    # order as p1 = px ex + py ey, p2 = (hxx ex + 2 hxy ey) ex + hyy ey ey)
+    p1 = px[rows] * ex
+    t = py[rows] * ey
+    p1 += t
+    p2 = hxx[rows] * ex
+    np.multiply(2.0, hxy[rows], out=t)
+    t *= ey
+    p2 += t
+    p2 *= ex
+    np.multiply(hyy[rows], ey, out=t)
+    t *= ey
+    p2 += t
     sq = p1 * p1
     ney = -ey
     k = np.empty((2, len(ex)))
     b = np.empty((2, len(ex)))
     for m, (_, hx, hy, iq, ux, uy, ru, rju) in enumerate(cords):
-        dx = p1 * uy[rows] - ex
-        dy = ney - p1 * ux[rows]
-        km = np.add(hx[rows] * dx, hy[rows] * dy, out=k[m])
-        np.subtract((dx * dx + dy * dy - km * km) * iq[rows] + sq * ru[rows],
-                    p2 * rju[rows], out=b[m])
+        dx = p1 * uy[rows]
+        dx -= ex                                              # p1 uy - ex
+        dy = p1 * ux[rows]
+        np.subtract(ney, dy, out=dy)                          # -ey - p1 ux
+        km = np.multiply(hx[rows], dx, out=k[m])
+        np.multiply(hy[rows], dy, out=t)
+        km += t
+        dx *= dx                                              # (dx^2 + dy^2 - km^2) / |r|
+        dy *= dy
+        dx += dy
+        np.multiply(km, km, out=t)
+        dx -= t
+        dx *= iq[rows]
+        np.multiply(sq, ru[rows], out=t)
+        dx += t                                               # + phi'^2 u.r/|r|
+        np.multiply(p2, rju[rows], out=t)
+        np.subtract(dx, t, out=b[m])                          # - phi'' Ju.r/|r|
     return k, b
 
 
