@@ -47,7 +47,7 @@ from bench.make.samples import gcodetools_file
 
 from vplotter import config, kinematics, pipeline
 from vplotter.inputs import gcode
-from vplotter.kinematics import tilt, tilt_kept, vplotter
+from vplotter.kinematics import tilt_along, tilt_kept, vplotter
 
 
 def _planner(cfg, recs, path):
@@ -99,17 +99,17 @@ def _pieces(verts):
 
 def exact_tilted(kin, windows):
     """The balance at every vertex, the motor coordinates' value, slope and bend at both ends
-    of each piece (Gondola.solve, Gondola.vertex_terms, tilt.along: the planner's own
+    of each piece (Gondola.solve, Gondola.vertex_terms, tilt_along.along: the planner's own
     arithmetic)."""
     g = kin.gondola
     for verts in windows:
         verts, e, ok = _pieces(verts)
         state = g.solve(verts[:, 0], verts[:, 1])
-        tilt.cords_value(state[6], kin.stretch)
+        tilt_along.cords_value(state[6], kin.stretch)
         terms = g.vertex_terms(verts[:, 0], verts[:, 1], state)
         rows = np.flatnonzero(ok)
-        tilt.along(terms, rows, e)
-        tilt.along(terms, rows + 1, e)
+        tilt_along.along(terms, rows, e)
+        tilt_along.along(terms, rows + 1, e)
 
 
 def exact_level(kin, windows):
@@ -158,7 +158,7 @@ class _Least(_LevelTurns):
         if m.ndim != 2 or len(m) <= 2:
             return super().inverse(xy)
         self._solved = (m, self.gondola.solve(m[:, 0], m[:, 1]))
-        return tilt.cords_value(self._solved[1][6], self.stretch)
+        return tilt_along.cords_value(self._solved[1][6], self.stretch)
 
     def ends(self, verts, e):
         state = self._solved[1]

@@ -421,7 +421,7 @@ def test_points_put_in_keep_the_balance_of_the_old_vertices(monkeypatch):
     then asks for the cords at the new vertices: the machine takes the balance at the old
     vertices row by row and solves only the points put in, and it is the balance a solve of
     every vertex finds."""
-    from vplotter.kinematics import tilt
+    from vplotter.kinematics import tilt, tilt_along
     from vplotter.motion.refine import put_in, scaled
 
     kin = TwoCord(D, OX, OY, 40.0, 12.0, mass_below_pen_mm=30.0)
@@ -454,7 +454,7 @@ def test_points_put_in_keep_the_balance_of_the_old_vertices(monkeypatch):
     fresh = TwoCord(D, OX, OY, 40.0, 12.0, mass_below_pen_mm=30.0)
 
     def exact(xy):          # (not fresh.inverse: the machine's windows are kept by machine)
-        return tilt.cords_value(fresh.gondola.solve(xy[:, 0], xy[:, 1])[6], 0.0)
+        return tilt_along.cords_value(fresh.gondola.solve(xy[:, 0], xy[:, 1])[6], 0.0)
 
     assert np.abs(cords - exact(new)).max() < 1e-9
     for got, at in zip(ends, (new[:-1], new[1:])):

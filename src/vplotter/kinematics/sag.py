@@ -29,7 +29,7 @@ from __future__ import annotations
 import numpy as np
 
 from vplotter.kinematics import taylor as _taylor
-from vplotter.kinematics.tilt import tensions
+from vplotter.kinematics.tilt_along import tensions
 
 STEPS = 40           # Newton steps at most (the balance, and the pen from the cords)
 TOL = 1e-10          # forward stops after a step below this (mm)

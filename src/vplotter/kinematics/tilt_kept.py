@@ -21,7 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vplotter.kinematics.tilt import FEW, along, cord_jets, slopes_along
+from vplotter.kinematics.tilt import FEW
+from vplotter.kinematics.tilt_along import along, cord_jets, slopes_along
 
 WINDOWS = 2                               # windows kept (the last ones the planner planned)
 

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vplotter.kinematics.tilt import cord_jets
+from vplotter.kinematics.tilt_along import cord_jets
 from vplotter.kinematics.tilt_kept import brief, find, laid, layout_state
 
 SUB_MM = 3.0

@@ -34,7 +34,8 @@ from vplotter.kinematics.taylor import sub as _sub
 from vplotter.kinematics import tilt_kept, tilt_steps
 from vplotter.kinematics.sag import Sag
 from vplotter.kinematics.sag import crossing as sag_crossing
-from vplotter.kinematics.tilt import FEW, Gondola, cord_jets, cords_value, tensions
+from vplotter.kinematics.tilt import FEW, Gondola
+from vplotter.kinematics.tilt_along import cord_jets, cords_value, tensions
 
 NEWTON_STEPS = 40          # at most; they stop when every row is within TOL_MM
 TOL_MM = 1e-10
