@@ -63,16 +63,8 @@ class Along:
     def slopes(self, xy, e, state=None) -> np.ndarray:
         """(N, 2) d|r_m|/ds along p(s) = xy + s e (the cords' slopes without stretch)."""
         x, y = xy[:, 0], xy[:, 1]
-        _, c, s, df, fx, fy, r = self.solve(x, y) if state is None else state
-        ex, ey = e[:, 0], e[:, 1]
-        p1 = -(fx * ex + fy * ey) / df
-        out = []
-        for (vx, vy), rx, ry in zip(self.v, r[::2], r[1::2]):
-            # r' = -e - phi' d(R v)/dphi, d(R v)/dphi = (-(R v)_y, (R v)_x)
-            dx = -ex + p1 * (s * vx + c * vy)
-            dy = -ey - p1 * (c * vx - s * vy)
-            out.append((rx * dx + ry * dy) / np.sqrt(rx * rx + ry * ry))
-        return np.stack(out, axis=-1)
+        st = self.solve(x, y) if state is None else state
+        return slopes_along(self.slope_terms(x, y, st), slice(None), e)
 
     def slope_terms(self, x, y, state) -> tuple:
         """What the cords' slopes (no stretch) along any direction at pen points (x, y) share,
@@ -102,11 +94,11 @@ class Along:
         # with phi'' = 0 first: a body vector turns as (R w)' = phi' J R w, (R w)'' = -phi'^2
         # R w (J (x, y) = (-y, x)), and r_m = A_m - p - R v_m; then F'' gives phi''
         cords, ks = [], []
-        for (ax, ay), rx0, ry0, anchor in zip(self.a, r[::2], r[1::2], (0.0, self.d_mm)):
+        g = self._arms(c, s)                                     # R a_m
+        for gx, gy, rx0, ry0, anchor in zip(g[::2], g[1::2], r[::2], r[1::2], (0.0, self.d_mm)):
             px, py = anchor - x - rx0, -y - ry0                  # R v_m
             rx = (rx0, p1 * py - ex, sq * px)
             ry = (ry0, -ey - p1 * px, sq * py)
-            gx, gy = c * ax - s * ay, s * ax + c * ay            # R a_m
             g1x, g1y = -p1 * gy, p1 * gx
             # k = gx ry - gy rx as a triple
             k0 = gx * ry0 - gy * rx0
